@@ -1,0 +1,15 @@
+"""hertzmap kernels: pure numba functions on arrays (no I/O, no Dask, no xarray).
+
+Public API::
+
+    from kernels import shoot, shoot_batch, simulate, Orbit, status
+    orbit = shoot(omega, sigma, zeta, period=1, guess=(q0, v0), exponent=1.5, rtol=1e-10)
+
+Modules: ``model`` (paper Eq. 7 and 11), ``flight`` (closed-form flight), ``_dop853`` (generated
+integrator steps), ``integrate`` (events, dense output, measures), ``shooting`` (Newton, Floquet),
+``central_difference`` (the paper's own scheme, baseline), ``api`` (this interface).
+"""
+from kernels import status
+from kernels.api import Orbit, shoot, shoot_batch, simulate
+
+__all__ = ["Orbit", "shoot", "shoot_batch", "simulate", "status"]

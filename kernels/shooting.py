@@ -1,0 +1,254 @@
+"""Periodic orbits by Newton shooting on the stroboscopic map (paper section 3.2), with exact
+monodromy from the variational equations, Floquet multipliers and orbit measures.
+
+A period-m orbit (m T, T = 2 pi / omega) is a fixed point x0 = (q, q') at tau = 0 of the map
+Phi_{mT}. Newton: (M - I) dx = -(Phi(x) - x), M = dPhi/dx the monodromy matrix, with a
+backtracking line search on |Phi(x) - x| where a full step does not reduce it.
+
+Stability: the Floquet multipliers are the eigenvalues of M; by Liouville's formula
+det M = exp(-2 zeta m T), a free check of every monodromy. Flip (period doubling) where
+1 + tr M + det M = 0, fold where 1 - tr M + det M = 0.
+
+``shoot_into`` fills one row of a float64 result array (layout ``FIELDS``); ``shoot_batch`` loops
+it over arrays of parameters. Neither raises nor allocates per Newton iteration; the status
+code says what happened (kernels.status).
+"""
+from math import exp, hypot, pi, sqrt
+
+import numpy as np
+from numba import float64, int64, njit
+
+from kernels import status as st
+from kernels.integrate import (N_HARMONICS, N_STATS, S_ACCEPTED, S_EVENTS, S_FLIGHT_TIME,
+                               S_H_FIRST, S_MAX_IMPACT, S_MAX_Q, S_MIN_Q, S_REJECTED, BIG,
+                               integrate)
+from kernels.model import HERTZ
+
+FIELDS = (
+    "status", "q0", "v0",
+    "multiplier1_re", "multiplier1_im", "multiplier2_re", "multiplier2_im",
+    "stable", "min_q", "max_q", "ptp", "loses_contact", "flight_fraction",
+    "max_impact_velocity", "force_h1", "force_h2", "force_h3", "force_h4", "mean_force",
+    "iterations", "residual", "trace_m", "det_m", "liouville_error", "minimal_period",
+    "steps", "rejected", "events", "m11", "m12", "m21", "m22",
+)
+F = {name: i for i, name in enumerate(FIELDS)}
+N_FIELDS = len(FIELDS)
+(I_STATUS, I_Q0, I_V0, I_M1R, I_M1I, I_M2R, I_M2I, I_STABLE, I_MINQ, I_MAXQ, I_PTP, I_LOSES,
+ I_FLIGHT, I_IMPACT, I_H1, I_H2, I_H3, I_H4, I_MEANF, I_ITER, I_RES, I_TR, I_DET, I_LIOU,
+ I_MINPER, I_STEPS, I_REJ, I_EVENTS, I_M11, I_M12, I_M21, I_M22) = range(N_FIELDS)
+
+# Eq. 12: the Taylor force of Eq. 10 vanishes at q = -1.3479...: "loss of contact" of Eq. 11
+TAYLOR_CONTACT_LIMIT = -1.3479253168228557
+
+
+@njit(cache=True, nogil=True)
+def _map(x0, v0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps, y, stats, harm,
+         t_eval, out_eval, f, y_new, f_new, K, W):
+    """Phi_P(x) and its Jacobian into y (6,). Returns the status."""
+    y[0] = x0
+    y[1] = v0
+    y[2] = 1.0
+    y[3] = 0.0
+    y[4] = 0.0
+    y[5] = 1.0
+    return integrate(y, 0.0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
+                     True, False, P, harm, t_eval, out_eval, stats, f, y_new, f_new, K, W)
+
+
+@njit(cache=True, nogil=True)
+def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, max_iter,
+               max_steps, res):
+    """Find the period-m orbit near (q_guess, v_guess); write FIELDS into res (float64[N_FIELDS]).
+
+    Dimensionless inputs (paper Eq. 7): omega > 0, sigma >= 0, zeta >= 0, n > 0 the contact
+    exponent, model HERTZ or TAYLOR; rtol/atol the integrator's local tolerances on (q, q').
+    """
+    for i in range(res.shape[0]):
+        res[i] = np.nan
+    res[I_ITER] = 0.0
+    res[I_STEPS] = 0.0
+    res[I_REJ] = 0.0
+    y = np.empty(6)
+    f = np.empty(6)
+    y_new = np.empty(6)
+    f_new = np.empty(6)
+    K = np.empty((16, 2))
+    W = np.empty((7, 2))
+    stats = np.zeros(N_STATS)
+    harm = np.zeros((2, N_HARMONICS + 1))
+    no_eval = np.empty(0)
+    out_none = np.empty((3, 0))
+    if not (omega > 0.0 and sigma >= 0.0 and zeta >= 0.0 and n > 0.0 and m >= 1
+            and np.isfinite(omega) and np.isfinite(sigma) and np.isfinite(zeta)
+            and np.isfinite(q_guess) and np.isfinite(v_guess)):
+        res[I_STATUS] = st.DIVERGED
+        return
+    T = 2.0 * pi / omega
+    P = m * T
+    h = min(0.1, P / 16.0)
+    x = q_guess
+    v = v_guess
+    code = _map(x, v, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps, y, stats,
+                harm, no_eval, out_none, f, y_new, f_new, K, W)
+    steps = stats[S_ACCEPTED] + stats[S_REJECTED]
+    if stats[S_H_FIRST] > 0.0:
+        h = stats[S_H_FIRST]
+    rq = y[0] - x
+    rv = y[1] - v
+    rn = hypot(rq, rv)
+    m11, m12, m21, m22 = y[2], y[3], y[4], y[5]
+    xtol = min(1e-6, 1e4 * rtol)
+    dx_prev = np.inf
+    converged = False
+    it = 0
+    while code == st.CONVERGED and it < max_iter:
+        it += 1
+        a = m11 - 1.0
+        d = m22 - 1.0
+        det = a * d - m12 * m21
+        if abs(det) <= 1e-15 * (abs(a * d) + abs(m12 * m21) + 1e-300):
+            code = st.SINGULAR
+            break
+        dq = -(d * rq - m12 * rv) / det
+        dv = -(-m21 * rq + a * rv) / det
+        ndx = hypot(dq, dv)
+        scale = 1.0 + hypot(x, v)
+        if ndx <= xtol * scale and (ndx <= 0.25 * dx_prev or ndx <= 10.0 * rtol * scale):
+            x += dq
+            v += dv
+            converged = True
+            break
+        lam = 1.0
+        while True:
+            xt = x + lam * dq
+            vt = v + lam * dv
+            code = _map(xt, vt, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps, y,
+                        stats, harm, no_eval, out_none, f, y_new, f_new, K, W)
+            steps += stats[S_ACCEPTED] + stats[S_REJECTED]
+            if code == st.CONVERGED:
+                rqt = y[0] - xt
+                rvt = y[1] - vt
+                rnt = hypot(rqt, rvt)
+                if rnt < (1.0 - 1e-4 * lam) * rn or lam < 1.0 / 64.0:
+                    break
+            elif lam < 1.0 / 64.0:
+                break
+            lam *= 0.5
+        if code != st.CONVERGED:
+            break
+        if stats[S_H_FIRST] > 0.0:
+            h = stats[S_H_FIRST]
+        x, v = xt, vt
+        rq, rv, rn = rqt, rvt, rnt
+        m11, m12, m21, m22 = y[2], y[3], y[4], y[5]
+        dx_prev = lam * ndx
+        if abs(x) > BIG or abs(v) > BIG:
+            code = st.DIVERGED
+            break
+    res[I_ITER] = it
+    res[I_STEPS] = steps
+    if code != st.CONVERGED:
+        res[I_STATUS] = code
+        res[I_Q0] = x
+        res[I_V0] = v
+        res[I_RES] = rn
+        return
+    if not converged:
+        res[I_STATUS] = st.NOT_CONVERGED
+        res[I_Q0] = x
+        res[I_V0] = v
+        res[I_RES] = rn
+        return
+
+    # ---- measure pass at the converged start point: monodromy, measures, period test ----
+    t_eval = np.empty(m - 1 if m > 1 else 0)
+    for j in range(t_eval.shape[0]):
+        t_eval[j] = (j + 1) * T
+    out_eval = np.empty((3, t_eval.shape[0]))
+    for i in range(N_STATS):
+        stats[i] = 0.0
+    harm[:, :] = 0.0
+    y[0] = x
+    y[1] = v
+    y[2] = 1.0
+    y[3] = 0.0
+    y[4] = 0.0
+    y[5] = 1.0
+    code = integrate(y, 0.0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
+                     True, True, P, harm, t_eval, out_eval, stats, f, y_new, f_new, K, W)
+    steps += stats[S_ACCEPTED] + stats[S_REJECTED]
+    res[I_STEPS] = steps
+    res[I_REJ] = stats[S_REJECTED]
+    res[I_Q0] = x
+    res[I_V0] = v
+    if code != st.CONVERGED:
+        res[I_STATUS] = code
+        return
+    rn = hypot(y[0] - x, y[1] - v)
+    res[I_RES] = rn
+    m11, m12, m21, m22 = y[2], y[3], y[4], y[5]
+    res[I_M11] = m11
+    res[I_M12] = m12
+    res[I_M21] = m21
+    res[I_M22] = m22
+    tr = m11 + m22
+    dt = m11 * m22 - m12 * m21
+    res[I_TR] = tr
+    res[I_DET] = dt
+    liou = exp(-2.0 * zeta * P)
+    res[I_LIOU] = abs(dt - liou) / liou if liou > 0.0 else abs(dt)
+    disc = 0.25 * tr * tr - dt
+    if disc >= 0.0:
+        r = sqrt(disc)
+        # the larger-modulus root first, the other from the product (no cancellation)
+        mu1 = 0.5 * tr + r if tr >= 0.0 else 0.5 * tr - r
+        mu2 = dt / mu1 if mu1 != 0.0 else 0.0
+        res[I_M1R] = mu1
+        res[I_M1I] = 0.0
+        res[I_M2R] = mu2
+        res[I_M2I] = 0.0
+        rho = max(abs(mu1), abs(mu2))
+    else:
+        r = sqrt(-disc)
+        res[I_M1R] = 0.5 * tr
+        res[I_M1I] = r
+        res[I_M2R] = 0.5 * tr
+        res[I_M2I] = -r
+        rho = sqrt(dt)
+    res[I_STABLE] = 1.0 if rho < 1.0 else 0.0
+    res[I_MINQ] = stats[S_MIN_Q]
+    res[I_MAXQ] = stats[S_MAX_Q]
+    res[I_PTP] = stats[S_MAX_Q] - stats[S_MIN_Q]
+    res[I_FLIGHT] = stats[S_FLIGHT_TIME] / P
+    res[I_IMPACT] = stats[S_MAX_IMPACT]
+    res[I_EVENTS] = stats[S_EVENTS]
+    if model == HERTZ:
+        res[I_LOSES] = 1.0 if stats[S_EVENTS] > 0 or stats[S_FLIGHT_TIME] > 0.0 else 0.0
+    else:
+        res[I_LOSES] = 1.0 if stats[S_MIN_Q] < TAYLOR_CONTACT_LIMIT else 0.0
+    for k in range(1, N_HARMONICS + 1):
+        res[I_H1 + k - 1] = 2.0 / P * hypot(harm[0, k], harm[1, k])
+    res[I_MEANF] = harm[0, 0] / P
+    # smallest j dividing m with Phi_{jT}(x0) = x0: a 2T solve that landed on the 1T orbit
+    minimal = m
+    scale = 1.0 + hypot(x, v)
+    for j in range(1, m):
+        if m % j == 0 and hypot(out_eval[0, j - 1] - x, out_eval[1, j - 1] - v) <= 1e-7 * scale:
+            minimal = j
+            break
+    res[I_MINPER] = minimal
+    # a converged orbit must map onto itself: guard against a silently wrong answer
+    if rn > max(1e3 * rtol, 1e-9) * scale:
+        res[I_STATUS] = st.NOT_CONVERGED
+    else:
+        res[I_STATUS] = st.CONVERGED
+
+
+@njit(cache=True, nogil=True)
+def shoot_batch_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, max_iter,
+                     max_steps, out):
+    """shoot_into for each i over 1-D arrays of equal length; out has shape (len, N_FIELDS)."""
+    for i in range(omega.shape[0]):
+        shoot_into(omega[i], sigma[i], zeta[i], m[i], q_guess[i], v_guess[i], n, model, rtol,
+                   atol, max_iter, max_steps, out[i])
