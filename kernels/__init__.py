@@ -9,7 +9,11 @@ Modules: ``model`` (paper Eq. 7 and 11), ``flight`` (closed-form flight), ``_dop
 integrator steps), ``integrate`` (events, dense output, measures), ``shooting`` (Newton, Floquet),
 ``central_difference`` (the paper's own scheme, baseline), ``api`` (this interface).
 """
-from kernels import status
-from kernels.api import Orbit, shoot, shoot_batch, simulate
+from kernels._cache import configure_cache_dir
+
+CACHE_DIR = configure_cache_dir()   # before any kernel module is compiled
+
+from kernels import status  # noqa: E402
+from kernels.api import Orbit, shoot, shoot_batch, simulate  # noqa: E402
 
 __all__ = ["Orbit", "shoot", "shoot_batch", "simulate", "status"]

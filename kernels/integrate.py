@@ -133,6 +133,8 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
             in_flight = y[1] < 0.0 or (y[1] == 0.0 and acc0 < 0.0)
     derivative(t, y, f, omega, sigma, zeta, n, model)
     work = 0
+    pending = False
+    t_stop = t1
     if h <= 0.0 or h > span:
         h = min(span, 0.1)
     while t < t1:
@@ -179,8 +181,14 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
             continue
 
         # ---- contact: one adaptive step -------------------------------------------------
-        if t + h >= t1 - 1e-13 * max(1.0, abs(t1)):
-            h = t1 - t
+        # With an event pending, steps land exactly on the located crossing t_stop under full
+        # error control: F'(q) ~ (1 + q/n)^(n-1) is singular there, and a single uncontrolled
+        # partial step onto it would cost the monodromy half its digits (error ~ sqrt(rtol)).
+        t_target = t_stop if pending else t1
+        lands = False
+        if t + h >= t_target - 1e-13 * max(1.0, abs(t_target)):
+            h = t_target - t
+            lands = True
         err = _step(dim, t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol)
         if not (err <= 1.0):   # also catches NaN
             stats[S_REJECTED] += 1
@@ -191,12 +199,12 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
             if h < h_min:
                 return st.STEP_SIZE
             continue
-        q0_, v0_ = y[0], y[1]
-        q1_, v1_ = y_new[0], y_new[1]
         have_dense = False
-        event = False
-        x_hi = 1.0
-        if hertz:
+        if hertz and not pending:
+            event = False
+            x_hi = 1.0
+            q0_, v0_ = y[0], y[1]
+            q1_, v1_ = y_new[0], y_new[1]
             if q1_ < -n:
                 event = True
             elif v0_ < 0.0 and v1_ > 0.0 and min(q0_, q1_) + n < h * max(-v0_, v1_):
@@ -207,39 +215,27 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
                 if dense_eval(P, 0, y[0], xm) < -n:
                     event = True
                     x_hi = xm
-        if event:
-            if not have_dense:
-                dense_coefficients(t, h, y, y_new, K, omega, sigma, zeta, n, model, P)
-                have_dense = True
-            s = _dense_root(P, y, 0.0, x_hi, -n, 0) * h
-            # Newton on partial steps from t: q(t + s) = -n to round-off; y_new is always the
-            # state at t + s when the loop ends
-            for it in range(8):
-                _step(dim, t, s, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol)
-                g = y_new[0] + n
-                if abs(g) <= 1e-14 * n or y_new[1] == 0.0 or it == 7:
-                    break
-                s_new = s - g / y_new[1]
-                if not (0.0 < s_new < h * x_hi * (1.0 + 1e-6)):
-                    break
-                s = s_new
-            # dense output and measures up to the event
-            if n_eval > 0 or measure:
-                dense_coefficients(t, s, y, y_new, K, omega, sigma, zeta, n, model, P)
-                i_eval = _emit(P, y, t, s, t_eval, out_eval, i_eval, n, model)
-                if measure:
-                    _measure_step(P, y, y_new, t, s, n, model, w_h, harm, stats)
-            t = t + s
-            for i in range(dim):
-                y[i] = y_new[i]
-            y[0] = -n
-            stats[S_EVENTS] += 1
-            if stats[S_H_FIRST] == 0.0:
-                stats[S_H_FIRST] = h
-            in_flight = y[1] < 0.0
-            derivative(t, y, f, omega, sigma, zeta, n, model)
-            continue
-
+            if event:
+                if not have_dense:
+                    dense_coefficients(t, h, y, y_new, K, omega, sigma, zeta, n, model, P)
+                s = _dense_root(P, y, 0.0, x_hi, -n, 0) * h
+                # Newton on partial steps from t: q(t + s) = -n to round-off
+                for it in range(8):
+                    _step(dim, t, s, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
+                          atol)
+                    g = y_new[0] + n
+                    if abs(g) <= 1e-14 * n or y_new[1] == 0.0 or it == 7:
+                        break
+                    s_new = s - g / y_new[1]
+                    if not (0.0 < s_new < h * x_hi * (1.0 + 1e-6)):
+                        break
+                    s = s_new
+                pending = True
+                t_stop = t + s
+                h = s
+                continue
+        elif pending and not lands and y_new[0] < -n:
+            lands = True    # the crossing came a round-off early: take it here
         # ---- accepted step ------------------------------------------------------------------
         if n_eval > 0 or measure:
             if not have_dense:
@@ -250,15 +246,18 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
         stats[S_ACCEPTED] += 1
         if stats[S_H_FIRST] == 0.0:
             stats[S_H_FIRST] = h
-        t_next = t + h
-        if t_next >= t1 - 1e-13 * max(1.0, abs(t1)):
-            t_next = t1
-        t = t_next
+        t = t_target if lands else t + h
         for i in range(dim):
             y[i] = y_new[i]
             f[i] = f_new[i]
         if abs(y[0]) > BIG or abs(y[1]) > BIG or y[0] != y[0]:
             return st.DIVERGED
+        if pending and lands:
+            pending = False
+            y[0] = -n
+            stats[S_EVENTS] += 1
+            in_flight = y[1] < 0.0
+            derivative(t, y, f, omega, sigma, zeta, n, model)
         if err == 0.0:
             h *= 10.0
         else:
