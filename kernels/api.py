@@ -120,7 +120,7 @@ def shoot_batch(omega, sigma, zeta, period, q_guess, v_guess, *, exponent: float
         np.asarray(omega, float), np.asarray(sigma, float), np.asarray(zeta, float),
         np.asarray(period, np.int64), np.asarray(q_guess, float), np.asarray(v_guess, float))
     shape = omega.shape
-    args = [np.ascontiguousarray(a.ravel()) for a in (omega, sigma, zeta, period, q_guess, v_guess)]
+    args = [np.array(a.ravel(), copy=True) for a in (omega, sigma, zeta, period, q_guess, v_guess)]
     out = np.empty((args[0].size, N_FIELDS))
     shoot_batch_into(*args, _check_exponent(exponent), _model_code(model), float(rtol),
                      float(rtol if atol is None else atol), int(max_iter), int(max_steps), out)

@@ -1,0 +1,211 @@
+"""Solve one block of a grid study: every periodic response found at each point of the block.
+
+A block is a set of omega lines (one per (sigma, zeta) pair). Along each line the solutions
+seed each other, swept up and then down in omega, so that coexisting responses (the hysteresis
+of the primary resonance with contact loss, the 2T branches) are followed from where they exist:
+
+* 1T seeds: the linear response (paper Eq. 7 linearised about the static point), and the 1T
+  solutions at the neighbouring point of each sweep.
+* 2T seeds: the multiple-scales response (paper Eq. 19, study.multiple_scales), both branches;
+  the flip eigenvector of the 1T orbit where it has a multiplier below -1 (x0 +- d e); and the
+  2T solutions at the neighbouring point of each sweep.
+
+Distinct solutions are kept once: two orbits are the same when their invariants (min q, max q,
+trace of the monodromy) agree; a 2T solve that lands on the 1T orbit (minimal period 1) is
+dropped. Slot 0 always holds the 1T result (converged or the failure status of its best try).
+
+This module is physics and numpy only: the scheduler ships ``solve_block`` without knowing it.
+"""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from kernels import shoot_batch
+from kernels import status as st
+from kernels.shooting import FIELDS
+
+N_HARMONICS = 4
+FLIP_SEED_OFFSETS = (0.05, 0.3)
+SAME_ORBIT_TOL = 1e-6
+
+VARIABLES = {
+    # name: (dtype, empty value, trailing dims)
+    "period": (np.int8, 0, ()),
+    "q0": (np.float64, np.nan, ()),
+    "v0": (np.float64, np.nan, ()),
+    "multipliers": (np.complex128, np.nan + 0j, (2,)),
+    "stable": (np.bool_, False, ()),
+    "min_q": (np.float64, np.nan, ()),
+    "max_q": (np.float64, np.nan, ()),
+    "ptp": (np.float64, np.nan, ()),
+    "loses_contact": (np.bool_, False, ()),
+    "flight_fraction": (np.float64, np.nan, ()),
+    "max_impact_velocity": (np.float64, np.nan, ()),
+    "force_harmonics": (np.float64, np.nan, (N_HARMONICS,)),
+    "newton_iterations": (np.int16, 0, ()),
+    "residual": (np.float64, np.nan, ()),
+    "status": (np.int8, st.EMPTY, ()),
+}
+
+
+def linear_response_seed(omega, sigma, zeta):
+    """(q, q') at tau = 0 of the linearised 1T response: q = Re[X e^{i omega tau}],
+    X = sigma / (1 - omega^2 + 2 i zeta omega)."""
+    X = sigma / (1.0 - omega**2 + 2j * zeta * omega)
+    return X.real, (1j * omega * X).real
+
+
+def _mms_seeds(omega, sigma, zeta):
+    try:
+        from study.multiple_scales import mms_2t_seed
+    except ImportError:     # analytic layer absent: the other seeds still work
+        return []
+    seeds = []
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore")
+        for branch in ("upper", "lower"):
+            q, v = mms_2t_seed(omega, sigma, zeta, branch)
+            q, v = float(np.asarray(q)), float(np.asarray(v))
+            if np.isfinite(q) and np.isfinite(v):
+                seeds.append((q, v))
+    return seeds
+
+
+def _flip_seeds(sol):
+    """2T seeds along the eigenvector of a 1T multiplier below -1 (past a flip)."""
+    if sol["period"] != 1 or sol["status"] != st.CONVERGED:
+        return []
+    M = sol["monodromy"]
+    w, V = np.linalg.eig(M)
+    seeds = []
+    for k in range(2):
+        if abs(w[k].imag) < 1e-12 and w[k].real < -0.95:
+            e = np.real(V[:, k])
+            e /= np.linalg.norm(e)
+            for d in FLIP_SEED_OFFSETS:
+                seeds.append(tuple(sol["x0"] + d * e))
+                seeds.append(tuple(sol["x0"] - d * e))
+    return seeds
+
+
+def _solve(omega, sigma, zeta, period, seeds, options):
+    """Shoot from every seed; return a list of solution dicts (converged or not)."""
+    if not seeds:
+        return []
+    seeds = np.asarray(seeds, float)
+    r = shoot_batch(omega, sigma, zeta, period, seeds[:, 0], seeds[:, 1], **options)
+    out = []
+    for i in range(seeds.shape[0]):
+        row = {name: r[name][i] for name in FIELDS}
+        minimal = row["minimal_period"]
+        out.append({
+            # a 2T solve whose orbit repeats after T is the 1T orbit (minimal period 1)
+            "period": int(minimal) if np.isfinite(minimal) and minimal >= 1 else int(period),
+            "status": int(row["status"]),
+            "x0": np.array([row["q0"], row["v0"]]),
+            "multipliers": np.array([complex(row["multiplier1_re"], row["multiplier1_im"]),
+                                     complex(row["multiplier2_re"], row["multiplier2_im"])]),
+            "monodromy": np.array([[row["m11"], row["m12"]], [row["m21"], row["m22"]]]),
+            "stable": bool(row["stable"] == 1.0),
+            "min_q": row["min_q"], "max_q": row["max_q"], "ptp": row["ptp"],
+            "loses_contact": bool(row["loses_contact"] == 1.0),
+            "flight_fraction": row["flight_fraction"],
+            "max_impact_velocity": row["max_impact_velocity"],
+            "force_harmonics": np.array([row[f"force_h{k}"] for k in range(1, N_HARMONICS + 1)]),
+            "newton_iterations": int(row["iterations"]), "residual": row["residual"],
+            "trace": row["trace_m"],
+        })
+    return out
+
+
+def _same_orbit(a, b):
+    if a["period"] != b["period"]:
+        return False
+    tol = SAME_ORBIT_TOL * (1.0 + abs(a["ptp"]))
+    return (abs(a["min_q"] - b["min_q"]) <= tol and abs(a["max_q"] - b["max_q"]) <= tol
+            and abs(a["trace"] - b["trace"]) <= SAME_ORBIT_TOL * (1.0 + abs(a["trace"])))
+
+
+def _merge(found, candidates):
+    for c in candidates:
+        if c["status"] != st.CONVERGED:
+            continue
+        if not any(_same_orbit(c, f) for f in found):
+            found.append(c)
+
+
+def _point(omega, sigma, zeta, periods, prev, options):
+    """All solutions at one point, seeded by the previous point's solutions ``prev``."""
+    one = [s for s in prev if s["period"] == 1]
+    two = [s for s in prev if s["period"] == 2]
+    found, tries_1t = [], []
+    if 1 in periods:
+        seeds = [linear_response_seed(omega, sigma, zeta)] + [tuple(s["x0"]) for s in one]
+        tries_1t = _solve(omega, sigma, zeta, 1, seeds, options)
+        _merge(found, tries_1t)
+    if 2 in periods:
+        seeds = [tuple(s["x0"]) for s in two] + _mms_seeds(omega, sigma, zeta)
+        for s in found:
+            seeds += _flip_seeds(s)
+        sols = _solve(omega, sigma, zeta, 2, seeds, options)
+        # a 2T solve with minimal period 1 is the 1T orbit: count it as such
+        _merge(found, [s for s in sols if s["period"] == 1 and 1 in periods])
+        _merge(found, [s for s in sols if s["period"] == 2])
+    return found, tries_1t
+
+
+def _record(arrays, idx, slot, sol):
+    for name in VARIABLES:
+        if name == "q0":
+            arrays[name][idx + (slot,)] = sol["x0"][0]
+        elif name == "v0":
+            arrays[name][idx + (slot,)] = sol["x0"][1]
+        else:
+            arrays[name][idx + (slot,)] = sol[name]
+
+
+def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hertz", rtol=1e-10,
+                max_solutions=4) -> dict[str, np.ndarray]:
+    """Every periodic response at each point of the block omega x sigma x zeta.
+
+    Returns {variable: array} with shape (len(omega), len(sigma), len(zeta), max_solutions)
+    (+ (2,) for multipliers, + (4,) for force_harmonics); see VARIABLES for dtypes and the
+    values of empty slots. Dimensionless inputs (paper Eq. 7). Deterministic: the same block
+    gives the same arrays, bit for bit, on any worker.
+    """
+    omega = np.asarray(omega, float)
+    sigma = np.asarray(sigma, float)
+    zeta = np.asarray(zeta, float)
+    periods = tuple(int(p) for p in periods)
+    options = dict(exponent=float(exponent), model=model, rtol=float(rtol))
+    shape = (omega.size, sigma.size, zeta.size, int(max_solutions))
+    arrays = {name: np.full(shape + trail, empty, dtype=dtype)
+              for name, (dtype, empty, trail) in VARIABLES.items()}
+    order = np.argsort(omega, kind="stable")
+    for j in range(sigma.size):
+        for k in range(zeta.size):
+            per_point = [[] for _ in range(omega.size)]
+            best_1t = [None] * omega.size
+            for sweep in (order, order[::-1]):
+                prev = []
+                for i in sweep:
+                    found, tries = _point(omega[i], sigma[j], zeta[k], periods, prev, options)
+                    _merge(per_point[i], found)
+                    if tries and best_1t[i] is None:
+                        best_1t[i] = min(tries, key=lambda s: (s["status"] != st.CONVERGED,
+                                                               s["residual"]
+                                                               if np.isfinite(s["residual"])
+                                                               else np.inf))
+                    prev = found
+            for i in range(omega.size):
+                sols = per_point[i]
+                one = sorted([s for s in sols if s["period"] == 1], key=lambda s: s["ptp"])
+                two = sorted([s for s in sols if s["period"] == 2], key=lambda s: s["ptp"])
+                ordered = one + two
+                if not one and best_1t[i] is not None and 1 in periods:
+                    ordered = [best_1t[i]] + two     # record why the 1T solve failed
+                for slot, sol in enumerate(ordered[:max_solutions]):
+                    _record(arrays, (i, j, k), slot, sol)
+    return arrays
