@@ -61,7 +61,7 @@ class Orbit:
     mean_force: float             # must be 1 (the static load) for a periodic orbit
     iterations: int
     residual: float
-    liouville_error: float        # |det M - exp(-2 zeta P)| / exp(-2 zeta P)
+    liouville_error: float        # |det M - exp(-2 zeta P)| / max(exp(-2 zeta P), |m11 m22| + |m12 m21|)
     minimal_period: int           # 1 for a 2T solve that landed on the 1T orbit
     steps: int
 
@@ -143,7 +143,8 @@ def simulate(omega: float, sigma: float, zeta: float, x0=(0.0, 0.0), *, t_end: f
     if t_eval is None:
         t_eval = np.linspace(0.0, t_end, int(np.ceil(t_end / T * samples_per_period)) + 1)
     t_eval = np.ascontiguousarray(np.asarray(t_eval, float))
-    if t_eval.size and (np.any(np.diff(t_eval) < 0) or t_eval[0] < 0 or t_eval[-1] > t_end):
+    if t_eval.size and (np.any(np.diff(t_eval) < 0) or t_eval[0] < 0
+                         or t_eval[-1] > t_end * (1 + 1e-12)):
         raise ValueError("t_eval must be sorted and inside [0, t_end]")
     n = _check_exponent(exponent)
     code_model = _model_code(model)
