@@ -99,6 +99,19 @@ def _f(x):
     return np.asarray(x, dtype=float)
 
 
+def _quiet(func):
+    """Evaluate without floating-point warnings: out-of-domain points (omega = 1, sigma < sigma1,
+    zeta = 0 in a division, ...) are documented to give inf/NaN, not warnings."""
+    import functools
+
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            return func(*args, **kwargs)
+
+    return wrapper
+
+
 # ---------------------------------------------------------------------------------------------
 # Coefficients
 # ---------------------------------------------------------------------------------------------
@@ -119,6 +132,7 @@ def detuning(omega):
     return _f(omega) - 2.0
 
 
+@_quiet
 def b_coefficient(omega, sigma):
     """Amplitude ``B`` of the forced (1T) component, paper Eq. 20.
 
@@ -142,6 +156,7 @@ def b_coefficient(omega, sigma):
         return _f(sigma) / (2.0 * (1.0 - omega**2))
 
 
+@_quiet
 def gamma(omega, sigma, zeta, variant="derived"):
     """Frequency shift ``gamma`` of the subharmonic, paper Eq. 22 [-].
 
@@ -180,6 +195,7 @@ def gamma(omega, sigma, zeta, variant="derived"):
     return c * b2 - _f(zeta) ** 2
 
 
+@_quiet
 def beta(omega, zeta):
     """Parametric-excitation coefficient ``beta``, paper Eq. 24 [-].
 
@@ -209,6 +225,7 @@ def beta(omega, zeta):
 # Frequency response (Eq. 23) and phase (Eq. 21)
 # ---------------------------------------------------------------------------------------------
 
+@_quiet
 def amplitude_squared(omega, sigma, zeta, branch="upper", variant="derived"):
     """``A**2`` from the frequency-response equation, paper Eq. 23.
 
@@ -237,6 +254,7 @@ def amplitude_squared(omega, sigma, zeta, branch="upper", variant="derived"):
     return a2
 
 
+@_quiet
 def amplitude(omega, sigma, zeta, branch="upper", variant="derived"):
     """Amplitude ``A`` of the half-frequency component, paper Eq. 23 [-].
 
@@ -262,6 +280,7 @@ def amplitude(omega, sigma, zeta, branch="upper", variant="derived"):
         return np.where(a2 >= 0.0, np.sqrt(np.where(a2 >= 0.0, a2, 0.0)), np.nan)
 
 
+@_quiet
 def phase(omega, sigma, zeta, branch="upper", variant="derived"):
     """Phase ``phi`` of the subharmonic component, paper Eq. 21 [rad].
 
@@ -343,6 +362,7 @@ def _response_terms(tau, omega, sigma, zeta, branch, variant):
     return tau, c0, terms
 
 
+@_quiet
 def response(tau, omega, sigma, zeta, branch="upper", variant="derived"):
     """Reconstructed response ``q(tau)`` and ``dq/dtau`` of paper Eq. 19.
 
@@ -386,6 +406,7 @@ def _response_d2(tau, omega, sigma, zeta, branch, variant):
     return d2
 
 
+@_quiet
 def mms_2t_seed(omega, sigma, zeta, branch="upper"):
     """Start point ``(q0, v0)`` at ``tau = 0`` of the MMS 2T response, to seed 2T shooting.
 
@@ -408,6 +429,7 @@ def mms_2t_seed(omega, sigma, zeta, branch="upper"):
     return response(0.0, omega, sigma, zeta, branch, "derived")
 
 
+@_quiet
 def min_response(omega, sigma, zeta, branch="upper", variant="derived", n=512):
     """Minimum of ``q(tau)`` of Eq. 19 over one 2T period (paper Fig. 5) [-].
 
@@ -447,6 +469,7 @@ def min_response(omega, sigma, zeta, branch="upper", variant="derived", n=512):
 # Thresholds and regions (Eq. 25-27, Fig. 3)
 # ---------------------------------------------------------------------------------------------
 
+@_quiet
 def sigma1(omega, zeta):
     """Saddle-node threshold ``sigma1 = 2 zeta / |beta|``, paper Eq. 25a [-].
 
@@ -457,6 +480,7 @@ def sigma1(omega, zeta):
         return 2.0 * _f(zeta) / np.abs(beta(omega, zeta))
 
 
+@_quiet
 def sigma2(omega, zeta, sigma=None, variant="derived"):
     """Flip (subharmonic bifurcation) threshold ``sigma2``, paper Eq. 25b [-].
 
@@ -468,7 +492,7 @@ def sigma2(omega, zeta, sigma=None, variant="derived"):
       ``gamma = c sigma**2 - zeta**2``, ``c = g(omega) / (4 (1 - omega**2)**2)``, it is a
       quadratic in ``s = sigma**2``:
       ``c**2 s**2 - (2 c (lambda + zeta**2) + beta**2) s + (lambda + zeta**2)**2 + 4 zeta**2 = 0``;
-      the smallest positive root is returned (the one that tends to the first-order result
+      the smallest non-negative root is returned (the one that tends to the first-order result
       ``sqrt(lambda**2 + 4 zeta**2)/|beta|`` as ``c -> 0``).  NaN if there is none.
       This is the sigma at which a root of Eq. 23 is exactly ``A = 0`` (the lower root where
       ``gamma > lambda``, i.e. on the softening side omega < ~2; the upper root otherwise).
@@ -502,7 +526,7 @@ def sigma2(omega, zeta, sigma=None, variant="derived"):
         # smallest positive root, stable form: s = 2 qc / (-qb + sq) when -qb > 0
         s_small = np.where(-qb > 0.0, 2.0 * qc / (-qb + sq), np.nan)
         s_small = np.where(qa == 0.0, qc / (-qb), s_small)
-        s_small = np.where(s_small > 0.0, s_small, np.nan)
+        s_small = np.where(s_small >= 0.0, s_small, np.nan)
         return np.sqrt(s_small)
 
 
@@ -540,6 +564,7 @@ def sigma_star(zeta, variant="paper"):
     raise ValueError(f"variant must be 'paper', 'sigma1', 'small' or 'min', got {variant!r}")
 
 
+@_quiet
 def region(omega, sigma, zeta, variant="derived"):
     """Region of paper Fig. 3 at each (omega, sigma, zeta): 1, 2 or 3 (``REGION_I/II/III``).
 
@@ -567,7 +592,7 @@ def region(omega, sigma, zeta, variant="derived"):
     b2s2 = beta(omega, zeta) ** 2 * sigma**2
     in_i = b2s2 > (lam - g) ** 2 + 4.0 * zeta**2
     soft = (g > lam) if variant == "derived" else (omega < 2.0)
-    in_ii = ~in_i & (b2s2 >= 4.0 * zeta**2) & soft
+    in_ii = ~in_i & (b2s2 > 4.0 * zeta**2) & soft
     out = np.full(np.broadcast(omega, sigma, zeta).shape, REGION_III, dtype=np.int8)
     out[in_ii] = REGION_II
     out[in_i] = REGION_I
