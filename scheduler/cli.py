@@ -1,0 +1,183 @@
+"""The ``hertzmap`` command line: ``hertzmap run STUDY.toml``, ``hertzmap status STORE``.
+
+Subcommands register themselves in :data:`SUBCOMMANDS` (name -> (add_arguments, handler)),
+so ``plot``, ``bench``... can be added without touching the others.
+
+Exit codes: 0 success; 1 the run finished with failed tasks (rerun to retry them) or an
+unexpected error; 2 invalid study file, options or store (nothing created or changed);
+130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Callable
+
+EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+
+SUBCOMMANDS: dict[str, tuple[Callable[[argparse.ArgumentParser], None],
+                             Callable[[argparse.Namespace], int], str]] = {}
+
+
+def subcommand(name: str, help: str):
+    def register(add_arguments):
+        def with_handler(handler):
+            SUBCOMMANDS[name] = (add_arguments, handler, help)
+            return handler
+        return with_handler
+    return register
+
+
+def _error(msg: str) -> int:
+    print(f"hertzmap: error: {msg}", file=sys.stderr)
+    return EXIT_USAGE
+
+
+# -- run --------------------------------------------------------------------------------------
+
+def _run_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("study", type=Path, help="study file (TOML), see docs/study-file.md")
+    p.add_argument("--store", type=Path, default=None,
+                   help="zarr store path (default: results/<study name>.zarr)")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                       help="connect to an existing Dask scheduler (e.g. tcp://host:8786)")
+    where.add_argument("--cluster", choices=["local", "slurm", "pbs", "sge", "lsf", "htcondor"],
+                       default="local", help="local: embedded LocalCluster (default); others: "
+                       "dask-jobqueue (pip install 'hertzmap[jobqueue]')")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="worker processes (local: default one per core; jobqueue: processes "
+                   "to scale to)")
+    p.add_argument("--cluster-option", action="append", default=[], metavar="KEY=VALUE",
+                   help="keyword for the dask-jobqueue cluster class, repeatable "
+                   "(e.g. queue=normal cores=32 memory=64GB walltime=02:00:00 "
+                   "'job_extra_directives=[\"--exclusive\"]')")
+    p.add_argument("--dry-run", action="store_true",
+                   help="print grid size, task count, store size and where it would run; write nothing")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace a store that holds another study")
+    p.add_argument("--task-seconds", type=float, default=None, metavar="S",
+                   help="target duration of one task when creating a store (default 1.0)")
+    p.add_argument("--error-sample", type=int, default=None, metavar="N",
+                   help="converged orbits re-solved at rtol/1000 for the error estimate "
+                   "(default 8; 0 to skip)")
+    # developer hook: another block solver with the same contract (module:function)
+    p.add_argument("--solver", default=None, help=argparse.SUPPRESS)
+
+
+@subcommand("run", "run (or resume) a study into a zarr store")(_run_args)
+def cmd_run(args: argparse.Namespace) -> int:
+    from study.spec import StudyError, load_study
+
+    try:
+        study = load_study(args.study)
+    except StudyError as exc:
+        return _error(f"{args.study}: {exc}")
+
+    from scheduler.cluster import ClusterError, ClusterSpec, parse_cluster_options
+    from scheduler.plan import DEFAULT_TASK_SECONDS
+    from scheduler.run import (RunError, RunOptions, default_store_path, describe, run_study)
+    from scheduler.store import StoreError
+    from scheduler.worker import DEFAULT_SOLVER
+
+    try:
+        if args.scheduler:
+            spec = ClusterSpec(kind="address", address=args.scheduler, workers=args.workers)
+        else:
+            spec = ClusterSpec(kind=args.cluster, workers=args.workers,
+                               options=parse_cluster_options(args.cluster_option))
+            if args.cluster == "local" and args.cluster_option:
+                raise ClusterError("--cluster-option is for dask-jobqueue clusters (--cluster slurm ...)")
+        spec.check()
+    except ClusterError as exc:
+        return _error(str(exc))
+    if args.task_seconds is not None and not args.task_seconds > 0:
+        return _error(f"--task-seconds must be > 0, got {args.task_seconds}")
+    if args.error_sample is not None and args.error_sample < 0:
+        return _error(f"--error-sample must be >= 0, got {args.error_sample}")
+    if spec.kind == "local" and spec.workers is None:
+        from scheduler.cluster import default_workers
+        spec.workers = default_workers()
+
+    opts = RunOptions(
+        store=args.store or default_store_path(study),
+        cluster=spec,
+        overwrite=args.overwrite,
+        solver=args.solver or DEFAULT_SOLVER,
+        task_seconds=args.task_seconds or DEFAULT_TASK_SECONDS,
+        error_sample=8 if args.error_sample is None else args.error_sample,
+        command=f"hertzmap run {args.study}",
+    )
+    if args.dry_run:
+        print(describe(study, opts))
+        print("dry run: nothing written")
+        return EXIT_OK
+    try:
+        summary = run_study(study, opts)
+    except (StoreError, RunError, ClusterError) as exc:
+        return _error(str(exc))
+    except KeyboardInterrupt:
+        print("\nhertzmap: interrupted; rerun the same command to resume", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    return EXIT_OK if not summary["failed"] else EXIT_FAILED
+
+
+# -- status -----------------------------------------------------------------------------------
+
+def _status_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("store", type=Path, help="a store written by hertzmap run")
+    p.add_argument("--json", action="store_true", help="print the status as JSON")
+
+
+@subcommand("status", "tasks done/total, study name and hash, versions of a store")(_status_args)
+def cmd_status(args: argparse.Namespace) -> int:
+    from scheduler.store import StoreError, store_status
+
+    try:
+        info = store_status(args.store)
+    except (StoreError, KeyError, FileNotFoundError) as exc:
+        return _error(str(exc))
+    if args.json:
+        print(json.dumps(info, indent=2, default=str))
+        return EXIT_OK
+    total, done = info["tasks_total"], info["tasks_done"]
+    state = "complete" if done == total else ("in progress (locked)" if info["locked_by"]
+                                              else "incomplete: rerun hertzmap run to resume")
+    dims = " x ".join(f"{info['dims'][d]} {d}" for d in ("omega", "sigma", "zeta", "solution"))
+    print(f"store     {info['path']}")
+    print(f"study     {info['hertzmap_study_name']} (hash {info['hertzmap_study_hash']})")
+    print(f"tasks     {done}/{total} done ({100 * done / max(1, total):.1f} %), {state}")
+    print(f"grid      {dims}; chunk {info['chunk_shape']}")
+    print(f"variables {', '.join(info['variables'])}")
+    print("versions  " + ", ".join(f"{k} {v}" for k, v in sorted(info["versions"].items())))
+    if info["locked_by"]:
+        print(f"lock      held by host {info['locked_by'].get('host')} pid {info['locked_by'].get('pid')}")
+    print("history   " + (info.get("history") or "").replace("\n", "\n          "))
+    return EXIT_OK
+
+
+# -- entry point ------------------------------------------------------------------------------
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="hertzmap",
+        description="Periodic responses of a preloaded Hertzian contact over parameter grids.")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for name, (add_arguments, handler, help) in SUBCOMMANDS.items():
+        p = sub.add_parser(name, help=help, description=help)
+        add_arguments(p)
+        p.set_defaults(handler=handler)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)      # usage errors exit with code 2 (argparse)
+    return args.handler(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,107 @@
+"""Where a study runs: an embedded LocalCluster, an existing scheduler, or a dask-jobqueue
+cluster (Slurm, PBS). Always one thread per worker process (numba kernels, no GIL sharing).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import logging
+import os
+import tomllib
+from dataclasses import dataclass, field
+from typing import Any
+
+
+class ClusterError(Exception):
+    """The cluster cannot be set up as asked (bad option, missing optional dependency)."""
+
+
+JOBQUEUE = {"slurm": "SLURMCluster", "pbs": "PBSCluster", "sge": "SGECluster",
+            "lsf": "LSFCluster", "htcondor": "HTCondorCluster"}
+
+
+def default_workers() -> int:
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover (not Linux)
+        return max(1, os.cpu_count() or 1)
+
+
+def parse_cluster_options(items: list[str]) -> dict[str, Any]:
+    """``KEY=VALUE`` strings to kwargs; VALUE is read as a TOML value when it parses as one
+    (numbers, booleans, quoted strings, [lists]), else kept as a plain string."""
+    out: dict[str, Any] = {}
+    for item in items or []:
+        key, sep, raw = item.partition("=")
+        key = key.strip().replace("-", "_")
+        if not sep or not key.isidentifier():
+            raise ClusterError(f"--cluster-option {item!r}: expected KEY=VALUE")
+        try:
+            value = tomllib.loads(f"v = {raw}")["v"]
+        except tomllib.TOMLDecodeError:
+            value = raw
+        out[key] = value
+    return out
+
+
+@dataclass
+class ClusterSpec:
+    kind: str = "local"                 # local | address | slurm | pbs | sge | lsf | htcondor
+    workers: int | None = None          # local: worker processes; jobqueue: worker processes to scale to
+    address: str | None = None
+    options: dict[str, Any] = field(default_factory=dict)
+
+    def describe(self) -> str:
+        if self.kind == "local":
+            n = self.workers or default_workers()
+            return f"local cluster: {n} single-threaded worker process{'es' if n > 1 else ''}"
+        if self.kind == "address":
+            return f"existing Dask scheduler at {self.address}"
+        opts = " ".join(f"{k}={v!r}" for k, v in sorted(self.options.items()))
+        n = self.workers or 1
+        return f"dask-jobqueue {JOBQUEUE[self.kind]} scaled to {n} worker process(es) {opts}".rstrip()
+
+    def check(self) -> None:
+        """Fail early (before anything is written) on a cluster that cannot be made."""
+        if self.kind in JOBQUEUE and importlib.util.find_spec("dask_jobqueue") is None:
+            raise ClusterError(f"--cluster {self.kind} needs dask-jobqueue: "
+                               "pip install 'hertzmap[jobqueue]'")
+        if self.workers is not None and self.workers < 1:
+            raise ClusterError(f"--workers must be >= 1, got {self.workers}")
+
+
+def _dashboard_address() -> str | None:
+    return ":0" if importlib.util.find_spec("bokeh") is not None else None
+
+
+def make_client(spec: ClusterSpec):
+    """Return (client, cluster or None). The caller closes both."""
+    from distributed import Client, LocalCluster
+
+    spec.check()
+    if spec.kind == "address":
+        client = Client(spec.address, timeout="30s")
+        return client, None
+    if spec.kind == "local":
+        cluster = LocalCluster(n_workers=spec.workers or default_workers(), threads_per_worker=1,
+                               processes=True, dashboard_address=_dashboard_address(),
+                               silence_logs=logging.ERROR)
+        return Client(cluster), cluster
+    import dask_jobqueue
+
+    cls = getattr(dask_jobqueue, JOBQUEUE[spec.kind])
+    opts = dict(spec.options)
+    cores = int(opts.setdefault("cores", 1))
+    opts.setdefault("processes", cores)          # one thread per worker process
+    if "memory" not in opts:
+        opts["memory"] = f"{2 * cores}GB"
+    if _dashboard_address() is None:
+        opts.setdefault("scheduler_options", {"dashboard_address": None})
+    cluster = cls(**opts)
+    cluster.scale(n=spec.workers or opts["processes"])
+    return Client(cluster), cluster
+
+
+def worker_count(client) -> int:
+    """Number of workers currently connected to the client's scheduler."""
+    return len(client.scheduler_info(n_workers=-1)["workers"])

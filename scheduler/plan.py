@@ -1,0 +1,95 @@
+"""Plan the tasks of a study: one task = one zarr chunk of the grid.
+
+A chunk is (an omega block, a few sigma values, a few zeta values) x all solution slots.
+The omega axis is kept whole when it fits (neighbours along omega seed each other in the
+block solver). The chunk shape depends on the study only (never on the number of workers),
+so a store can be resumed by any cluster; once a store exists its chunk shape is read back
+from it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from study.dataset import chunk_counts, chunk_slices
+from study.spec import Study
+
+#: Estimated seconds of solver work per grid point, per period searched (a 1T search, a 2T
+#: search). Calibrated on the block solver (see docs/running.md); used only to size tasks
+#: and for --dry-run estimates.
+SECONDS_PER_POINT = {1: 1.5e-4, 2: 3.0e-4}
+#: Target duration of one task (seconds). Dask costs a few ms per task: 1 s keeps it < 1 %.
+DEFAULT_TASK_SECONDS = 1.0
+#: Longest omega block in one chunk.
+MAX_OMEGA_CHUNK = 4096
+#: Try to have at least this many tasks (better balance, finer progress and resume).
+MIN_TASKS = 16
+
+
+@dataclass(frozen=True)
+class Task:
+    index: tuple[int, int, int]             # chunk index (omega_chunk, sigma_chunk, zeta_chunk)
+    slices: tuple[slice, slice, slice]      # grid slices of the chunk
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        return tuple(s.stop - s.start for s in self.slices)
+
+    @property
+    def size(self) -> int:
+        return math.prod(self.shape)
+
+    def key(self, study_hash: str) -> str:
+        i, j, k = self.index
+        return f"hertzmap-{study_hash[:12]}-{i}-{j}-{k}"
+
+
+@dataclass(frozen=True)
+class Plan:
+    study: Study
+    chunks: tuple[int, int, int]
+    tasks: tuple[Task, ...]
+
+    @property
+    def counts(self) -> tuple[int, int, int]:
+        return chunk_counts(self.study.shape, self.chunks)
+
+    def estimated_seconds(self) -> float:
+        """Estimated total solver time (one core)."""
+        return self.study.size * seconds_per_point(self.study)
+
+
+def seconds_per_point(study: Study) -> float:
+    """Estimated solver seconds per grid point for this study."""
+    return sum(SECONDS_PER_POINT[p] for p in study.periods)
+
+
+def choose_chunks(study: Study, task_seconds: float = DEFAULT_TASK_SECONDS) -> tuple[int, int, int]:
+    """Chunk shape (omega, sigma, zeta) so that one chunk takes about ``task_seconds``."""
+    n_o, n_s, n_z = study.shape
+    target = max(1, int(round(task_seconds / seconds_per_point(study))))
+    c_o = n_o if n_o <= MAX_OMEGA_CHUNK else math.ceil(n_o / math.ceil(n_o / MAX_OMEGA_CHUNK))
+    c_s = min(n_s, max(1, round(target / c_o)))
+    c_z = 1
+    if c_s == n_s:
+        c_z = min(n_z, max(1, round(target / (c_o * n_s))))
+    # enough tasks for balance, if the grid allows it (never split the omega block for that)
+    while math.prod(chunk_counts(study.shape, (c_o, c_s, c_z))) < MIN_TASKS and (c_s > 1 or c_z > 1):
+        if c_z > 1:
+            c_z = math.ceil(c_z / 2)
+        else:
+            c_s = math.ceil(c_s / 2)
+    return (c_o, c_s, c_z)
+
+
+def make_plan(study: Study, chunks: tuple[int, int, int]) -> Plan:
+    chunks = tuple(min(int(c), n) for c, n in zip(chunks, study.shape))
+    counts = chunk_counts(study.shape, chunks)
+    tasks = tuple(
+        Task(index=idx, slices=chunk_slices(study.shape, chunks, idx))
+        for idx in np.ndindex(*counts)
+    )
+    return Plan(study=study, chunks=chunks, tasks=tasks)

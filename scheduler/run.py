@@ -1,0 +1,401 @@
+"""Run a study: plan, open/create the store, ship blocks to Dask, write results as they come.
+
+The client is the only writer: for each finished task (``distributed.as_completed``) it
+writes the block (xarray region write) and then sets the task's ``task_done`` flag.
+Durability comes from the store, not from Dask: rerunning the same command computes only
+the tasks not flagged.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+
+from scheduler.cluster import ClusterSpec, make_client, worker_count
+from scheduler.plan import DEFAULT_TASK_SECONDS, Plan, Task, choose_chunks, make_plan, seconds_per_point
+from scheduler.store import Lock, Store, StoreError, open_or_create, read_attrs
+from scheduler.worker import DEFAULT_SOLVER, Warmup, run_task, solve_points
+from study.dataset import bytes_per_point, stored_variables
+from study.spec import Study
+
+#: Grid points re-solved by the error estimate.
+ERROR_SAMPLE = 8
+#: The error estimate re-solves at rtol * ERROR_RTOL_FACTOR (not below the solver's floor).
+ERROR_RTOL_FACTOR = 1e-3
+RTOL_FLOOR = 1e-13
+
+
+class RunError(Exception):
+    """The run could not start (exit code 2): nothing was written."""
+
+
+@dataclass
+class RunOptions:
+    store: Path
+    cluster: ClusterSpec = field(default_factory=ClusterSpec)
+    overwrite: bool = False
+    solver: str = DEFAULT_SOLVER
+    task_seconds: float = DEFAULT_TASK_SECONDS
+    error_sample: int = ERROR_SAMPLE
+    command: str = "hertzmap run"
+
+
+def default_store_path(study: Study) -> Path:
+    return Path("results") / f"{study.name}.zarr"
+
+
+def _fmt_bytes(n: float) -> str:
+    for unit in ("B", "kB", "MB", "GB", "TB"):
+        if n < 1000 or unit == "TB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
+        n /= 1000
+    return f"{n} B"  # pragma: no cover
+
+
+def _fmt_time(s: float) -> str:
+    if not math.isfinite(s):
+        return "?"
+    s = int(round(s))
+    h, rem = divmod(s, 3600)
+    m, sec = divmod(rem, 60)
+    return f"{h}h{m:02d}m{sec:02d}s" if h else (f"{m}m{sec:02d}s" if m else f"{sec}s")
+
+
+def plan_for(study: Study, store_path: Path, task_seconds: float) -> tuple[Plan, str]:
+    """The plan, reusing the chunk shape of an existing store of the same study.
+    Reads only (used by --dry-run). Returns (plan, note about the store)."""
+    attrs = read_attrs(store_path) if store_path.exists() else None
+    if attrs is not None and attrs.get("hertzmap_study_hash") == study.hash:
+        plan = make_plan(study, tuple(attrs["hertzmap_chunk_shape"]))
+        try:
+            done = int(Store(store_path).done_mask().sum())
+        except (StoreError, KeyError):
+            done = 0
+        return plan, f"exists (same study): resume, {done}/{len(plan.tasks)} tasks done"
+    plan = make_plan(study, choose_chunks(study, task_seconds))
+    if attrs is not None:
+        return plan, "exists (another study or not hertzmap): refused unless --overwrite"
+    if store_path.exists():
+        return plan, "path exists and is not a zarr store: refused"
+    return plan, "new"
+
+
+def describe(study: Study, opts: RunOptions) -> str:
+    plan, note = plan_for(study, opts.store, opts.task_seconds)
+    n_o, n_s, n_z = study.shape
+    size = study.size * bytes_per_point(study)
+    est = plan.estimated_seconds()
+    workers = opts.cluster.workers if opts.cluster.kind == "local" else None
+    per_worker = f", about {_fmt_time(est / (workers or 1))} on {workers} workers" if workers else ""
+    lines = [
+        f"study        {study.name} (hash {study.hash[:12]})",
+        f"grid         {n_o} omega x {n_s} sigma x {n_z} zeta = {study.size} points, "
+        f"{study.max_solutions} solution slots, periods {list(study.periods)}",
+        f"model        {study.model}" + (f" exponent {study.exponent}" if study.exponent else "")
+        + f", rtol {study.rtol:g}",
+        f"products     {', '.join(study.products)} -> {', '.join(stored_variables(study))}",
+        f"tasks        {len(plan.tasks)} (chunk {plan.chunks[0]} omega x {plan.chunks[1]} sigma x "
+        f"{plan.chunks[2]} zeta; about {_fmt_time(est / max(1, len(plan.tasks)))} each)",
+        f"compute      about {_fmt_time(est)} of one core{per_worker} (estimate)",
+        f"store        {opts.store} ({note}); about {_fmt_bytes(size)} uncompressed",
+        f"runs on      {opts.cluster.describe()}",
+    ]
+    return "\n".join(lines)
+
+
+# -- deterministic sample of converged slots (for the error estimate) -----------------------
+
+def _mix64(x: np.ndarray) -> np.ndarray:
+    """splitmix64 finaliser: a fixed pseudo-random key per integer."""
+    x = x.astype(np.uint64)
+    with np.errstate(over="ignore"):
+        x ^= x >> np.uint64(30)
+        x *= np.uint64(0xBF58476D1CE4E5B9)
+        x ^= x >> np.uint64(27)
+        x *= np.uint64(0x94D049BB133111EB)
+        x ^= x >> np.uint64(31)
+    return x
+
+
+class Sampler:
+    """Keeps the ``n`` converged slots with the smallest pseudo-random keys: the sample does
+    not depend on the order in which blocks finish."""
+
+    def __init__(self, study: Study, n: int):
+        self.study = study
+        self.n = n
+        self.seed = np.uint64(int(hashlib.sha256(study.hash.encode()).hexdigest()[:15], 16))
+        self.items: list[tuple[int, tuple]] = []
+
+    def add(self, task: Task, arrays: dict[str, np.ndarray]) -> None:
+        if self.n <= 0:
+            return
+        st = arrays["status"]
+        idx = np.argwhere(st == 0)
+        if idx.size == 0:
+            return
+        o0, s0, z0 = (s.start for s in task.slices)
+        n_o, n_s, n_z = self.study.shape
+        ns = self.study.max_solutions
+        flat = ((((idx[:, 0] + o0) * n_s + idx[:, 1] + s0) * n_z + idx[:, 2] + z0) * ns + idx[:, 3])
+        keys = _mix64(flat.astype(np.uint64) ^ self.seed)
+        order = np.argsort(keys)[: self.n]
+        om, sg, zt = self.study.axis("omega"), self.study.axis("sigma"), self.study.axis("zeta")
+        for r in order:
+            i, j, k, s = idx[r]
+            self.items.append((int(keys[r]), (
+                float(om[i + o0]), float(sg[j + s0]), float(zt[k + z0]), int(arrays["period"][i, j, k, s]),
+                float(arrays["q0"][i, j, k, s]), float(arrays["v0"][i, j, k, s]))))
+        self.items.sort(key=lambda t: t[0])
+        del self.items[self.n:]
+
+    @property
+    def samples(self) -> list[tuple]:
+        return [v for _, v in self.items]
+
+
+def estimate_error(client, study: Study, samples: list[tuple], *, solver: str = DEFAULT_SOLVER,
+                   rtol_factor: float = ERROR_RTOL_FACTOR) -> dict[str, Any]:
+    """Re-solve sampled converged points at a tighter tolerance; report the deviation of (q0, v0).
+
+    ``samples``: (omega, sigma, zeta, period, q0, v0) of converged slots. Each point is solved
+    alone (no neighbour seeding) at rtol * rtol_factor (not below 1e-13); each sampled slot
+    is matched with the nearest converged re-solved slot of the same period. A slot without
+    a match within 1e-3 (e.g. the re-solve found the other copy of a 2T orbit, or missed the
+    orbit without its neighbours' seeds) is counted as unmatched, not as an error.
+    """
+    rtol_ref = max(study.rtol * rtol_factor, RTOL_FLOOR)
+    out: dict[str, Any] = {"n": len(samples), "rtol": study.rtol, "rtol_ref": rtol_ref,
+                           "matched": 0, "max_deviation": math.nan}
+    if not samples:
+        return out
+    kwargs = study.solver_kwargs()
+    kwargs["rtol"] = rtol_ref
+    points = [s[:3] for s in samples]
+    fut = client.submit(solve_points, points, kwargs, solver, pure=False)
+    refs = fut.result()
+    devs = []
+    for (w, s, z, p, q0, v0), ref in zip(samples, refs):
+        ok = (ref["status"] == 0) & (ref["period"] == p)
+        if not ok.any():
+            continue
+        d = np.maximum(np.abs(ref["q0"][ok] - q0), np.abs(ref["v0"][ok] - v0)).min()
+        if d <= 1e-3:
+            devs.append(float(d))
+    out["matched"] = len(devs)
+    if devs:
+        out["max_deviation"] = max(devs)
+    out["ref_equals_run"] = rtol_ref >= study.rtol
+    return out
+
+
+# -- progress -------------------------------------------------------------------------------
+
+class Progress:
+    def __init__(self, stream: TextIO, total_tasks: int, total_points: int, done_tasks: int):
+        self.stream = stream
+        self.tty = hasattr(stream, "isatty") and stream.isatty()
+        self.total_tasks = total_tasks
+        self.total_points = total_points
+        self.done_tasks = done_tasks
+        self.points = 0
+        self.t0 = time.perf_counter()
+        self.last = 0.0
+
+    def update(self, points: int, force: bool = False) -> None:
+        self.done_tasks += 1
+        self.points += points
+        now = time.perf_counter()
+        if not force and now - self.last < (0.5 if self.tty else 10.0):
+            return
+        self.last = now
+        elapsed = now - self.t0
+        rate = self.points / elapsed if elapsed > 0 else 0.0
+        eta = (self.total_points - self.points) / rate if rate > 0 else math.inf
+        line = (f"hertzmap: {self.done_tasks}/{self.total_tasks} tasks  {rate:,.0f} points/s  "
+                f"ETA {_fmt_time(eta)}")
+        if self.tty:
+            self.stream.write("\r" + line.ljust(72))
+        else:
+            self.stream.write(line + "\n")
+        self.stream.flush()
+
+    def close(self) -> None:
+        if self.tty:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+# -- the run --------------------------------------------------------------------------------
+
+def check_solver(solver: str) -> None:
+    module = solver.partition(":")[0]
+    try:
+        found = importlib.util.find_spec(module) is not None
+    except ModuleNotFoundError:
+        found = False
+    if not found:
+        raise RunError(f"block solver module {module!r} not found (study/block.py missing?)")
+
+
+def run_study(study: Study, opts: RunOptions, *, out: TextIO = sys.stdout,
+              err: TextIO = sys.stderr, client=None) -> dict[str, Any]:
+    """Run (or resume) ``study`` into ``opts.store``. Returns the summary.
+
+    ``client``: an existing distributed.Client to use (its cluster is not closed);
+    otherwise one is made from ``opts.cluster``. Raises RunError / StoreError before
+    anything is written when the run cannot start.
+    """
+    check_solver(opts.solver)
+    opts.cluster.check()
+    chunks = choose_chunks(study, opts.task_seconds)
+    store, resumed = open_or_create(opts.store, study, chunks, overwrite=opts.overwrite,
+                                    action=f"{opts.command}: created")
+    with Lock(store.path):
+        return _run_locked(study, opts, store, resumed, out, err, client)
+
+
+def _run_locked(study, opts, store: Store, resumed: bool, out, err, client) -> dict[str, Any]:
+    plan = make_plan(study, store.chunks)
+    names = stored_variables(study)
+    done = store.done_mask()
+    todo = [t for t in plan.tasks if not done[t.index]]
+    n_done0 = len(plan.tasks) - len(todo)
+    if resumed:
+        store.add_history(f"{opts.command}: resumed with {n_done0}/{len(plan.tasks)} tasks done")
+        print(f"resuming {store.path}: {n_done0}/{len(plan.tasks)} tasks already done", file=out)
+    summary: dict[str, Any] = {"store": str(store.path), "tasks_total": len(plan.tasks),
+                               "tasks_done_before": n_done0, "tasks_run": 0, "failed": []}
+    if not todo:
+        print(f"{store.path}: all {len(plan.tasks)} tasks done, nothing to compute", file=out)
+        summary.update(complete=True, wall=0.0)
+        return summary
+
+    own_client = client is None
+    cluster = None
+    t_setup = time.perf_counter()
+    if own_client:
+        client, cluster = make_client(opts.cluster)
+    try:
+        if opts.cluster.kind != "local" and own_client:
+            print(f"waiting for workers ({opts.cluster.describe()}) ...", file=out, flush=True)
+        client.wait_for_workers(1)
+        kwargs = study.solver_kwargs()
+        client.register_plugin(Warmup(opts.solver, kwargs), name="hertzmap-warmup")
+        n_workers = worker_count(client)
+        setup = time.perf_counter() - t_setup
+        dash = client.dashboard_link if _has_dashboard(client) else "unavailable (pip install bokeh)"
+        print(f"running {len(todo)} tasks ({sum(t.size for t in todo)} points) on {n_workers} "
+              f"workers; setup {setup:.1f} s; dashboard: {dash}", file=out, flush=True)
+
+        specs = []
+        om, sg, zt = study.axis("omega"), study.axis("sigma"), study.axis("zeta")
+        for t in todo:
+            so, ss, sz = t.slices
+            specs.append({"index": t.index, "omega": om[so], "sigma": sg[ss], "zeta": zt[sz],
+                          "kwargs": kwargs, "names": names, "solver": opts.solver})
+        by_index = {t.index: t for t in todo}
+        keys = [t.key(study.hash) for t in todo]
+
+        from distributed import as_completed
+
+        progress = Progress(err, len(plan.tasks), sum(t.size for t in todo), n_done0)
+        sampler = Sampler(study, opts.error_sample)
+        compute = 0.0
+        per_pid: dict[int, float] = {}
+        n_conv = n_fail = n_points_with = n_points_run = 0
+        t0 = time.perf_counter()
+        futures = client.map(run_task, specs, key=keys, pure=False)
+        for fut in as_completed(futures):
+            try:
+                res = fut.result()
+            except Exception as exc:  # a task failed for good (after Dask's retries)
+                summary["failed"].append((fut.key, f"{type(exc).__name__}: {exc}"))
+                fut.release()
+                continue
+            task = by_index[tuple(res["index"])]
+            arrays = res["arrays"]
+            store.write_block(task.slices, arrays, names)   # 1. the block ...
+            store.mark_done(task.index)                     # 2. ... then its flag
+            fut.release()
+            compute += res["seconds"]
+            per_pid[res["pid"]] = per_pid.get(res["pid"], 0.0) + res["seconds"]
+            st = arrays["status"]
+            n_conv += int((st == 0).sum())
+            n_fail += int((st > 0).sum())
+            n_points_with += int((st == 0).any(axis=-1).sum())
+            sampler.add(task, arrays)
+            summary["tasks_run"] += 1
+            n_points_run += task.size
+            progress.update(task.size)
+        wall = time.perf_counter() - t0
+        progress.close()
+
+        n_run = summary["tasks_run"]
+        overhead = 1.0 - compute / (n_workers * wall) if wall > 0 else math.nan
+        summary.update(
+            wall=wall, setup=setup, workers=n_workers, compute=compute,
+            overhead=overhead, per_task=compute / max(1, n_run),
+            points=n_points_run, points_per_second=n_points_run / wall if wall > 0 else math.nan,
+            orbits=n_conv, failed_slots=n_fail, points_with_orbit=n_points_with,
+            converged_fraction=n_conv / (n_conv + n_fail) if n_conv + n_fail else math.nan,
+            orbits_per_second=n_conv / wall if wall > 0 else math.nan,
+            worker_processes_seen=len(per_pid),
+        )
+        if summary["failed"]:
+            summary["complete"] = False
+            store.add_history(f"{opts.command}: stopped, {len(summary['failed'])} tasks failed")
+        else:
+            summary["complete"] = bool(store.done_mask().all())
+            store.add_history(f"{opts.command}: completed {len(plan.tasks)}/{len(plan.tasks)} tasks")
+        try:
+            summary["error"] = estimate_error(client, study, sampler.samples, solver=opts.solver)
+        except Exception as exc:  # the estimate is a report, never a reason to fail the run
+            summary["error"] = {"n": 0, "failed": f"{type(exc).__name__}: {exc}"}
+        print_summary(summary, out)
+        return summary
+    finally:
+        if own_client:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+
+
+def _has_dashboard(client) -> bool:
+    try:
+        return importlib.util.find_spec("bokeh") is not None and bool(client.dashboard_link)
+    except Exception:
+        return False
+
+
+def print_summary(s: dict[str, Any], out: TextIO) -> None:
+    lines = [
+        f"done: {s['tasks_run']} tasks, {s['points']} points in {s['wall']:.2f} s wall on "
+        f"{s['workers']} workers ({s['points_per_second']:,.0f} points/s; setup {s['setup']:.1f} s)",
+        f"orbits: {s['orbits']} converged ({s['orbits_per_second']:,.0f} orbits/s), "
+        f"{s['failed_slots']} failed slots, converged fraction {s['converged_fraction']:.4f}, "
+        f"{s['points_with_orbit']} points with at least one orbit",
+        f"dask overhead: {100 * s['overhead']:.1f} % (task compute {s['compute']:.2f} s over "
+        f"{s['workers']} workers x {s['wall']:.2f} s wall; {1000 * s['per_task']:.0f} ms per task)",
+    ]
+    e = s.get("error") or {}
+    if e.get("failed"):
+        lines.append(f"error estimate: failed ({e['failed']})")
+    elif e.get("n"):
+        lines.append(f"error estimate: max |d(q0, v0)| = {e['max_deviation']:.2e} over "
+                     f"{e['matched']}/{e['n']} sampled orbits re-solved at rtol {e['rtol_ref']:g}"
+                     + (" (reference rtol not tighter than the run's)" if e.get("ref_equals_run") else ""))
+    if s["failed"]:
+        lines.append(f"FAILED tasks: {len(s['failed'])} (rerun the same command to retry them)")
+        for key, msg in s["failed"][:5]:
+            lines.append(f"  {key}: {msg}")
+    out.write("\n".join(lines) + "\n")
+    out.flush()

@@ -1,0 +1,257 @@
+"""The zarr store of a study: create it from the template, check it, write blocks, mark tasks.
+
+The client process is the only writer. The template is written once with
+``to_zarr(compute=False)`` (metadata, coordinates, an all-False ``task_done``); each finished
+block is a region write of whole chunks (coordinates dropped, never ``mode="a"``), and only
+then is its ``task_done`` flag set. A flag is therefore never set for a block that is not
+fully written; a block written but not flagged (client killed in between) is simply
+recomputed on resume and rewritten with identical values.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import shutil
+import socket
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+import zarr
+
+from study.dataset import (STORE_FORMAT, VARIABLES, block_dataset, history_line, parse_attrs,
+                           stored_variables, template)
+from study.spec import Study
+
+LOCK_SUFFIX = ".lock"      # the lock of STORE is the file STORE.lock next to it
+
+
+def lock_path(store_path: str | Path) -> Path:
+    p = Path(store_path)
+    return p.with_name(p.name + LOCK_SUFFIX)
+
+
+class StoreError(Exception):
+    """The store cannot be used (belongs to another study, is not a zarr store, is locked...)."""
+
+
+@contextlib.contextmanager
+def _quiet():
+    # zarr warns that consolidated metadata is not part of the v3 spec; we use it on purpose
+    # so that xr.open_zarr(path) opens the store quickly and silently.
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=".*[Cc]onsolidated metadata.*")
+        yield
+
+
+def read_attrs(path: str | Path) -> dict[str, Any] | None:
+    """Root attrs of a zarr store, or None when ``path`` is not a zarr (v3) group."""
+    meta = Path(path) / "zarr.json"
+    if not meta.is_file():
+        return None
+    try:
+        doc = json.loads(meta.read_text())
+    except (OSError, ValueError):
+        return None
+    if doc.get("node_type") != "group":
+        return None
+    return doc.get("attributes", {})
+
+
+class Store:
+    """An existing hertzmap store (opened for writing by the single client)."""
+
+    def __init__(self, path: str | Path):
+        self.path = Path(path)
+        attrs = read_attrs(self.path)
+        if attrs is None or "hertzmap_study_hash" not in attrs:
+            raise StoreError(f"{self.path} is not a hertzmap store")
+        self.attrs = attrs
+        self.info = parse_attrs(attrs)
+        self.study_hash: str = attrs["hertzmap_study_hash"]
+        self.chunks = tuple(int(c) for c in attrs["hertzmap_chunk_shape"])
+        self._group = zarr.open_group(zarr.storage.LocalStore(self.path), mode="r+",
+                                      zarr_format=3, use_consolidated=False)
+        self._done = self._group["task_done"]
+
+    # -- creation -------------------------------------------------------------------------
+    @classmethod
+    def create(cls, path: str | Path, study: Study, chunks: tuple[int, int, int],
+               action: str) -> "Store":
+        """Write the template of ``study`` at ``path`` (which must not exist)."""
+        import dask.array  # noqa: F401  (the template is chunked lazily with Dask)
+
+        path = Path(path)
+        ds = template(study, chunks, history=history_line(action))
+        enc = {name: dict(ds[name].encoding) for name in ds.variables}
+        lazy = ds.chunk({"omega": ds.attrs["hertzmap_chunk_shape"][0],
+                         "sigma": ds.attrs["hertzmap_chunk_shape"][1],
+                         "zeta": ds.attrs["hertzmap_chunk_shape"][2]})
+        # task_done must be written now (not lazily): keep it numpy-backed
+        lazy["task_done"] = ds["task_done"]
+        for name in lazy.variables:
+            lazy[name].encoding = enc[name]
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with _quiet():
+            lazy.to_zarr(zarr.storage.LocalStore(path), mode="w-", compute=False,
+                         zarr_format=3, consolidated=True)
+        return cls(path)
+
+    # -- checks ---------------------------------------------------------------------------
+    def check(self, study: Study) -> None:
+        """Raise StoreError unless this store holds ``study`` and is complete (template-wise)."""
+        if self.study_hash != study.hash:
+            raise StoreError(
+                f"{self.path} holds another study ({self.info['hertzmap_study_name']!r}, "
+                f"hash {self.study_hash[:12]}), not {study.name!r} (hash {study.hash[:12]}); "
+                "use --overwrite to replace it, or --store to choose another path")
+        if self.attrs.get("hertzmap_store_format") != STORE_FORMAT:
+            raise StoreError(f"{self.path}: store format {self.attrs.get('hertzmap_store_format')} "
+                             f"is not {STORE_FORMAT}")
+        members = set(self._group.array_keys())
+        missing = [n for n in stored_variables(study) if n not in members]
+        if missing:
+            raise StoreError(f"{self.path} is incomplete (missing {', '.join(missing)})")
+
+    # -- task state -----------------------------------------------------------------------
+    def done_mask(self) -> np.ndarray:
+        return np.asarray(self._done[...], dtype=bool)
+
+    def mark_done(self, index: tuple[int, int, int]) -> None:
+        self._done[index] = True
+
+    # -- data -----------------------------------------------------------------------------
+    def write_block(self, slices: tuple[slice, slice, slice], arrays: dict[str, np.ndarray],
+                    names: tuple[str, ...]) -> None:
+        """Region write of one block (whole chunks), coordinates dropped."""
+        ds = block_dataset(arrays, names)
+        region = {"omega": slices[0], "sigma": slices[1], "zeta": slices[2]}
+        ds.to_zarr(zarr.storage.LocalStore(self.path), region=region, consolidated=False,
+                   zarr_format=3)
+
+    def add_history(self, action: str) -> None:
+        hist = self._group.attrs.get("history", "")
+        self._group.attrs["history"] = (hist + "\n" if hist else "") + history_line(action)
+        with _quiet():
+            zarr.consolidate_metadata(zarr.storage.LocalStore(self.path))
+        self.attrs = read_attrs(self.path) or self.attrs
+
+
+def remove_store(path: str | Path) -> None:
+    """Delete a zarr store (refuses anything that is not a zarr group directory)."""
+    path = Path(path)
+    if read_attrs(path) is None:
+        raise StoreError(f"{path} is not a zarr store; refusing to delete it")
+    shutil.rmtree(path)
+
+
+def open_or_create(path: str | Path, study: Study, chunks: tuple[int, int, int], *,
+                   overwrite: bool, action: str) -> tuple[Store, bool]:
+    """The store for ``study`` at ``path``: (store, resumed).
+
+    An existing store of the same study is resumed; of another study: StoreError unless
+    ``overwrite``. A path that exists but is not a zarr store is never touched.
+    """
+    path = Path(path)
+    if path.exists():
+        attrs = read_attrs(path)
+        if attrs is None:
+            if path.is_dir() and not any(path.iterdir()):
+                path.rmdir()
+            else:
+                raise StoreError(f"{path} exists and is not a zarr store; "
+                                 "choose another --store path")
+        elif attrs.get("hertzmap_study_hash") == study.hash and not overwrite:
+            try:
+                store = Store(path)
+                store.check(study)
+                return store, True
+            except (StoreError, KeyError) as exc:
+                raise StoreError(f"{exc}; rerun with --overwrite to start it again") from None
+        elif not overwrite:
+            if "hertzmap_study_hash" in attrs:
+                name = attrs.get("hertzmap_study_name")
+                raise StoreError(
+                    f"{path} holds another study ({name!r}, hash "
+                    f"{attrs['hertzmap_study_hash'][:12]}), not {study.name!r} (hash "
+                    f"{study.hash[:12]}); use --overwrite to replace it or --store for another path")
+            raise StoreError(f"{path} is a zarr store not written by hertzmap; "
+                             "use --overwrite to replace it or --store for another path")
+        else:
+            remove_store(path)
+    return Store.create(path, study, chunks, action), False
+
+
+class Lock:
+    """A lock file next to the store (STORE.lock): one client per store. Stale locks (dead
+    pid on this host) are taken over; a lock from another host must be removed by hand."""
+
+    def __init__(self, store_path: str | Path):
+        self.path = lock_path(store_path)
+        self.held = False
+
+    def acquire(self) -> None:
+        me = {"host": socket.gethostname(), "pid": os.getpid()}
+        for _ in range(2):
+            try:
+                fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+            except FileExistsError:
+                try:
+                    other = json.loads(self.path.read_text())
+                except (OSError, ValueError):
+                    other = {}
+                if other.get("host") == me["host"] and not _pid_alive(other.get("pid")):
+                    self.path.unlink(missing_ok=True)      # stale: its client died
+                    continue
+                raise StoreError(
+                    f"{self.path.with_suffix('')} is in use by another hertzmap client "
+                    f"(host {other.get('host')}, pid {other.get('pid')}); if that client is "
+                    f"dead, delete {self.path}") from None
+            with os.fdopen(fd, "w") as f:
+                json.dump(me, f)
+            self.held = True
+            return
+        raise StoreError(f"cannot lock {self.path}")
+
+    def release(self) -> None:
+        if self.held:
+            self.path.unlink(missing_ok=True)
+            self.held = False
+
+    def __enter__(self):
+        self.acquire()
+        return self
+
+    def __exit__(self, *exc):
+        self.release()
+
+
+def _pid_alive(pid: Any) -> bool:
+    if not isinstance(pid, int) or pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def store_status(path: str | Path) -> dict[str, Any]:
+    """Summary of a store for ``hertzmap status``."""
+    store = Store(path)
+    done = store.done_mask()
+    info = dict(store.info)
+    info.update(path=str(store.path), tasks_total=int(done.size), tasks_done=int(done.sum()),
+                chunk_shape=list(store.chunks))
+    ds = xr.open_zarr(store.path, consolidated=True)
+    info["dims"] = {k: int(v) for k, v in ds.sizes.items()}
+    info["variables"] = [n for n in ds.data_vars if n in VARIABLES]
+    lock = lock_path(store.path)
+    info["locked_by"] = json.loads(lock.read_text()) if lock.exists() else None
+    return info

@@ -1,0 +1,92 @@
+"""What a Dask worker runs: plain, importable, module-level functions (never numba objects).
+
+The block solver is imported by name on the worker (``study.block:solve_block`` by default),
+so nothing jitted is ever pickled; the :class:`Warmup` plugin imports it and runs one tiny
+solve when a worker starts, which loads (or compiles) the numba kernels once per process.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import time
+from typing import Any, Callable
+
+import numpy as np
+from distributed import WorkerPlugin
+
+DEFAULT_SOLVER = "study.block:solve_block"
+
+_SOLVERS: dict[str, Callable[..., dict]] = {}
+
+
+def load_solver(path: str = DEFAULT_SOLVER) -> Callable[..., dict]:
+    """Import ``module:function`` once per process."""
+    fn = _SOLVERS.get(path)
+    if fn is None:
+        module, _, name = path.partition(":")
+        fn = getattr(importlib.import_module(module), name or "solve_block")
+        _SOLVERS[path] = fn
+    return fn
+
+
+def warm_up(solver: str = DEFAULT_SOLVER, kwargs: dict[str, Any] | None = None) -> float:
+    """Import the solver and solve one grid point; returns the seconds it took."""
+    t0 = time.perf_counter()
+    fn = load_solver(solver)
+    one = np.array([1.0])
+    fn(one, np.array([0.1]), np.array([0.05]), **(kwargs or {}))
+    return time.perf_counter() - t0
+
+
+class Warmup(WorkerPlugin):
+    """Worker plugin: warm the solver on every worker, including workers that join later."""
+
+    idempotent = False
+
+    def __init__(self, solver: str = DEFAULT_SOLVER, kwargs: dict[str, Any] | None = None):
+        self.solver = solver
+        self.kwargs = dict(kwargs or {})
+        self.seconds: float | None = None
+
+    def setup(self, worker=None):
+        self.seconds = warm_up(self.solver, self.kwargs)
+
+    def teardown(self, worker=None):
+        pass
+
+    def transition(self, key, start, finish, **kwargs):
+        pass
+
+
+def run_task(spec: dict[str, Any]) -> dict[str, Any]:
+    """Solve one block (one chunk of the store). Runs on a worker.
+
+    ``spec``: index, omega, sigma, zeta (1-D float64 arrays), kwargs (for solve_block),
+    names (variables to return), solver ("module:function").
+    Returns the arrays (only ``names``, contract-checked), the solve time and the worker pid.
+    """
+    from study.dataset import VARIABLES, check_block
+
+    fn = load_solver(spec.get("solver", DEFAULT_SOLVER))
+    omega = np.ascontiguousarray(spec["omega"], dtype=np.float64)
+    sigma = np.ascontiguousarray(spec["sigma"], dtype=np.float64)
+    zeta = np.ascontiguousarray(spec["zeta"], dtype=np.float64)
+    t0 = time.perf_counter()
+    out = fn(omega, sigma, zeta, **spec["kwargs"])
+    seconds = time.perf_counter() - t0
+    names = tuple(spec["names"])
+    check_block(out, names, (len(omega), len(sigma), len(zeta)), spec["kwargs"]["max_solutions"])
+    arrays = {n: np.ascontiguousarray(out[n], dtype=VARIABLES[n].dtype) for n in names}
+    return {"index": tuple(spec["index"]), "arrays": arrays, "seconds": seconds, "pid": os.getpid()}
+
+
+def solve_points(points: list[tuple[float, float, float]], kwargs: dict[str, Any],
+                 solver: str = DEFAULT_SOLVER) -> list[dict[str, np.ndarray]]:
+    """Solve isolated grid points (one block each); used by the error estimate."""
+    fn = load_solver(solver)
+    out = []
+    for w, s, z in points:
+        r = fn(np.array([w]), np.array([s]), np.array([z]), **kwargs)
+        out.append({k: np.asarray(r[k])[0, 0, 0] for k in ("period", "status", "q0", "v0")})
+    return out

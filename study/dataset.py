@@ -1,0 +1,308 @@
+"""Schema of a study's store: variables, dims, units, flags, attrs (no Dask, no I/O).
+
+One xarray Dataset per study, dims ``omega``, ``sigma``, ``zeta``, ``solution`` (plus
+``multiplier`` and ``harmonic`` for the two vector-valued variables) and a completion array
+``task_done`` over the chunk grid (dims ``omega_chunk``, ``sigma_chunk``, ``zeta_chunk``).
+
+The scheduler turns :func:`template` into a lazy dataset and writes it once with
+``to_zarr(compute=False)``; each finished block is then written with :func:`block_dataset`
+as a region write. Every variable and coordinate carries ``long_name``, ``units`` and
+``description``; code variables carry ``flag_values``/``flag_meanings``.
+See docs/dataset.md for the reference.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import importlib.metadata
+import json
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+import xarray as xr
+
+from kernels import status as _status
+from study.spec import Study
+
+__all__ = [
+    "VarSpec",
+    "VARIABLES",
+    "PRODUCT_VARIABLES",
+    "GRID_DIMS",
+    "STORE_FORMAT",
+    "stored_variables",
+    "template",
+    "block_dataset",
+    "check_block",
+    "chunk_counts",
+    "chunk_slices",
+    "bytes_per_point",
+    "software_versions",
+    "history_line",
+    "parse_attrs",
+]
+
+#: Version of the store layout written by this module (an attr of every store).
+STORE_FORMAT = 1
+
+GRID_DIMS = ("omega", "sigma", "zeta", "solution")
+CHUNK_DIMS = ("omega_chunk", "sigma_chunk", "zeta_chunk")
+
+
+@dataclass(frozen=True)
+class VarSpec:
+    name: str
+    dtype: str
+    fill: Any                  # value of an empty slot (and the zarr fill_value)
+    long_name: str
+    units: str
+    description: str
+    extra_dim: tuple[str, int] | None = None    # trailing dim (name, length)
+    flags: tuple[tuple[int, str], ...] | None = None
+
+    @property
+    def dims(self) -> tuple[str, ...]:
+        return GRID_DIMS + ((self.extra_dim[0],) if self.extra_dim else ())
+
+    def attrs(self) -> dict[str, Any]:
+        a: dict[str, Any] = {"long_name": self.long_name, "units": self.units,
+                             "description": self.description}
+        if self.flags:
+            a["flag_values"] = np.array([v for v, _ in self.flags], dtype=self.dtype)
+            a["flag_meanings"] = " ".join(m for _, m in self.flags)
+        return a
+
+
+_STATUS_FLAGS = tuple(sorted(_status.NAMES.items()))
+
+VARIABLES: dict[str, VarSpec] = {v.name: v for v in [
+    # -- orbits (always stored) ----------------------------------------------------------
+    VarSpec("period", "int8", 0, "period of the orbit", "1",
+            "period of the periodic response in forcing periods T = 2 pi / omega "
+            "(1: 1T orbit, 2: 2T orbit, 0: empty slot)",
+            flags=((0, "empty"), (1, "period_1T"), (2, "period_2T"))),
+    VarSpec("status", "int8", _status.EMPTY, "solver status", "1",
+            "outcome of the solve for this slot (kernels/status.py); only status 0 "
+            "(converged) slots hold a periodic orbit", flags=_STATUS_FLAGS),
+    VarSpec("q0", "float64", math.nan, "displacement at tau = 0", "1",
+            "dimensionless displacement q = 3 (z - z_s) / (2 z_s) of the orbit at tau = 0 "
+            "(start point of the periodic orbit); contact is lost at q = -exponent"),
+    VarSpec("v0", "float64", math.nan, "velocity at tau = 0", "1",
+            "dimensionless velocity dq/dtau of the orbit at tau = 0"),
+    VarSpec("multipliers", "complex128", complex(math.nan, math.nan), "Floquet multipliers", "1",
+            "the two eigenvalues of the monodromy matrix over the orbit's period "
+            "(their product is exp(-2 zeta P) for an orbit of period P = period * T)",
+            extra_dim=("multiplier", 2)),
+    VarSpec("stable", "bool", False, "orbit is stable", "1",
+            "True when both Floquet multipliers lie inside the unit circle"),
+    # -- measures ----------------------------------------------------------------------------
+    VarSpec("min_q", "float64", math.nan, "minimum displacement over the orbit", "1",
+            "minimum of q over one period of the orbit"),
+    VarSpec("max_q", "float64", math.nan, "maximum displacement over the orbit", "1",
+            "maximum of q over one period of the orbit"),
+    VarSpec("ptp", "float64", math.nan, "peak-to-peak displacement", "1",
+            "max_q - min_q"),
+    VarSpec("loses_contact", "bool", False, "orbit loses contact", "1",
+            "True when q reaches the loss-of-contact threshold q = -exponent during the orbit"),
+    VarSpec("flight_fraction", "float64", math.nan, "fraction of the period in flight", "1",
+            "fraction of the orbit's period spent out of contact (0..1)"),
+    VarSpec("max_impact_velocity", "float64", math.nan, "largest impact velocity", "1",
+            "largest |dq/dtau| at recontact (q = -exponent) over one period of the orbit"),
+    # -- force harmonics ---------------------------------------------------------------------
+    VarSpec("force_harmonics", "float64", math.nan, "contact force harmonic amplitudes", "1",
+            "amplitude of the contact force F(q) (in units of the static preload) at the "
+            "frequencies k omega / period, k = 1..4", extra_dim=("harmonic", 4)),
+    # -- diagnostics --------------------------------------------------------------------------
+    VarSpec("newton_iterations", "int16", 0, "Newton iterations", "1",
+            "number of Newton (shooting) iterations used for this slot"),
+    VarSpec("residual", "float64", math.nan, "final shooting residual", "1",
+            "|Phi_P(x0) - x0| at the returned start point"),
+]}
+
+PRODUCT_VARIABLES: dict[str, tuple[str, ...]] = {
+    "orbits": ("period", "status", "q0", "v0", "multipliers", "stable"),
+    "measures": ("min_q", "max_q", "ptp", "loses_contact", "flight_fraction", "max_impact_velocity"),
+    "force_harmonics": ("force_harmonics",),
+    "diagnostics": ("newton_iterations", "residual"),
+}
+
+_COORD_ATTRS = {
+    "omega": {"long_name": "excitation frequency", "units": "1",
+              "description": "forcing frequency divided by the linearised natural frequency "
+                             "of the preloaded contact (dimensionless time tau = Omega t)"},
+    "sigma": {"long_name": "excitation amplitude", "units": "1",
+              "description": "amplitude of the harmonic force divided by the static preload"},
+    "zeta": {"long_name": "damping ratio", "units": "1",
+             "description": "viscous damping ratio (q'' + 2 zeta q' + F(q) = 1 + sigma cos(omega tau))"},
+    "solution": {"long_name": "solution slot", "units": "1",
+                 "description": "index of a coexisting periodic solution at a grid point; "
+                                "slots are filled from 0, empty slots have status -1"},
+    "multiplier": {"long_name": "Floquet multiplier index", "units": "1",
+                   "description": "index of the multiplier (order as returned by the block solver)"},
+    "harmonic": {"long_name": "harmonic order", "units": "1",
+                 "description": "k: the component at frequency k omega / period"},
+}
+
+_TASK_DONE_ATTRS = {
+    "long_name": "task completed",
+    "units": "1",
+    "description": "True once the block of chunk (omega_chunk, sigma_chunk, zeta_chunk) is "
+                   "written; a block without this flag is not computed, whatever the chunk files say",
+}
+
+
+def stored_variables(study: Study) -> tuple[str, ...]:
+    """Names of the data variables stored for this study (its products), in schema order."""
+    wanted = {n for p in study.products for n in PRODUCT_VARIABLES[p]}
+    return tuple(n for n in VARIABLES if n in wanted)
+
+
+def bytes_per_point(study: Study) -> int:
+    """Uncompressed bytes stored per grid point (all solution slots)."""
+    total = 0
+    for name in stored_variables(study):
+        v = VARIABLES[name]
+        n = study.max_solutions * (v.extra_dim[1] if v.extra_dim else 1)
+        total += n * np.dtype(v.dtype).itemsize
+    return total
+
+
+def chunk_counts(shape: tuple[int, ...], chunks: tuple[int, ...]) -> tuple[int, ...]:
+    """Number of chunks along each grid axis."""
+    return tuple(-(-n // c) for n, c in zip(shape, chunks))
+
+
+def chunk_slices(shape: tuple[int, ...], chunks: tuple[int, ...],
+                 index: tuple[int, ...]) -> tuple[slice, ...]:
+    """Grid slices (omega, sigma, zeta) covered by the chunk at ``index``."""
+    return tuple(slice(i * c, min((i + 1) * c, n)) for n, c, i in zip(shape, chunks, index))
+
+
+def _hertzmap_version() -> str:
+    try:
+        return importlib.metadata.version("hertzmap")
+    except importlib.metadata.PackageNotFoundError:
+        pyproject = Path(__file__).resolve().parent.parent / "pyproject.toml"
+        try:
+            return tomllib.loads(pyproject.read_text())["project"]["version"] + "+src"
+        except (OSError, KeyError, tomllib.TOMLDecodeError):
+            return "unknown"
+
+
+def software_versions() -> dict[str, str]:
+    """Versions of hertzmap and its numerical stack (read from metadata: imports nothing)."""
+    out = {"hertzmap": _hertzmap_version()}
+    for pkg in ("numpy", "numba", "scipy", "dask", "distributed", "zarr", "xarray"):
+        try:
+            out[pkg] = importlib.metadata.version(pkg)
+        except importlib.metadata.PackageNotFoundError:
+            out[pkg] = "not installed"
+    return out
+
+
+def history_line(action: str) -> str:
+    """One line of the ``history`` attr: UTC timestamp, hertzmap version, action."""
+    now = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    return f"{now} hertzmap {_hertzmap_version()}: {action}"
+
+
+def template(study: Study, chunks: tuple[int, int, int], *, history: str) -> xr.Dataset:
+    """The empty dataset of a study, backed by zero-copy numpy broadcasts (no memory).
+
+    ``chunks`` is the (omega, sigma, zeta) chunk shape of the store; each variable's
+    ``encoding`` carries its zarr chunks, fill value and compressor. The scheduler chunks
+    this with Dask and writes it with ``to_zarr(compute=False)``: only metadata, the
+    coordinates and the (all False) ``task_done`` array are written.
+    """
+    if len(chunks) != 3 or any(int(c) < 1 for c in chunks):
+        raise ValueError(f"chunks must be three integers >= 1, got {chunks!r}")
+    chunks = tuple(min(int(c), n) for c, n in zip(chunks, study.shape))
+    ns = study.max_solutions
+    coords = {
+        "omega": ("omega", study.axis("omega"), _COORD_ATTRS["omega"]),
+        "sigma": ("sigma", study.axis("sigma"), _COORD_ATTRS["sigma"]),
+        "zeta": ("zeta", study.axis("zeta"), _COORD_ATTRS["zeta"]),
+        "solution": ("solution", np.arange(ns, dtype=np.int16), _COORD_ATTRS["solution"]),
+    }
+    data_vars: dict[str, xr.Variable] = {}
+    encoding: dict[str, dict[str, Any]] = {}
+    for name in stored_variables(study):
+        v = VARIABLES[name]
+        shape = study.shape + (ns,)
+        vchunks = chunks + (ns,)
+        if v.extra_dim:
+            dim, n = v.extra_dim
+            shape += (n,)
+            vchunks += (n,)
+            if dim not in coords:
+                start = 1 if dim == "harmonic" else 0
+                coords[dim] = (dim, np.arange(start, start + n, dtype=np.int16), _COORD_ATTRS[dim])
+        fill = np.array(v.fill, dtype=v.dtype)
+        data_vars[name] = xr.Variable(v.dims, np.broadcast_to(fill, shape), v.attrs())
+        encoding[name] = {"chunks": vchunks, "fill_value": fill.item()}
+    counts = chunk_counts(study.shape, chunks)
+    data_vars["task_done"] = xr.Variable(CHUNK_DIMS, np.zeros(counts, dtype=bool), {
+        **_TASK_DONE_ATTRS, "chunk_shape": list(chunks)})
+    encoding["task_done"] = {"chunks": (1, 1, 1), "fill_value": False}
+
+    versions = software_versions()
+    attrs = {
+        "title": f"hertzmap study {study.name}",
+        "description": study.description,
+        "hertzmap_store_format": STORE_FORMAT,
+        "hertzmap_study_name": study.name,
+        "hertzmap_study_hash": study.hash,
+        "hertzmap_study_toml": study.source_text,
+        "hertzmap_study_json": study.canonical_json(),
+        "hertzmap_chunk_shape": list(chunks),
+        "hertzmap_versions": json.dumps(versions, sort_keys=True),
+        "model": study.model,
+        "exponent": study.exponent if study.exponent is not None else "none",
+        "rtol": study.rtol,
+        "history": history,
+    }
+    ds = xr.Dataset(data_vars, coords={k: xr.Variable(*c) for k, c in coords.items()}, attrs=attrs)
+    for name, enc in encoding.items():
+        ds[name].encoding.update(enc)
+    for name in coords:
+        ds[name].encoding.update({"chunks": (len(ds[name]),)})
+    return ds
+
+
+def check_block(arrays: Mapping[str, np.ndarray], names: tuple[str, ...],
+                shape: tuple[int, int, int], max_solutions: int) -> None:
+    """Check a ``solve_block`` result against the contract; raise ValueError naming the problem."""
+    for name in names:
+        if name not in arrays:
+            raise ValueError(f"solve_block result lacks variable {name!r}")
+        v = VARIABLES[name]
+        a = np.asarray(arrays[name])
+        want = tuple(shape) + (max_solutions,) + ((v.extra_dim[1],) if v.extra_dim else ())
+        if a.shape != want:
+            raise ValueError(f"solve_block variable {name!r} has shape {a.shape}, expected {want}")
+        if not np.can_cast(a.dtype, np.dtype(v.dtype), casting="same_kind"):
+            raise ValueError(f"solve_block variable {name!r} has dtype {a.dtype}, expected {v.dtype}")
+
+
+def block_dataset(arrays: Mapping[str, np.ndarray], names: tuple[str, ...]) -> xr.Dataset:
+    """A dataset holding one solved block, without coordinates (for a region write)."""
+    data_vars = {}
+    for name in names:
+        v = VARIABLES[name]
+        data_vars[name] = xr.Variable(v.dims, np.asarray(arrays[name]).astype(v.dtype, copy=False))
+    return xr.Dataset(data_vars)
+
+
+def parse_attrs(attrs: Mapping[str, Any]) -> dict[str, Any]:
+    """The hertzmap attrs of a store, decoded (versions as a dict)."""
+    out = {k: attrs.get(k) for k in ("hertzmap_store_format", "hertzmap_study_name",
+                                     "hertzmap_study_hash", "hertzmap_chunk_shape", "history")}
+    try:
+        out["versions"] = json.loads(attrs.get("hertzmap_versions", "{}"))
+    except (TypeError, ValueError):
+        out["versions"] = {}
+    return out

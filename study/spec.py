@@ -1,0 +1,407 @@
+"""The study file: parse and validate a TOML study into a frozen :class:`Study`.
+
+A study file describes *what* to compute (the grid, the model, the solver accuracy, the
+periods searched, the products stored), never *where* (that is the command line's job).
+See docs/study-file.md for the reference of every table and key.
+
+Every validation problem raises :class:`StudyError` (a ``ValueError``) whose message names
+the offending field (``grid.omega``, ``solver.rtol``...) and the allowed range.
+Nothing here touches the disk except :func:`load_study`, which only reads the file.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import re
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+__all__ = [
+    "StudyError",
+    "Study",
+    "load_study",
+    "parse_study",
+    "PRODUCTS",
+    "DEFAULT_PRODUCTS",
+    "MAX_GRID_POINTS",
+    "SPEC_VERSION",
+]
+
+SPEC_VERSION = 1
+
+#: Largest grid (omega x sigma x zeta points) a single study may ask for.
+MAX_GRID_POINTS = 20_000_000
+
+AXES = ("omega", "sigma", "zeta")
+
+#: Output groups a study can ask for; the variables of each group are defined in study/dataset.py.
+PRODUCTS = ("orbits", "measures", "force_harmonics", "diagnostics")
+#: "orbits" is always stored (period, q0, v0, status, multipliers, stable).
+CORE_PRODUCT = "orbits"
+DEFAULT_PRODUCTS = ("orbits", "measures")
+
+MODEL_KINDS = ("hertz", "taylor")
+EXPONENT_RANGE = (0.0, 3.0)           # exclusive, inclusive
+RTOL_RANGE = (1e-13, 1e-4)            # inclusive
+MAX_SOLUTIONS_RANGE = (1, 16)         # inclusive
+PERIODS_ALLOWED = (1, 2)
+CONTACTS = ("double", "single")
+
+_NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$")
+
+_AXIS_RULES = {
+    # axis: (lower bound, bound is strict, description)
+    "omega": (0.0, True, "> 0"),
+    "sigma": (0.0, False, ">= 0"),
+    "zeta": (0.0, False, ">= 0"),
+}
+
+_RIG_KEYS = {
+    # key: (description of allowed range, check)
+    "E": ("Young's modulus in Pa, > 0", lambda x: x > 0),
+    "nu": ("Poisson's ratio, -1 < nu < 0.5", lambda x: -1.0 < x < 0.5),
+    "R": ("sphere radius in m, > 0", lambda x: x > 0),
+    "m": ("moving mass in kg, > 0", lambda x: x > 0),
+    "N": ("static preload in N, > 0", lambda x: x > 0),
+}
+
+
+class StudyError(ValueError):
+    """A study file is invalid. The message names the field and what is allowed."""
+
+    def __init__(self, field_name: str, message: str):
+        self.field = field_name
+        super().__init__(f"{field_name}: {message}" if field_name else message)
+
+
+@dataclass(frozen=True)
+class Study:
+    """A validated study. Immutable; ``hash`` identifies it (sha256 of :meth:`canonical_json`).
+
+    Axis values are stored in the order given (a decreasing omega axis is a downward sweep).
+    ``source_text`` is the original TOML text (kept for the store's attrs, not part of the hash).
+    """
+
+    name: str
+    description: str
+    omega: tuple[float, ...]
+    sigma: tuple[float, ...]
+    zeta: tuple[float, ...]
+    model: str = "hertz"
+    exponent: float | None = 1.5
+    rtol: float = 1e-10
+    max_solutions: int = 4
+    periods: tuple[int, ...] = (1, 2)
+    products: tuple[str, ...] = DEFAULT_PRODUCTS
+    rig: tuple[tuple[str, Any], ...] | None = None
+    source_text: str = field(default="", compare=False, repr=False)
+
+    # -- derived ---------------------------------------------------------------------------
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """Grid shape (len(omega), len(sigma), len(zeta))."""
+        return (len(self.omega), len(self.sigma), len(self.zeta))
+
+    @property
+    def size(self) -> int:
+        """Number of grid points."""
+        return len(self.omega) * len(self.sigma) * len(self.zeta)
+
+    def axis(self, name: str) -> np.ndarray:
+        """Coordinate values of one axis as a float64 array."""
+        if name not in AXES:
+            raise KeyError(name)
+        return np.asarray(getattr(self, name), dtype=np.float64)
+
+    @property
+    def rig_dict(self) -> dict[str, Any] | None:
+        return None if self.rig is None else dict(self.rig)
+
+    def solver_kwargs(self) -> dict[str, Any]:
+        """Keyword arguments for ``study.block.solve_block`` (everything but the coordinates)."""
+        return {
+            "periods": tuple(self.periods),
+            "exponent": 1.5 if self.exponent is None else float(self.exponent),
+            "model": self.model,
+            "rtol": float(self.rtol),
+            "max_solutions": int(self.max_solutions),
+        }
+
+    def to_dict(self) -> dict[str, Any]:
+        """The canonical, fully defaulted content of the study (JSON-compatible)."""
+        return {
+            "spec_version": SPEC_VERSION,
+            "study": {"name": self.name, "description": self.description},
+            "grid": {ax: [float(x) for x in getattr(self, ax)] for ax in AXES},
+            "model": {"kind": self.model, "exponent": self.exponent},
+            "solver": {"rtol": self.rtol, "max_solutions": self.max_solutions},
+            "search": {"periods": list(self.periods)},
+            "products": {"outputs": list(self.products)},
+            "rig": self.rig_dict,
+        }
+
+    def canonical_json(self) -> str:
+        """Canonical JSON: sorted keys, no whitespace, floats in shortest round-trip form.
+
+        Two study files that mean the same computation (same values, whatever the
+        formatting, comments, key order or axis notation) have the same canonical JSON.
+        """
+        return json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"), allow_nan=False)
+
+    @property
+    def hash(self) -> str:
+        """sha256 (hex) of :meth:`canonical_json`."""
+        return hashlib.sha256(self.canonical_json().encode("utf-8")).hexdigest()
+
+
+# ----------------------------------------------------------------------------------------
+# parsing helpers
+
+
+def _is_number(x: Any) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def _number(value: Any, field_name: str, allowed: str) -> float:
+    if not _is_number(value):
+        raise StudyError(field_name, f"expected a number ({allowed}), got {value!r}")
+    x = float(value)
+    if not math.isfinite(x):
+        raise StudyError(field_name, f"must be a finite number ({allowed}), got {value!r}")
+    return x
+
+
+def _integer(value: Any, field_name: str, lo: int, hi: int) -> int:
+    if not isinstance(value, int) or isinstance(value, bool):
+        raise StudyError(field_name, f"expected an integer in {lo}..{hi}, got {value!r}")
+    if not lo <= value <= hi:
+        raise StudyError(field_name, f"must be in {lo}..{hi}, got {value}")
+    return int(value)
+
+
+def _table(doc: Mapping[str, Any], key: str, required: bool = False) -> dict[str, Any]:
+    if key not in doc:
+        if required:
+            raise StudyError(key, f"missing required table [{key}]")
+        return {}
+    value = doc[key]
+    if not isinstance(value, dict):
+        raise StudyError(key, f"expected a table [{key}], got {type(value).__name__}")
+    return value
+
+
+def _refuse_unknown(table: Mapping[str, Any], prefix: str, allowed: tuple[str, ...]) -> None:
+    for key in table:
+        if key not in allowed:
+            where = f"{prefix}.{key}" if prefix else key
+            raise StudyError(where, f"unknown key; allowed keys: {', '.join(allowed)}")
+
+
+def _check_axis_value(x: float, field_name: str, axis: str) -> None:
+    lower, strict, desc = _AXIS_RULES[axis]
+    if (x <= lower) if strict else (x < lower):
+        raise StudyError(field_name, f"{axis} must be {desc} (finite), got {x!r}")
+
+
+def _parse_axis(value: Any, axis: str) -> tuple[float, ...]:
+    fname = f"grid.{axis}"
+    _, _, desc = _AXIS_RULES[axis]
+    allowed = f"{desc}, finite"
+    if _is_number(value):
+        values = [_number(value, fname, allowed)]
+    elif isinstance(value, list):
+        if not value:
+            raise StudyError(fname, "empty list; give at least one value")
+        values = [_number(v, f"{fname}[{i}]", allowed) for i, v in enumerate(value)]
+        for i, x in enumerate(values):
+            _check_axis_value(x, f"{fname}[{i}]", axis)
+    elif isinstance(value, dict):
+        _refuse_unknown(value, fname, ("start", "stop", "num"))
+        for key in ("start", "stop", "num"):
+            if key not in value:
+                raise StudyError(f"{fname}.{key}", "missing; a range needs start, stop and num")
+        start = _number(value["start"], f"{fname}.start", allowed)
+        stop = _number(value["stop"], f"{fname}.stop", allowed)
+        _check_axis_value(start, f"{fname}.start", axis)
+        _check_axis_value(stop, f"{fname}.stop", axis)
+        num = value["num"]
+        if not isinstance(num, int) or isinstance(num, bool) or num < 1:
+            raise StudyError(f"{fname}.num", f"expected an integer >= 1, got {num!r}")
+        if num > MAX_GRID_POINTS:
+            raise StudyError(f"{fname}.num", f"must be <= {MAX_GRID_POINTS}, got {num}")
+        if num == 1 and start != stop:
+            raise StudyError(f"{fname}.num", "num = 1 with start != stop is ambiguous; "
+                             "use a one-element list instead")
+        values = [float(x) for x in np.linspace(start, stop, num)]
+        # np.linspace may leave the last value off by an ulp: pin the end points exactly.
+        values[0] = start
+        values[-1] = stop
+    else:
+        raise StudyError(fname, "expected a number, a list of numbers or a table "
+                         f"{{start, stop, num}}, got {type(value).__name__}")
+    seen: dict[float, int] = {}
+    for i, x in enumerate(values):
+        if x in seen:
+            raise StudyError(fname, f"duplicated value {x!r} (positions {seen[x]} and {i}); "
+                             "axis values must be distinct")
+        seen[x] = i
+    return tuple(values)
+
+
+# ----------------------------------------------------------------------------------------
+# the parser
+
+
+def parse_study(text: str, *, default_name: str | None = None) -> Study:
+    """Parse and validate the TOML text of a study file.
+
+    ``default_name`` is used when the file has no ``[study] name`` (load_study passes the
+    file's stem). Raises :class:`StudyError` on any problem.
+    """
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise StudyError("toml", f"not valid TOML: {exc}") from None
+
+    _refuse_unknown(doc, "", ("study", "grid", "model", "solver", "search", "products", "rig"))
+
+    # [study]
+    st = _table(doc, "study")
+    _refuse_unknown(st, "study", ("name", "description"))
+    name = st.get("name", default_name)
+    if name is None:
+        raise StudyError("study.name", "missing; give [study] name = \"...\"")
+    if not isinstance(name, str) or not _NAME_RE.match(name):
+        raise StudyError("study.name", "must be 1-64 characters from letters, digits, '.', '_', '-' "
+                         f"(starting with a letter or digit), got {name!r}")
+    description = st.get("description", "")
+    if not isinstance(description, str):
+        raise StudyError("study.description", f"expected a string, got {description!r}")
+
+    # [grid]
+    grid = _table(doc, "grid", required=True)
+    _refuse_unknown(grid, "grid", AXES)
+    axes = {}
+    for ax in AXES:
+        if ax not in grid:
+            raise StudyError(f"grid.{ax}", "missing; give a number, a list or {start, stop, num}")
+        axes[ax] = _parse_axis(grid[ax], ax)
+    size = math.prod(len(v) for v in axes.values())
+    if size > MAX_GRID_POINTS:
+        raise StudyError("grid", f"{size} points (omega x sigma x zeta = "
+                         f"{' x '.join(str(len(axes[a])) for a in AXES)}) exceeds the limit of "
+                         f"{MAX_GRID_POINTS}; split the study")
+
+    # [model]
+    mt = _table(doc, "model")
+    _refuse_unknown(mt, "model", ("kind", "exponent"))
+    kind = mt.get("kind", "hertz")
+    if kind not in MODEL_KINDS:
+        raise StudyError("model.kind", f"must be one of {', '.join(map(repr, MODEL_KINDS))}, "
+                         f"got {kind!r}")
+    if kind == "hertz":
+        lo, hi = EXPONENT_RANGE
+        exponent = _number(mt.get("exponent", 1.5), "model.exponent", f"{lo} < exponent <= {hi}")
+        if not lo < exponent <= hi:
+            raise StudyError("model.exponent", f"must satisfy {lo:g} < exponent <= {hi:g}, "
+                             f"got {exponent!r}")
+    else:
+        if "exponent" in mt:
+            raise StudyError("model.exponent", "only allowed with kind = \"hertz\" "
+                             "(the Taylor model has no exponent)")
+        exponent = None
+
+    # [solver]
+    so = _table(doc, "solver")
+    _refuse_unknown(so, "solver", ("rtol", "max_solutions"))
+    lo, hi = RTOL_RANGE
+    rtol = _number(so.get("rtol", 1e-10), "solver.rtol", f"{lo:g} <= rtol <= {hi:g}")
+    if not lo <= rtol <= hi:
+        raise StudyError("solver.rtol", f"must satisfy {lo:g} <= rtol <= {hi:g}, got {rtol!r}")
+    max_solutions = _integer(so.get("max_solutions", 4), "solver.max_solutions",
+                             *MAX_SOLUTIONS_RANGE)
+
+    # [search]
+    se = _table(doc, "search")
+    _refuse_unknown(se, "search", ("periods",))
+    periods = se.get("periods", [1, 2])
+    if not isinstance(periods, list) or not periods:
+        raise StudyError("search.periods", f"expected a non-empty list, a subset of {list(PERIODS_ALLOWED)}, "
+                         f"got {periods!r}")
+    for p in periods:
+        if isinstance(p, bool) or p not in PERIODS_ALLOWED:
+            raise StudyError("search.periods", f"each period must be one of {list(PERIODS_ALLOWED)}, "
+                             f"got {p!r}")
+    if len(set(periods)) != len(periods):
+        raise StudyError("search.periods", f"duplicated period in {periods!r}")
+    periods_t = tuple(sorted(int(p) for p in periods))
+
+    # [products]
+    pr = _table(doc, "products")
+    _refuse_unknown(pr, "products", ("outputs",))
+    outputs = pr.get("outputs", list(DEFAULT_PRODUCTS))
+    if not isinstance(outputs, list):
+        raise StudyError("products.outputs", f"expected a list of names from {list(PRODUCTS)}, "
+                         f"got {outputs!r}")
+    for o in outputs:
+        if o not in PRODUCTS:
+            raise StudyError("products.outputs", f"unknown product {o!r}; allowed: {', '.join(PRODUCTS)}")
+    if len(set(outputs)) != len(outputs):
+        raise StudyError("products.outputs", f"duplicated product in {outputs!r}")
+    products = tuple(p for p in PRODUCTS if p in outputs or p == CORE_PRODUCT)
+
+    # [rig]
+    rig = None
+    if "rig" in doc:
+        rt = _table(doc, "rig")
+        _refuse_unknown(rt, "rig", (*_RIG_KEYS, "contact"))
+        values: dict[str, Any] = {}
+        for key, (desc, check) in _RIG_KEYS.items():
+            if key not in rt:
+                raise StudyError(f"rig.{key}", f"missing ({desc})")
+            x = _number(rt[key], f"rig.{key}", desc)
+            if not check(x):
+                raise StudyError(f"rig.{key}", f"out of range: {desc}, got {x!r}")
+            values[key] = x
+        contact = rt.get("contact", "double")
+        if contact not in CONTACTS:
+            raise StudyError("rig.contact", f"must be one of {', '.join(map(repr, CONTACTS))}, "
+                             f"got {contact!r}")
+        values["contact"] = contact
+        rig = tuple(sorted(values.items()))
+
+    return Study(
+        name=name,
+        description=description,
+        omega=axes["omega"],
+        sigma=axes["sigma"],
+        zeta=axes["zeta"],
+        model=kind,
+        exponent=exponent,
+        rtol=rtol,
+        max_solutions=max_solutions,
+        periods=periods_t,
+        products=products,
+        rig=rig,
+        source_text=text,
+    )
+
+
+def load_study(path: str | Path) -> Study:
+    """Read and validate a study file. The study name defaults to the file's stem."""
+    p = Path(path)
+    try:
+        raw = p.read_bytes()
+    except OSError as exc:
+        raise StudyError("file", f"cannot read study file {str(p)!r}: {exc.strerror or exc}") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise StudyError("file", f"{str(p)!r} is not UTF-8 text") from None
+    return parse_study(text, default_name=p.stem)
