@@ -574,7 +574,7 @@ def region(omega, sigma, zeta, variant="derived"):
     * III: otherwise - no subharmonic.
 
     variant "derived": decided from the roots of Eq. 23 at the given sigma: I iff
-    ``beta**2 sigma**2 > (lambda - gamma)**2 + 4 zeta**2``; II iff not I, ``sigma >= sigma1`` and
+    ``beta**2 sigma**2 > (lambda - gamma)**2 + 4 zeta**2``; II iff not I, ``sigma > sigma1`` and
     ``gamma > lambda`` (both roots positive); the softening side is thus ``lambda < gamma`` (an
     O(zeta**2, B**2) shift from omega = 2).
     variant "paper": the paper's wording, softening side ``omega < 2``, paper gamma.
