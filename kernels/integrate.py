@@ -310,7 +310,15 @@ def _measure_step(P, y, y_new, t, h, n, model, w_h, harm, stats):
         x = _GL_X[j]
         qe = dense_eval(P, 0, y[0], x)
         Fe = rhs_force(qe, n, model) * _GL_W[j] * h
+        if Fe == 0.0:
+            continue
         tt = t + x * h
+        c1 = cos(w_h * tt)
+        s1 = sin(w_h * tt)
+        ck = 1.0
+        sk = 0.0
         for k in range(N_HARMONICS + 1):
-            harm[0, k] += Fe * cos(k * w_h * tt)
-            harm[1, k] += Fe * sin(k * w_h * tt)
+            harm[0, k] += Fe * ck
+            harm[1, k] += Fe * sk
+            # angle addition: cos/sin of (k+1) w t from those of k w t
+            ck, sk = ck * c1 - sk * s1, sk * c1 + ck * s1

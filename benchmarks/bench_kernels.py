@@ -1,0 +1,157 @@
+"""Speed of periodic-orbit solves against the paper's scheme and scipy, in one run.
+
+    .venv/bin/python benchmarks/bench_kernels.py            (about a minute)
+
+For each case: a reference start point at rtol = 1e-13; every method starts Newton from the same
+guess (reference + (1e-2, 1e-2)). Printed per case: the paper's scheme (central differences,
+N = 10000 steps per period, forward-difference Jacobian, in numba), hertzmap at the loosest
+tolerance whose start-point error is <= min(paper's error, 1e-8), scipy solve_ivp (DOP853,
+event restarts) + scipy.optimize.root at a tolerance reaching the same error, and the arithmetic
+floor: hertzmap's number of DOP853 steps times the cost of one bare step. Ratios are of times
+measured in this run on this machine. Also: numba cold start with and without the disk cache.
+"""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from math import pi
+
+import numpy as np
+from numba import njit
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "tests"))
+
+import oracle  # noqa: E402  (scipy reference, shares no code with kernels/)
+
+from kernels import shoot  # noqa: E402
+from kernels._dop853 import step_var  # noqa: E402
+from kernels.central_difference import cd_shoot  # noqa: E402
+
+CASES = [
+    # name, omega, sigma, zeta, period, rough guess
+    ("1T in contact", 1.5, 0.2, 0.01, 1, (-0.16, 0.006)),
+    ("1T primary resonance", 1.0, 0.05, 0.05, 1, (0.0, 0.5)),
+    ("1T long flights (60%)", 0.8, 1.5, 0.01, 1, (-7.7, 0.17)),
+    ("2T contact loss", 1.9, 0.5, 0.01, 2, (-0.09, 1.5)),
+    ("2T in contact", 1.9, 0.5, 0.01, 2, (0.86, 0.37)),
+    ("1T impacts n=1", 0.5, 0.8, 0.05, 1, (0.7, 0.0)),
+]
+RTOLS = (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11)
+
+
+def per_call(fn, budget=0.3):
+    """Median seconds per call over repeated calls filling about ``budget`` seconds."""
+    fn()
+    t0 = time.perf_counter()
+    fn()
+    one = time.perf_counter() - t0
+    reps = max(3, min(2000, int(budget / max(one, 1e-7))))
+    times = []
+    for _ in range(5):
+        t0 = time.perf_counter()
+        for _ in range(max(1, reps // 5)):
+            fn()
+        times.append((time.perf_counter() - t0) / max(1, reps // 5))
+    return float(np.median(times))
+
+
+@njit(cache=False)
+def _bare_steps(n):
+    y = np.array([0.1, 0.2, 1.0, 0.0, 0.0, 1.0])
+    f = np.array([0.2, 0.3, 0.0, 1.0, -1.0, -0.02])
+    y_new = np.empty(6)
+    f_new = np.empty(6)
+    K = np.empty((16, 2))
+    acc = 0.0
+    for i in range(n):
+        acc += step_var(0.001 * i, 0.1, y, f, y_new, f_new, K, 1.0, 0.3, 0.01, 1.5, 0, 1e-10, 1e-10)
+    return acc
+
+
+def bare_step_seconds():
+    _bare_steps(10)
+    n = 2_000_000
+    t0 = time.perf_counter()
+    _bare_steps(n)
+    return (time.perf_counter() - t0) / n
+
+
+def cold_start_seconds():
+    code = ("import time; t=time.perf_counter(); import kernels; "
+            "kernels.shoot(1.5, 0.2, 0.01, 1, guess=(-0.16, 0.006)); "
+            "print(time.perf_counter()-t)")
+    env = dict(os.environ)
+    with tempfile.TemporaryDirectory() as d:
+        env["NUMBA_CACHE_DIR"] = d
+        cold = float(subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                                    text=True, check=True).stdout)
+        warm = float(subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                                    text=True, check=True).stdout)
+    return cold, warm
+
+
+def main():
+    step = bare_step_seconds()
+    print(f"bare DOP853 step (state + variational, 6-D): {step * 1e6:.3f} us")
+    header = (f"{'case':24s} {'paper err':>9s} {'paper ms':>9s} | {'rtol':>6s} {'err':>8s} "
+              f"{'us':>8s} {'steps':>6s} | {'scipy err':>9s} {'scipy ms':>9s} | "
+              f"{'x paper':>8s} {'x scipy':>8s} {'/floor':>7s}")
+    print(header)
+    print("-" * len(header))
+    ratios_paper, ratios_scipy, floors = [], [], []
+    for name, w, s, z, m, rough in CASES:
+        ref = shoot(w, s, z, m, guess=rough, rtol=1e-13)
+        assert ref.converged, name
+        guess = ref.x0 + 1e-2
+        out = np.zeros(9)
+        cd = lambda: cd_shoot(w, s, z, m, guess[0], guess[1], 1.5 if "n=1" not in name else 1.0,
+                              0, 10000, 40, 1e-10, out)
+        n_exp = 1.0 if "n=1" in name else 1.5
+        if n_exp != 1.5:
+            ref = shoot(w, s, z, m, guess=rough, rtol=1e-13, exponent=n_exp)
+            guess = ref.x0 + 1e-2
+        t_cd = per_call(cd, 0.5)
+        err_cd = float(np.abs(out[1:3] - ref.x0).max())
+        target = min(err_cd, 1e-8)
+        chosen = None
+        for rtol in RTOLS:
+            o = shoot(w, s, z, m, guess=guess, rtol=rtol, exponent=n_exp)
+            err = float(np.abs(o.x0 - ref.x0).max())
+            if o.converged and err <= target:
+                chosen = (rtol, err, o.steps)
+                break
+        rtol, err, steps = chosen
+        t_hm = per_call(lambda: shoot(w, s, z, m, guess=guess, rtol=rtol, exponent=n_exp), 0.3)
+        # scipy: tolerance reaching the same accuracy
+        for srtol in (1e-9, 1e-10, 1e-11, 1e-12):
+            t0 = time.perf_counter()
+            xs, _ = oracle.fixed_point(guess, w, s, z, m, n=n_exp, rtol=srtol, atol=srtol)
+            t_sp = time.perf_counter() - t0
+            err_sp = float(np.abs(xs - ref.x0).max())
+            if err_sp <= target:
+                break
+        floor = steps * step
+        ratios_paper.append(t_cd / t_hm)
+        ratios_scipy.append(t_sp / t_hm)
+        floors.append(t_hm / floor)
+        print(f"{name:24s} {err_cd:9.1e} {t_cd * 1e3:9.2f} | {rtol:6.0e} {err:8.1e} "
+              f"{t_hm * 1e6:8.1f} {steps:6d} | {err_sp:9.1e} {t_sp * 1e3:9.1f} | "
+              f"{t_cd / t_hm:8.0f} {t_sp / t_hm:8.0f} {t_hm / floor:7.2f}")
+    print("-" * len(header))
+    print(f"speed-up over the paper's scheme at equal or better accuracy: min {min(ratios_paper):.0f}x,"
+          f" median {np.median(ratios_paper):.0f}x")
+    print(f"speed-up over scipy solve_ivp + root: min {min(ratios_scipy):.0f}x, "
+          f"median {np.median(ratios_scipy):.0f}x")
+    print(f"time / arithmetic floor (steps x bare step): max {max(floors):.2f}, "
+          f"median {np.median(floors):.2f}")
+    cold, warm = cold_start_seconds()
+    print(f"first orbit in a new process: {cold:.2f} s with an empty numba cache, "
+          f"{warm:.2f} s from the disk cache")
+
+
+if __name__ == "__main__":
+    main()
