@@ -20,7 +20,7 @@ from study.spec import Study
 #: Estimated seconds of solver work per grid point, per period searched (a 1T search, a 2T
 #: search). Calibrated on the block solver (see docs/running.md); used only to size tasks
 #: and for --dry-run estimates.
-SECONDS_PER_POINT = {1: 1.5e-4, 2: 3.0e-4}
+SECONDS_PER_POINT = {1: 1.5e-3, 2: 1.1e-2}
 #: Target duration of one task (seconds). Dask costs a few ms per task: 1 s keeps it < 1 %.
 DEFAULT_TASK_SECONDS = 1.0
 #: Longest omega block in one chunk.

@@ -93,7 +93,7 @@ VARIABLES: dict[str, VarSpec] = {v.name: v for v in [
             "(start point of the periodic orbit); contact is lost at q = -exponent"),
     VarSpec("v0", "float64", math.nan, "velocity at tau = 0", "1",
             "dimensionless velocity dq/dtau of the orbit at tau = 0"),
-    VarSpec("multipliers", "complex128", complex(math.nan, math.nan), "Floquet multipliers", "1",
+    VarSpec("multipliers", "complex128", complex(math.nan, 0.0), "Floquet multipliers", "1",
             "the two eigenvalues of the monodromy matrix over the orbit's period "
             "(their product is exp(-2 zeta P) for an orbit of period P = period * T)",
             extra_dim=("multiplier", 2)),

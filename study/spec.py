@@ -215,6 +215,7 @@ def _parse_axis(value: Any, axis: str) -> tuple[float, ...]:
     allowed = f"{desc}, finite"
     if _is_number(value):
         values = [_number(value, fname, allowed)]
+        _check_axis_value(values[0], fname, axis)
     elif isinstance(value, list):
         if not value:
             raise StudyError(fname, "empty list; give at least one value")
