@@ -1,0 +1,240 @@
+"""The store: template schema and attrs, region writes, completion flags, refusal of another
+study, resume, status. Uses the placeholder solver (same contract as study.block) on an
+in-process Dask cluster, so it runs without the real solver."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+import xarray as xr
+import zarr
+
+from conftest import PLACEHOLDER, placeholder_solve_block
+from scheduler.cli import main
+from scheduler.cluster import ClusterSpec
+from scheduler.plan import choose_chunks, make_plan
+from scheduler.run import RunOptions, run_study
+from scheduler.store import Lock, Store, StoreError, lock_path, open_or_create, store_status
+from study.dataset import (PRODUCT_VARIABLES, VARIABLES, bytes_per_point, stored_variables,
+                           template)
+from study.spec import parse_study
+
+TEXT = """
+[study]
+name = "store-test"
+[grid]
+omega = {start = 0.5, stop = 2.5, num = 17}
+sigma = [0.1, 0.3, 0.5, 0.7, 0.9]
+zeta = [0.01, 0.1]
+[products]
+outputs = ["orbits", "measures", "force_harmonics"]
+"""
+
+
+@pytest.fixture(scope="module")
+def client():
+    from distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                      dashboard_address=None) as cluster, Client(cluster) as c:
+        yield c
+
+
+def study(text=TEXT):
+    return parse_study(text, default_name="x")
+
+
+def run(path, client, text=TEXT, **kw):
+    opts = RunOptions(store=path, solver=PLACEHOLDER, cluster=ClusterSpec(kind="address"),
+                      error_sample=kw.pop("error_sample", 0), **kw)
+    return run_study(study(text), opts, client=client)
+
+
+def test_template_schema_and_attrs():
+    s = study()
+    ds = template(s, (17, 1, 1), history="h")
+    names = stored_variables(s)
+    assert set(names) == set(PRODUCT_VARIABLES["orbits"] + PRODUCT_VARIABLES["measures"]
+                             + PRODUCT_VARIABLES["force_harmonics"])
+    assert "residual" not in ds and "newton_iterations" not in ds
+    assert set(ds.data_vars) == set(names) | {"task_done"}
+    assert ds.sizes["omega"] == 17 and ds.sizes["solution"] == 4
+    assert ds.multipliers.dims[-1] == "multiplier" and ds.sizes["multiplier"] == 2
+    assert list(ds.harmonic.values) == [1, 2, 3, 4]
+    assert ds.task_done.shape == (1, 5, 2)
+    for name in list(ds.data_vars) + list(ds.coords):
+        assert ds[name].attrs.get("long_name"), name
+        assert "units" in ds[name].attrs, name
+    assert list(ds.status.attrs["flag_values"]) == [-1, 0, 1, 2, 3, 4, 5]
+    assert ds.status.attrs["flag_meanings"].split() == [
+        "empty", "converged", "not_converged", "diverged", "step_limit", "step_size", "singular"]
+    assert ds.attrs["hertzmap_study_hash"] == s.hash
+    assert ds.attrs["hertzmap_study_toml"] == TEXT
+    assert json.loads(ds.attrs["hertzmap_study_json"]) == s.to_dict()
+    versions = json.loads(ds.attrs["hertzmap_versions"])
+    assert {"numpy", "numba", "scipy", "dask", "zarr", "xarray", "hertzmap"} <= set(versions)
+    assert ds.attrs["history"] == "h"
+    # empty values: NaN floats, False bools, period 0, status -1; no memory used
+    assert np.isnan(ds.q0.values).all() and not ds.stable.values.any()
+    assert (ds.status.values == -1).all() and (ds.period.values == 0).all()
+    assert ds.q0.variable._data.base is not None or ds.q0.values.strides[0] == 0
+    assert bytes_per_point(s) == 4 * (7 * 8 + 2 * 16 + 4 * 1 + 4 * 8)
+
+
+def test_placeholder_honours_the_contract():
+    s = study()
+    out = placeholder_solve_block(s.axis("omega"), s.axis("sigma")[:2], s.axis("zeta")[:1],
+                                  **s.solver_kwargs())
+    for name, v in VARIABLES.items():
+        a = out[name]
+        extra = (v.extra_dim[1],) if v.extra_dim else ()
+        assert a.shape == (17, 2, 1, 4) + extra and a.dtype == np.dtype(v.dtype), name
+
+
+def test_run_writes_every_block_and_flags(tmp_path, client):
+    path = tmp_path / "a.zarr"
+    summary = run(path, client)
+    assert summary["complete"] and summary["tasks_run"] == summary["tasks_total"]
+    ds = xr.open_zarr(path)           # opens silently: consolidated metadata
+    assert bool(ds.task_done.all())
+    s = study()
+    ref = placeholder_solve_block(s.axis("omega"), s.axis("sigma"), s.axis("zeta"), **s.solver_kwargs())
+    for name in stored_variables(s):
+        np.testing.assert_array_equal(ds[name].values, ref[name], err_msg=name)
+        assert ds[name].dtype == np.dtype(VARIABLES[name].dtype)
+        assert ds[name].attrs["long_name"] == VARIABLES[name].long_name
+    np.testing.assert_array_equal(ds.omega.values, s.axis("omega"))
+    assert ds.omega.attrs["long_name"] == "excitation frequency"
+    # chunks are aligned with tasks: one chunk per task
+    chunks = tuple(ds.attrs["hertzmap_chunk_shape"])
+    assert ds.q0.encoding["chunks"] == chunks + (4,)
+    assert ds.task_done.size == summary["tasks_total"]
+    assert "created" in ds.attrs["history"] and "completed" in ds.attrs["history"]
+    assert not lock_path(path).exists()
+    # worked queries of docs/dataset.md
+    both = ds[["q0", "v0"]].where(ds.stable & ds.loses_contact)
+    assert int(both.q0.count()) == int((ds.stable & ds.loses_contact).sum())
+    n_coexisting = (ds.status == 0).sum("solution")
+    assert int(n_coexisting.max()) == 2
+    assert int((ds.period == 2).sum()) > 0
+
+
+def test_resume_computes_only_missing_tasks(tmp_path, client):
+    path = tmp_path / "b.zarr"
+    ref = tmp_path / "ref.zarr"
+    run(ref, client)
+    s = study()
+    store, resumed = open_or_create(path, s, choose_chunks(s), overwrite=False, action="t")
+    assert not resumed
+    plan = make_plan(s, store.chunks)
+    # do two tasks "by hand", leave one written-but-unflagged (client died in between)
+    names = stored_variables(s)
+    for t in plan.tasks[:3]:
+        so, ss, sz = t.slices
+        out = placeholder_solve_block(s.axis("omega")[so], s.axis("sigma")[ss], s.axis("zeta")[sz],
+                                      **s.solver_kwargs())
+        store.write_block(t.slices, out, names)
+        if t is not plan.tasks[2]:
+            store.mark_done(t.index)
+    summary = run(path, client)
+    assert summary["tasks_done_before"] == 2
+    assert summary["tasks_run"] == len(plan.tasks) - 2
+    a, b = xr.open_zarr(path).load(), xr.open_zarr(ref).load()
+    a.attrs, b.attrs = {}, {}
+    xr.testing.assert_identical(a, b)
+    # and a third run does nothing
+    again = run(path, client)
+    assert again["tasks_run"] == 0 and again["complete"]
+
+
+def test_another_study_is_refused_unless_overwrite(tmp_path, client, capsys):
+    path = tmp_path / "c.zarr"
+    run(path, client)
+    other = TEXT.replace("zeta = [0.01, 0.1]", "zeta = [0.02]")
+    before = sorted(p.name for p in path.rglob("*"))
+    with pytest.raises(StoreError, match="another study"):
+        run(path, client, text=other)
+    assert sorted(p.name for p in path.rglob("*")) == before
+    # through the CLI: exit code 2, nothing changed
+    f = tmp_path / "other.toml"
+    f.write_text(other)
+    assert main(["run", str(f), "--store", str(path), "--workers", "1"]) == 2
+    assert "another study" in capsys.readouterr().err
+    assert xr.open_zarr(path).attrs["hertzmap_study_hash"] == study().hash
+    summary = run(path, client, text=other, overwrite=True)
+    assert summary["complete"]
+    assert xr.open_zarr(path).attrs["hertzmap_study_hash"] == study(other).hash
+    assert xr.open_zarr(path).sizes["zeta"] == 1
+
+
+def test_non_store_paths_are_never_touched(tmp_path, client):
+    d = tmp_path / "notastore"
+    d.mkdir()
+    (d / "precious.txt").write_text("keep me")
+    with pytest.raises(StoreError, match="not a zarr store"):
+        run(d, client, overwrite=True)
+    assert (d / "precious.txt").read_text() == "keep me"
+    # a foreign zarr store: refused without --overwrite
+    z = tmp_path / "foreign.zarr"
+    zarr.open_group(zarr.storage.LocalStore(z), mode="w", zarr_format=3)
+    with pytest.raises(StoreError, match="not written by hertzmap"):
+        run(z, client)
+
+
+def test_lock_refuses_a_second_live_client_and_takes_over_a_dead_one(tmp_path, client):
+    path = tmp_path / "d.zarr"
+    run(path, client)
+    lock = lock_path(path)
+    import os
+    import socket
+    lock.write_text(json.dumps({"host": socket.gethostname(), "pid": os.getppid()}))
+    with pytest.raises(StoreError, match="in use by another hertzmap client"):
+        with Lock(path):
+            pass
+    lock.write_text(json.dumps({"host": socket.gethostname(), "pid": 2 ** 22 + 12345}))
+    with Lock(path):
+        assert json.loads(lock.read_text())["pid"] == os.getpid()
+    assert not lock.exists()
+
+
+def test_status_command(tmp_path, client, capsys):
+    path = tmp_path / "e.zarr"
+    run(path, client)
+    info = store_status(path)
+    assert info["tasks_done"] == info["tasks_total"] > 1
+    assert info["hertzmap_study_name"] == "store-test"
+    assert info["hertzmap_study_hash"] == study().hash
+    assert info["versions"]["zarr"] == zarr.__version__
+    assert main(["status", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "store-test" in out and f"{info['tasks_total']}/{info['tasks_total']} done" in out
+    assert study().hash in out and "xarray" in out
+    assert main(["status", str(path), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["tasks_done"] == info["tasks_total"]
+    assert main(["status", str(tmp_path / "nope.zarr")]) == 2
+
+
+def test_error_estimate_and_summary(tmp_path, client):
+    summary = run(tmp_path / "f.zarr", client, error_sample=8)
+    e = summary["error"]
+    assert e["n"] == 8 and e["matched"] == 8 and e["max_deviation"] == 0.0
+    assert e["rtol_ref"] == pytest.approx(1e-13)
+    assert 0 <= summary["converged_fraction"] <= 1 and summary["orbits"] > 0
+    assert math.isfinite(summary["overhead"])
+
+
+def test_chunks_depend_on_the_study_only():
+    s = study()
+    assert choose_chunks(s) == choose_chunks(s)
+    big = parse_study("[grid]\nomega = {start = 0.5, stop = 2.5, num = 201}\n"
+                      "sigma = {start = 0.05, stop = 1.0, num = 77}\nzeta = 0.01\n", default_name="b")
+    c = choose_chunks(big)
+    assert c[0] == 201 and c[2] == 1
+    plan = make_plan(big, c)
+    covered = np.zeros(big.shape, int)
+    for t in plan.tasks:
+        covered[t.slices] += 1
+    assert (covered == 1).all()       # tasks tile the grid exactly once
