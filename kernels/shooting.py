@@ -42,16 +42,22 @@ N_FIELDS = len(FIELDS)
 TAYLOR_CONTACT_LIMIT = -1.3479253168228557
 
 
-@njit(cache=True, nogil=True)
-def _map(x0, v0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps, y, stats, harm,
-         t_eval, out_eval, f, y_new, f_new, K, W):
-    """Phi_P(x) and its Jacobian into y (6,). Returns the status."""
-    y[0] = x0
-    y[1] = v0
+@njit("void(float64[::1], float64, float64)", cache=True, nogil=True)
+def _start(y, q, v):
+    """y = (q, v, Phi = I): the start of a period map with its variational matrix."""
+    y[0] = q
+    y[1] = v
     y[2] = 1.0
     y[3] = 0.0
     y[4] = 0.0
     y[5] = 1.0
+
+
+@njit(cache=True, nogil=True)
+def _map(x0, v0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps, y, stats, harm,
+         t_eval, out_eval, f, y_new, f_new, K, W):
+    """Phi_P(x) and its Jacobian into y (6,). Returns the status."""
+    _start(y, x0, v0)
     return integrate(y, 0.0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
                      True, False, P, harm, t_eval, out_eval, stats, f, y_new, f_new, K, W)
 
@@ -169,12 +175,7 @@ def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, ma
     for i in range(N_STATS):
         stats[i] = 0.0
     harm[:, :] = 0.0
-    y[0] = x
-    y[1] = v
-    y[2] = 1.0
-    y[3] = 0.0
-    y[4] = 0.0
-    y[5] = 1.0
+    _start(y, x, v)
     code = integrate(y, 0.0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
                      True, True, P, harm, t_eval, out_eval, stats, f, y_new, f_new, K, W)
     steps += stats[S_ACCEPTED] + stats[S_REJECTED]
