@@ -87,18 +87,25 @@ def make_client(spec: ClusterSpec):
                                processes=True, dashboard_address=_dashboard_address(),
                                silence_logs=logging.ERROR)
         return Client(cluster), cluster
+    import dask
     import dask_jobqueue
 
     cls = getattr(dask_jobqueue, JOBQUEUE[spec.kind])
     opts = dict(spec.options)
-    cores = int(opts.setdefault("cores", 1))
-    opts.setdefault("processes", cores)          # one thread per worker process
-    if "memory" not in opts:
+    # defaults only where neither the options nor the dask-jobqueue config
+    # (~/.config/dask/jobqueue.yaml) say anything
+    conf = dask.config.get(f"jobqueue.{spec.kind}", default={}) or {}
+    if "cores" not in opts and conf.get("cores") is None:
+        opts["cores"] = 1
+    cores = int(opts.get("cores") or conf.get("cores"))
+    if "processes" not in opts and conf.get("processes") is None:
+        opts["processes"] = cores              # one single-threaded worker process per core
+    if "memory" not in opts and conf.get("memory") is None:
         opts["memory"] = f"{2 * cores}GB"
-    if _dashboard_address() is None:
-        opts.setdefault("scheduler_options", {"dashboard_address": None})
+    if _dashboard_address() is None and "scheduler_options" not in opts:
+        opts["scheduler_options"] = {"dashboard_address": None}
     cluster = cls(**opts)
-    cluster.scale(n=spec.workers or opts["processes"])
+    cluster.scale(n=spec.workers or int(opts.get("processes") or conf.get("processes") or 1))
     return Client(cluster), cluster
 
 
