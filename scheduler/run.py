@@ -246,14 +246,16 @@ def check_solver(solver: str) -> None:
         raise RunError(f"block solver module {module!r} not found (study/block.py missing?)")
 
 
-def run_study(study: Study, opts: RunOptions, *, out: TextIO = sys.stdout,
-              err: TextIO = sys.stderr, client=None) -> dict[str, Any]:
+def run_study(study: Study, opts: RunOptions, *, out: TextIO | None = None,
+              err: TextIO | None = None, client=None) -> dict[str, Any]:
     """Run (or resume) ``study`` into ``opts.store``. Returns the summary.
 
     ``client``: an existing distributed.Client to use (its cluster is not closed);
     otherwise one is made from ``opts.cluster``. Raises RunError / StoreError before
     anything is written when the run cannot start.
     """
+    out = sys.stdout if out is None else out
+    err = sys.stderr if err is None else err
     check_solver(opts.solver)
     opts.cluster.check()
     chunks = choose_chunks(study, opts.task_seconds)

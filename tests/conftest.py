@@ -82,6 +82,13 @@ def placeholder_solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5,
     return out
 
 
+def failing_solve_block(omega, sigma, zeta, **kwargs):
+    """The placeholder, but raising for blocks with a sigma above 0.85 (a task failing for good)."""
+    if np.max(sigma) > 0.85:
+        raise FloatingPointError(f"placeholder failure at sigma = {np.max(sigma)}")
+    return placeholder_solve_block(omega, sigma, zeta, **kwargs)
+
+
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

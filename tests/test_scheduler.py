@@ -23,7 +23,7 @@ from scheduler.run import RunOptions, run_study
 from scheduler.store import Store, lock_path
 from study.spec import parse_study
 
-pytestmark = [needs_block, pytest.mark.slow]
+pytestmark = pytest.mark.slow
 
 # 8 tasks (one omega line each, ~0.2-0.5 s of solver time), 1T and 2T searches
 TEXT = """
@@ -86,6 +86,7 @@ def wait_until(pred, timeout: float, what: str) -> None:
         time.sleep(0.02)
 
 
+@needs_block
 def test_local_cluster_end_to_end(reference):
     ds = xr.open_zarr(reference)
     assert bool(ds.task_done.all()) and ds.task_done.size == 8
@@ -106,6 +107,7 @@ def test_local_cluster_end_to_end(reference):
         np.testing.assert_array_equal(ds[name].values[:, 1:2, :1], line[name], err_msg=name)
 
 
+@needs_block
 def test_existing_scheduler_two_workers(study_path, reference, tmp_path):
     port = free_port()
     env = subprocess_env()
@@ -141,6 +143,7 @@ def test_existing_scheduler_two_workers(study_path, reference, tmp_path):
                 p.kill()
 
 
+@needs_block
 def test_worker_killed_mid_study(study_path, reference, tmp_path):
     from distributed import Client, LocalCluster
 
@@ -164,6 +167,7 @@ def test_worker_killed_mid_study(study_path, reference, tmp_path):
     assert_same_store(store, reference)
 
 
+@needs_block
 def test_client_killed_mid_study_then_rerun(study_path, reference, tmp_path):
     store = tmp_path / "killed-client.zarr"
     cmd = hertzmap_cmd("run", str(study_path), "--store", str(store), "--workers", "2",
@@ -187,3 +191,75 @@ def test_client_killed_mid_study_then_rerun(study_path, reference, tmp_path):
     assert f"{done}/8 tasks already done" in r.stdout
     assert_same_store(store, reference)
     assert "resumed" in xr.open_zarr(store).attrs["history"]
+
+
+# -- without the real solver (placeholder with the same contract) ------------------------------
+
+SMALL = """
+[study]
+name = "small"
+[grid]
+omega = {start = 0.5, stop = 2.5, num = 9}
+sigma = [0.2, 0.5, 0.9]
+zeta = 0.02
+"""
+
+
+def test_failed_tasks_exit_1_then_rerun_completes(tmp_path, capsys):
+    from conftest import PLACEHOLDER
+    p = tmp_path / "small.toml"
+    p.write_text(SMALL)
+    store = tmp_path / "small.zarr"
+    args = ["run", str(p), "--store", str(store), "--workers", "1", "--task-seconds", "0.01",
+            "--error-sample", "0"]
+    assert main(args + ["--solver", "conftest:failing_solve_block"]) == 1
+    out = capsys.readouterr().out
+    assert "FAILED tasks: 1" in out and "FloatingPointError" in out
+    done = Store(store).done_mask()
+    assert done.sum() == done.size - 1
+    assert main(args + ["--solver", PLACEHOLDER]) == 0
+    assert "2/3 tasks already done" in capsys.readouterr().out
+    assert Store(store).done_mask().all()
+
+
+def test_jobqueue_cluster_is_made_from_options(tmp_path, monkeypatch, capsys):
+    """--cluster slurm with a stand-in for dask_jobqueue (no batch system here)."""
+    import importlib.machinery
+    import types
+    from distributed import LocalCluster
+    from conftest import PLACEHOLDER
+
+    made = {}
+
+    class FakeSLURMCluster(LocalCluster):
+        def __init__(self, **kwargs):
+            made.update(kwargs)
+            super().__init__(n_workers=0, threads_per_worker=1, processes=False,
+                             dashboard_address=None)
+
+    fake = types.ModuleType("dask_jobqueue")
+    fake.__spec__ = importlib.machinery.ModuleSpec("dask_jobqueue", None)
+    fake.SLURMCluster = FakeSLURMCluster
+    monkeypatch.setitem(sys.modules, "dask_jobqueue", fake)
+    p = tmp_path / "small.toml"
+    p.write_text(SMALL)
+    rc = main(["run", str(p), "--store", str(tmp_path / "j.zarr"), "--cluster", "slurm",
+               "--workers", "2", "--cluster-option", "queue=normal", "--cluster-option", "cores=4",
+               "--cluster-option", 'job_extra_directives=["--exclusive"]',
+               "--solver", PLACEHOLDER, "--error-sample", "0"])
+    assert rc == 0, capsys.readouterr().err
+    assert made["queue"] == "normal" and made["cores"] == 4 and made["processes"] == 4
+    assert made["job_extra_directives"] == ["--exclusive"] and made["memory"] == "8GB"
+    assert Store(tmp_path / "j.zarr").done_mask().all()
+
+
+def test_jobqueue_missing_is_a_usage_error(tmp_path, monkeypatch, capsys):
+    import importlib.util
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name == "dask_jobqueue" else real(name, *a))
+    p = tmp_path / "small.toml"
+    p.write_text(SMALL)
+    assert main(["run", str(p), "--store", str(tmp_path / "x.zarr"), "--cluster", "pbs"]) == 2
+    assert "hertzmap[jobqueue]" in capsys.readouterr().err
+    assert not (tmp_path / "x.zarr").exists()
