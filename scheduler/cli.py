@@ -50,7 +50,7 @@ def _run_args(p: argparse.ArgumentParser) -> None:
                        "dask-jobqueue (pip install 'hertzmap[jobqueue]')")
     p.add_argument("--workers", type=int, default=None, metavar="N",
                    help="worker processes (local: default one per core; jobqueue: processes "
-                   "to scale to)")
+                   "to scale to; --scheduler: wait for N workers before starting)")
     p.add_argument("--cluster-option", action="append", default=[], metavar="KEY=VALUE",
                    help="keyword for the dask-jobqueue cluster class, repeatable "
                    "(e.g. queue=normal cores=32 memory=64GB walltime=02:00:00 "

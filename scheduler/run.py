@@ -289,7 +289,9 @@ def _run_locked(study, opts, store: Store, resumed: bool, out, err, client) -> d
     try:
         if opts.cluster.kind != "local" and own_client:
             print(f"waiting for workers ({opts.cluster.describe()}) ...", file=out, flush=True)
-        client.wait_for_workers(1)
+        # an existing scheduler with --workers N: wait for N workers before starting
+        client.wait_for_workers(opts.cluster.workers if opts.cluster.kind == "address"
+                                and opts.cluster.workers else 1)
         kwargs = study.solver_kwargs()
         client.register_plugin(Warmup(opts.solver, kwargs), name="hertzmap-warmup")
         n_workers = worker_count(client)

@@ -238,3 +238,15 @@ def test_chunks_depend_on_the_study_only():
     for t in plan.tasks:
         covered[t.slices] += 1
     assert (covered == 1).all()       # tasks tile the grid exactly once
+
+
+def test_study_layer_imports_neither_dask_nor_the_scheduler():
+    import subprocess
+    import sys
+    from conftest import subprocess_env
+    code = ("import sys, study.spec, study.dataset; "
+            "bad = [m for m in sys.modules if m.split('.')[0] in ('dask', 'distributed', 'scheduler')]; "
+            "print(bad); sys.exit(1 if bad else 0)")
+    r = subprocess.run([sys.executable, "-c", code], env=subprocess_env(), capture_output=True,
+                       text=True, timeout=60)
+    assert r.returncode == 0, r.stdout + r.stderr
