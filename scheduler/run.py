@@ -20,7 +20,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from scheduler.cluster import ClusterSpec, make_client, worker_count
-from scheduler.plan import DEFAULT_TASK_SECONDS, Plan, Task, choose_chunks, make_plan, seconds_per_point
+from scheduler.plan import DEFAULT_TASK_SECONDS, Plan, Task, choose_chunks, make_plan
 from scheduler.store import Lock, Store, StoreError, open_or_create, read_attrs
 from scheduler.worker import DEFAULT_SOLVER, Warmup, run_task, solve_points
 from study.dataset import bytes_per_point, stored_variables
