@@ -23,7 +23,7 @@ from scheduler.cluster import ClusterSpec, make_client, worker_count
 from scheduler.plan import DEFAULT_TASK_SECONDS, Plan, Task, choose_chunks, make_plan
 from scheduler.store import Lock, Store, StoreError, open_or_create, read_attrs
 from scheduler.worker import DEFAULT_SOLVER, Warmup, run_task, solve_points
-from study.dataset import bytes_per_point, stored_variables
+from study.dataset import bytes_per_point, code_fingerprint, stored_variables
 from study.spec import Study
 
 #: Grid points re-solved by the error estimate.
@@ -272,7 +272,15 @@ def _run_locked(study, opts, store: Store, resumed: bool, out, err, client) -> d
     todo = [t for t in plan.tasks if not done[t.index]]
     n_done0 = len(plan.tasks) - len(todo)
     if resumed:
-        store.add_history(f"{opts.command}: resumed with {n_done0}/{len(plan.tasks)} tasks done")
+        note = ""
+        code = code_fingerprint()
+        if todo and n_done0 and store.attrs.get("hertzmap_code_hash") not in (None, code):
+            note = (f" (solver code changed: {str(store.attrs.get('hertzmap_code_hash'))[:12]} -> "
+                    f"{code[:12]})")
+            print(f"warning: the solver code (kernels/, study/) changed since {store.path} was "
+                  "created: blocks computed now may differ from the earlier ones; use "
+                  "--overwrite for a store computed by one version", file=err)
+        store.add_history(f"{opts.command}: resumed with {n_done0}/{len(plan.tasks)} tasks done{note}")
         print(f"resuming {store.path}: {n_done0}/{len(plan.tasks)} tasks already done", file=out)
     summary: dict[str, Any] = {"store": str(store.path), "tasks_total": len(plan.tasks),
                                "tasks_done_before": n_done0, "tasks_run": 0, "failed": []}
@@ -397,6 +405,7 @@ def print_summary(s: dict[str, Any], out: TextIO) -> None:
         lines.append(f"error estimate: max |d(q0, v0)| = {e['max_deviation']:.2e} over "
                      f"{e['matched']}/{e['n']} sampled orbits re-solved at rtol {e['rtol_ref']:g}"
                      + (" (reference rtol not tighter than the run's)" if e.get("ref_equals_run") else ""))
+    lines.append(f"store: {s['store']} ({s['tasks_done_before'] + s['tasks_run']}/{s['tasks_total']} tasks done)")
     if s["failed"]:
         lines.append(f"FAILED tasks: {len(s['failed'])} (rerun the same command to retry them)")
         for key, msg in s["failed"][:5]:

@@ -43,6 +43,7 @@ __all__ = [
     "bytes_per_point",
     "software_versions",
     "history_line",
+    "code_fingerprint",
     "parse_attrs",
 ]
 
@@ -204,6 +205,20 @@ def software_versions() -> dict[str, str]:
     return out
 
 
+def code_fingerprint() -> str:
+    """sha256 of the solver's source (kernels/*.py and study/*.py): a store resumed with other
+    code may hold blocks computed by two versions of the solver."""
+    import hashlib
+
+    root = Path(__file__).resolve().parent.parent
+    h = hashlib.sha256()
+    for pkg in ("kernels", "study"):
+        for f in sorted((root / pkg).rglob("*.py")):
+            h.update(str(f.relative_to(root)).encode())
+            h.update(f.read_bytes())
+    return h.hexdigest()
+
+
 def history_line(action: str) -> str:
     """One line of the ``history`` attr: UTC timestamp, hertzmap version, action."""
     now = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
@@ -260,6 +275,7 @@ def template(study: Study, chunks: tuple[int, int, int], *, history: str) -> xr.
         "hertzmap_study_json": study.canonical_json(),
         "hertzmap_chunk_shape": list(chunks),
         "hertzmap_versions": json.dumps(versions, sort_keys=True),
+        "hertzmap_code_hash": code_fingerprint(),
         "model": study.model,
         "exponent": study.exponent if study.exponent is not None else "none",
         "rtol": study.rtol,
@@ -300,7 +316,8 @@ def block_dataset(arrays: Mapping[str, np.ndarray], names: tuple[str, ...]) -> x
 def parse_attrs(attrs: Mapping[str, Any]) -> dict[str, Any]:
     """The hertzmap attrs of a store, decoded (versions as a dict)."""
     out = {k: attrs.get(k) for k in ("hertzmap_store_format", "hertzmap_study_name",
-                                     "hertzmap_study_hash", "hertzmap_chunk_shape", "history")}
+                                     "hertzmap_study_hash", "hertzmap_chunk_shape",
+                                     "hertzmap_code_hash", "history")}
     try:
         out["versions"] = json.loads(attrs.get("hertzmap_versions", "{}"))
     except (TypeError, ValueError):

@@ -250,3 +250,35 @@ def test_study_layer_imports_neither_dask_nor_the_scheduler():
     r = subprocess.run([sys.executable, "-c", code], env=subprocess_env(), capture_output=True,
                        text=True, timeout=60)
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+from hypothesis import given, settings, strategies as hs
+
+
+@settings(max_examples=40, deadline=None)
+@given(n_o=hs.integers(1, 5000), n_s=hs.integers(1, 60), n_z=hs.integers(1, 5),
+       task_seconds=hs.floats(0.01, 10))
+def test_tasks_tile_any_grid_exactly_once(n_o, n_s, n_z, task_seconds):
+    def axis(start, stop, num):
+        return f"[{start}]" if num == 1 else f"{{start = {start}, stop = {stop}, num = {num}}}"
+    s = parse_study(f"[grid]\nomega = {axis(0.1, 5.0, n_o)}\nsigma = {axis(0.0, 1.0, n_s)}\n"
+                    f"zeta = {axis(0.0, 0.5, n_z)}\n", default_name="h")
+    chunks = choose_chunks(s, task_seconds)
+    assert all(1 <= c <= n for c, n in zip(chunks, s.shape))
+    assert chunks[0] == n_o or chunks[0] <= 4096
+    plan = make_plan(s, chunks)
+    covered = np.zeros(s.shape, np.int8)
+    for t in plan.tasks:
+        covered[t.slices] += 1
+    assert (covered == 1).all()
+
+
+def test_resume_with_other_solver_code_warns(tmp_path, client, capsys):
+    s = study()
+    path = tmp_path / "g.zarr"
+    store, _ = open_or_create(path, s, choose_chunks(s), overwrite=False, action="t")
+    store.mark_done((0, 0, 0))
+    store._group.attrs["hertzmap_code_hash"] = "0" * 64
+    run(path, client)
+    assert "solver code (kernels/, study/) changed" in capsys.readouterr().err
+    assert "solver code changed: 000000000000 ->" in xr.open_zarr(path).attrs["history"]
