@@ -67,7 +67,9 @@ def reference(study_path, tmp_path_factory) -> Path:
     rc = main(["run", str(study_path), "--store", str(store), "--workers", "2",
                "--task-seconds", TASK_SECONDS])
     assert rc == 0
-    assert time.perf_counter() - t0 < 60
+    # budget: < 60 s on an idle 2-core machine; generous bound for busy CI machines and cold
+    # numba caches (each new worker process compiles the kernels when their sources changed)
+    assert time.perf_counter() - t0 < 180
     return store
 
 
