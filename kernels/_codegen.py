@@ -24,7 +24,9 @@ Two systems share one tableau:
 * ``step_var``: state (q, v) and the variational matrix Phi = [[a, b], [c, d]] (6 scalars),
   Phi' = J Phi with J = [[0, 1], [-F'(q), -2 zeta]] (first-order form of paper Eq. 7).
 * ``step_state``: state (q, v) only.
-Both take the FSAL derivative at the step start, return the error norm (accept if <= 1),
+Stages use the contact-side continuation of the law (kernels.model.contact_side_force):
+contact steps only; flight is closed form. ``*_w`` variants step in w with t = t_ref + sgn w^2 (next to a contact switch, where the
+solution is smooth in w but not in t). All take the FSAL derivative at the step start, return the error norm (accept if <= 1),
 write the new state, its derivative and the stages of (q, v) into ``K`` (for dense output).
 The error norm is Hairer's combined 5th/3rd order estimate (as in scipy) on all components.
 """
@@ -32,7 +34,8 @@ from math import cos
 
 from numba import float64, int64, njit
 
-from kernels.model import rhs_force, rhs_force_and_stiffness
+from kernels.model import contact_side_force as rhs_force
+from kernels.model import contact_side_force_and_stiffness as rhs_force_and_stiffness
 
 '''
 
@@ -50,13 +53,19 @@ def _lin(coefs, terms):
     return " + ".join(parts) if parts else "0.0"
 
 
-def _step(name: str, variational: bool) -> str:
+def _step(name: str, variational: bool, timemap: bool = False) -> str:
+    """One DOP853 step. With ``timemap`` the independent variable is w, t = t_ref + sgn w^2,
+    and every stage derivative is multiplied by dt/dw = 2 sgn w (stages at w + c h)."""
     A, B, C, E3, E5 = _c.A, _c.B, _c.C, _c.E3, _c.E5
     comps = ["q", "v", "a", "b", "c", "d"] if variational else ["q", "v"]
     L = []
     sig = SIG_VAR if variational else SIG_STATE
+    extra = ""
+    if timemap:
+        sig = sig.replace(", float64, float64)", ", float64, float64, float64, float64)")
+        extra = ", t_ref, sgn"
     L.append(f"@njit({sig}, cache=True, nogil=True)")
-    L.append(f"def {name}(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol):")
+    L.append(f"def {name}(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol{extra}):")
     L.append("    tz = 2.0 * zeta")
     for i, c in enumerate(comps):
         L.append(f"    {c}0 = y[{i}]")
@@ -68,17 +77,24 @@ def _step(name: str, variational: bool) -> str:
             terms = [f"k{j}{c}" for j in range(s)]
             L.append(f"    y{c} = {c}0 + h * ({_lin(row[:s], terms)})")
         tt = "t + h" if s == 12 else f"t + {float(C[s])!r} * h"
+        if timemap:
+            L.append(f"    w = {tt}")
+            L.append("    m = 2.0 * sgn * w")
+            tt = "t_ref + sgn * w * w"
+            mul = "m * "
+        else:
+            mul = ""
         if variational:
             L.append(f"    F, dF = rhs_force_and_stiffness(yq, n, model)")
         else:
             L.append(f"    F = rhs_force(yq, n, model)")
-        L.append(f"    k{s}q = yv")
-        L.append(f"    k{s}v = 1.0 + sigma * cos(omega * ({tt})) - tz * yv - F")
+        L.append(f"    k{s}q = {mul}yv")
+        L.append(f"    k{s}v = {mul}(1.0 + sigma * cos(omega * ({tt})) - tz * yv - F)")
         if variational:
-            L.append(f"    k{s}a = yc")
-            L.append(f"    k{s}b = yd")
-            L.append(f"    k{s}c = -dF * ya - tz * yc")
-            L.append(f"    k{s}d = -dF * yb - tz * yd")
+            L.append(f"    k{s}a = {mul}yc")
+            L.append(f"    k{s}b = {mul}yd")
+            L.append(f"    k{s}c = {mul}(-dF * ya - tz * yc)")
+            L.append(f"    k{s}d = {mul}(-dF * yb - tz * yd)")
     for i, c in enumerate(comps):
         L.append(f"    y_new[{i}] = y{c}")
         L.append(f"    f_new[{i}] = k12{c}")
@@ -103,13 +119,16 @@ def _step(name: str, variational: bool) -> str:
     return "\n".join(L) + "\n"
 
 
-def _dense() -> str:
+def _dense(name: str = "dense_coefficients", timemap: bool = False) -> str:
     """Coefficients of the 7th-order continuous extension of (q, v) over one accepted step."""
     A, C, D = _c.A, _c.C, _c.D
     L = []
+    extra_sig = ", float64, float64" if timemap else ""
+    extra = ", t_ref, sgn" if timemap else ""
     L.append("@njit(\"void(float64, float64, float64[::1], float64[::1], float64[:, ::1], "
-             "float64, float64, float64, float64, int64, float64[:, ::1])\", cache=True, nogil=True)")
-    L.append("def dense_coefficients(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P):")
+             f"float64, float64, float64, float64, int64, float64[:, ::1]{extra_sig})\", "
+             "cache=True, nogil=True)")
+    L.append(f"def {name}(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P{extra}):")
     L.append("    \"\"\"Fill P (7, 2) so that dense_eval(P, y_old, x) is (q, v) at t + x h, 0 <= x <= 1.\"\"\"")
     L.append("    tz = 2.0 * zeta")
     for s in range(13):
@@ -120,8 +139,14 @@ def _dense() -> str:
             terms = [f"k{j}{c}" for j in range(s)]
             L.append(f"    y{c} = y_old[{ci}] + h * ({_lin(A[s][:s], terms)})")
         L.append("    F = rhs_force(yq, n, model)")
-        L.append(f"    k{s}q = yv")
-        L.append(f"    k{s}v = 1.0 + sigma * cos(omega * (t + {float(C[s])!r} * h)) - tz * yv - F")
+        if timemap:
+            L.append(f"    w = t + {float(C[s])!r} * h")
+            L.append("    m = 2.0 * sgn * w")
+            L.append(f"    k{s}q = m * yv")
+            L.append(f"    k{s}v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)")
+        else:
+            L.append(f"    k{s}q = yv")
+            L.append(f"    k{s}v = 1.0 + sigma * cos(omega * (t + {float(C[s])!r} * h)) - tz * yv - F")
     for ci, c in enumerate(("q", "v")):
         L.append(f"    dy = y_new[{ci}] - y_old[{ci}]")
         L.append(f"    P[0, {ci}] = dy")
@@ -135,7 +160,9 @@ def _dense() -> str:
 
 def source() -> str:
     return (HEADER + "\n" + _step("step_var", True) + "\n\n" + _step("step_state", False)
-            + "\n\n" + _dense())
+            + "\n\n" + _dense() + "\n\n" + _step("step_var_w", True, True) + "\n\n"
+            + _step("step_state_w", False, True) + "\n\n"
+            + _dense("dense_coefficients_w", True))
 
 
 TARGET = pathlib.Path(__file__).with_name("_dop853.py")

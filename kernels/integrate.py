@@ -1,11 +1,18 @@
 """Event-driven integration of paper Eq. 7 with exact contact loss and recontact.
 
 In contact: adaptive DOP853 (kernels/_dop853.py), with the variational equations when a
-monodromy matrix is wanted. When a step ends below q = -n, or q' changes sign inside a step
-that comes close to q = -n (a grazing dip the step ends cannot see), the crossing is located
-on the step's 7th-order continuous extension and then refined by Newton on partial steps from
-the step start (each partial step lies wholly in contact, so it is as accurate as a full step).
+monodromy matrix is wanted. When a trial step ends below q = -n, or q' changes sign inside an
+accepted step that comes close to q = -n (a grazing dip the step ends cannot see), the crossing
+time is located by bracketed Newton on partial steps from the step start (each lies in contact
+up to the root, so it is as accurate as a step) to |q + n| < 1e-14.
 In flight: the closed form of kernels/flight.py up to the exact recontact.
+
+Next to a switch, F'(q) = (1 + q/n)^(n-1) ~ |t - t_switch|^(n-1) is singular, so the solution
+is not smooth in t there and t-steps could only grow geometrically away from it. Instead the
+integrator steps in w with t = t_switch + sgn w^2, in which the solution is smooth: after a
+recontact (sgn = +1, w from 0 up to W_EXIT) and onto a located loss of contact (sgn = -1, w
+from -sqrt(t_stop - t) up to 0, landing exactly on the switch). The error control covers the
+state and the variational matrix in every mode.
 
 The vector field is continuous at q = -n (F(-n) = 0), so the saltation matrix is the identity:
 the monodromy is the plain product of the contact flow Jacobians (variational equations) and
@@ -20,15 +27,19 @@ import numpy as np
 from numba import boolean, float64, int64, njit
 
 from kernels import status as st
-from kernels._dop853 import dense_coefficients, step_state, step_var
+from kernels._dop853 import (dense_coefficients, dense_coefficients_w, step_state,
+                             step_state_w, step_var, step_var_w)
 from kernels.flight import flight_state, flight_until_recontact
 from kernels.model import HERTZ, rhs_force, rhs_force_and_stiffness
 
 # layout of the ``stats`` array filled by ``integrate``
-S_ACCEPTED, S_REJECTED, S_EVENTS, S_FLIGHT_TIME, S_MIN_Q, S_MAX_Q, S_MAX_IMPACT, S_H_FIRST = range(8)
-N_STATS = 8
+(S_ACCEPTED, S_REJECTED, S_EVENTS, S_FLIGHT_TIME, S_MIN_Q, S_MAX_Q, S_MAX_IMPACT, S_H_FIRST,
+ S_H_RECONTACT) = range(9)
+N_STATS = 9
 N_HARMONICS = 4
 BIG = 1e6              # |q| or |v| beyond this: diverged
+W_EXIT = 0.5           # after a recontact, step in w = sqrt(t - t_r) up to t - t_r = W_EXIT^2
+MODE_T, MODE_RECONTACT, MODE_LOSS = 0, 1, -1
 
 # 8-point Gauss-Legendre nodes and weights on [0, 1] (for the contact-force harmonics)
 _GL_X = np.array([0.019855071751231856, 0.10166676129318664, 0.2372337950418355,
@@ -86,10 +97,93 @@ def derivative(t, y, f, omega, sigma, zeta, n, model):
 
 
 @njit(cache=True, nogil=True)
-def _step(dim, t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol):
+def _step(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol,
+          t_ref):
+    """One step in the mode's variable (t, or w with t = t_ref + mode w^2)."""
+    if mode == MODE_T:
+        if dim == 6:
+            return step_var(x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol)
+        return step_state(x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol)
+    sgn = float(mode)
     if dim == 6:
-        return step_var(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol)
-    return step_state(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol)
+        return step_var_w(x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol,
+                          t_ref, sgn)
+    return step_state_w(x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol,
+                        t_ref, sgn)
+
+
+@njit(cache=True, nogil=True)
+def _dense(mode, x, h, y, y_new, K, omega, sigma, zeta, n, model, P, t_ref):
+    if mode == MODE_T:
+        dense_coefficients(x, h, y, y_new, K, omega, sigma, zeta, n, model, P)
+    else:
+        dense_coefficients_w(x, h, y, y_new, K, omega, sigma, zeta, n, model, P, t_ref,
+                             float(mode))
+
+
+@njit(cache=True, nogil=True)
+def _time(mode, x, t_ref):
+    """Physical time of the mode's variable x."""
+    if mode == MODE_T:
+        return x
+    return t_ref + mode * x * x
+
+
+@njit(cache=True, nogil=True)
+def _variable(mode, t, t_ref):
+    """The mode's variable at physical time t (inverse of _time)."""
+    if mode == MODE_T:
+        return t
+    return mode * sqrt(max(0.0, mode * (t - t_ref)))
+
+
+@njit(cache=True, nogil=True)
+def _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model):
+    """Variable value at t in the new mode, and f = dy/dx in its units (FSAL restart)."""
+    derivative(t, y, f, omega, sigma, zeta, n, model)
+    x = _variable(mode, t, t_ref)
+    if mode != MODE_T:
+        m = 2.0 * mode * x
+        for i in range(y.shape[0]):
+            f[i] *= m
+    return x
+
+
+@njit(cache=True, nogil=True)
+def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
+                     atol, t_ref, s_guess):
+    """Increment s in (0, h] of the mode's variable from x where q = -n, the step over h ending
+    below (or dipping below) the surface. Bracketed Newton on partial steps from x (each lies in
+    contact up to the root, so it is as accurate as a step), to |q + n| <= 1e-14 n; dq/dx is the
+    FSAL derivative f_new[0]. y_new is left arbitrary."""
+    lo = 0.0
+    hi = h
+    g_hi = y_new[0] + n
+    g_lo = y[0] + n
+    if s_guess > 0.0:
+        s = s_guess
+    elif g_lo - g_hi > 0.0:
+        s = h * g_lo / (g_lo - g_hi)      # secant between the step ends
+    else:
+        s = 0.5 * h
+    for _ in range(30):
+        _step(dim, mode, x, s, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol,
+              t_ref)
+        g = y_new[0] + n
+        if abs(g) <= 1e-14 * n:
+            return s
+        if g > 0.0:
+            lo = s
+        else:
+            hi = s
+        if hi - lo <= 1e-15 * max(1.0, abs(x)):
+            return hi
+        dg = f_new[0]
+        s_new = s - g / dg if dg != 0.0 else 0.5 * (lo + hi)
+        if not (lo < s_new < hi):
+            s_new = 0.5 * (lo + hi)
+        s = s_new
+    return s
 
 
 @njit(cache=True, nogil=True)
@@ -99,15 +193,16 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
     """Advance y (length 6 with the variational matrix, else 2) from t0 to t1 in place.
 
     Parameters (all dimensionless): omega, sigma, zeta, n (contact exponent), model (HERTZ or
-    TAYLOR); rtol, atol tolerances of the local error on (q, q'); h initial step; max_steps
-    bound on steps + rejections + events. With ``measure``, fills stats (min/max q, flight time,
-    largest impact velocity) and accumulates into harm[0, k], harm[1, k] the integrals of
-    F(q) cos(k w t) and F(q) sin(k w t), w = 2 pi / period_harm, k = 0..N_HARMONICS.
+    TAYLOR); rtol, atol tolerances of the local error on (q, q') and Phi; h initial step;
+    max_steps bound on steps + rejections + events. With ``measure``, fills stats (min/max q,
+    flight time, largest impact velocity) and accumulates into harm[0, k], harm[1, k] the
+    integrals of F(q) cos(k w t) and F(q) sin(k w t), w = 2 pi / period_harm, k = 0..N_HARMONICS.
     With ``t_eval`` (sorted, inside [t0, t1]) writes q, q', F at those times into out_eval (3, m).
     Work arrays: f, y_new, f_new (len(y)), K (16, 2), P (7, 2).
 
-    Returns a status code (kernels.status); stats[S_H_FIRST] is the first accepted step, a good
-    initial step for the next call over the same interval.
+    Returns a status code (kernels.status); stats[S_H_FIRST] is the first accepted t-step and
+    stats[S_H_RECONTACT] the first accepted w-step after a recontact: good initial steps for the
+    next call over the same orbit.
     """
     dim = y.shape[0]
     hertz = model == HERTZ
@@ -131,12 +226,14 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
         elif y[0] == -n:
             acc0 = 1.0 + sigma * cos(omega * t0) - 2.0 * zeta * y[1]
             in_flight = y[1] < 0.0 or (y[1] == 0.0 and acc0 < 0.0)
-    derivative(t, y, f, omega, sigma, zeta, n, model)
+    mode = MODE_T
+    t_ref = 0.0
+    x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
     work = 0
-    pending = False
-    t_stop = t1
+    first_w_step = False
     if h <= 0.0 or h > span:
         h = min(span, 0.1)
+    h_t = h                     # the t-step to resume with after a w-mode
     while t < t1:
         work += 1
         if work > max_steps:
@@ -144,7 +241,6 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
         if in_flight:
             s_max = t1 - t
             s, qmin_f, found = flight_until_recontact(y[0], y[1], t, s_max, omega, sigma, zeta, n)
-            # dense output inside the flight: closed form
             while i_eval < n_eval and t_eval[i_eval] <= t + s:
                 qe, ve, _, _ = flight_state(y[0], y[1], t, t_eval[i_eval] - t, omega, sigma, zeta)
                 out_eval[0, i_eval] = qe
@@ -173,23 +269,44 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
                 if measure and v1 > stats[S_MAX_IMPACT]:
                     stats[S_MAX_IMPACT] = v1
                 in_flight = False
-                derivative(t, y, f, omega, sigma, zeta, n, model)
+                # the contact phase starts on the singularity of F': step in w = sqrt(t - t_r)
+                mode = MODE_RECONTACT
+                t_ref = t
+                x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
+                h = stats[S_H_RECONTACT] if stats[S_H_RECONTACT] > 0.0 else 0.05
+                first_w_step = True
             else:
                 y[0] = q1
                 y[1] = v1
                 t = t1
             continue
 
-        # ---- contact: one adaptive step -------------------------------------------------
-        # With an event pending, steps land exactly on the located crossing t_stop under full
-        # error control: F'(q) ~ (1 + q/n)^(n-1) is singular there, and a single uncontrolled
-        # partial step onto it would cost the monodromy half its digits (error ~ sqrt(rtol)).
-        t_target = t_stop if pending else t1
-        lands = False
-        if t + h >= t_target - 1e-13 * max(1.0, abs(t_target)):
-            h = t_target - t
-            lands = True
-        err = _step(dim, t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol)
+        # ---- contact: one adaptive step in the mode's variable -------------------------------
+        if mode == MODE_T:
+            x_target = t1
+        elif mode == MODE_LOSS:
+            x_target = 0.0
+        else:
+            x_target = min(W_EXIT, sqrt(max(0.0, t1 - t_ref)))
+        at_target = False
+        if x + h >= x_target - 1e-13 * max(1.0, abs(x_target)):
+            h = x_target - x
+            at_target = True
+        err = _step(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
+                    atol, t_ref)
+        if hertz and mode != MODE_LOSS and y_new[0] < -n:
+            # The trial step crossed the surface. Its error estimate is meaningless (a kink
+            # inside): locate the crossing now and approach it in w = -sqrt(t_stop - t).
+            s = _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n,
+                                 model, rtol, atol, t_ref, 0.0)
+            t_stop = _time(mode, x + s, t_ref)
+            if mode == MODE_T:
+                h_t = h
+            mode = MODE_LOSS
+            t_ref = t_stop
+            x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
+            h = -x
+            continue
         if not (err <= 1.0):   # also catches NaN
             stats[S_REJECTED] += 1
             if err != err:
@@ -200,68 +317,66 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
                 return st.STEP_SIZE
             continue
         have_dense = False
-        if hertz and not pending:
-            event = False
-            x_hi = 1.0
+        if hertz and mode == MODE_T:
             q0_, v0_ = y[0], y[1]
             q1_, v1_ = y_new[0], y_new[1]
-            if q1_ < -n:
-                event = True
-            elif v0_ < 0.0 and v1_ > 0.0 and min(q0_, q1_) + n < h * max(-v0_, v1_):
+            if v0_ < 0.0 and v1_ > 0.0 and min(q0_, q1_) + n < h * max(-v0_, v1_):
                 # a minimum inside the step near the surface: look at it on the interpolant
-                dense_coefficients(t, h, y, y_new, K, omega, sigma, zeta, n, model, P)
+                dense_coefficients(x, h, y, y_new, K, omega, sigma, zeta, n, model, P)
                 have_dense = True
                 xm = _dense_root(P, y, 0.0, 1.0, 0.0, 1)
                 if dense_eval(P, 0, y[0], xm) < -n:
-                    event = True
-                    x_hi = xm
-            if event:
-                if not have_dense:
-                    dense_coefficients(t, h, y, y_new, K, omega, sigma, zeta, n, model, P)
-                s = _dense_root(P, y, 0.0, x_hi, -n, 0) * h
-                # Newton on partial steps from t: q(t + s) = -n to round-off
-                for it in range(8):
-                    _step(dim, t, s, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
-                          atol)
-                    g = y_new[0] + n
-                    if abs(g) <= 1e-14 * n or y_new[1] == 0.0 or it == 7:
-                        break
-                    s_new = s - g / y_new[1]
-                    if not (0.0 < s_new < h * x_hi * (1.0 + 1e-6)):
-                        break
-                    s = s_new
-                pending = True
-                t_stop = t + s
-                h = s
-                continue
-        elif pending and not lands and y_new[0] < -n:
-            lands = True    # the crossing came a round-off early: take it here
+                    x0g = _dense_root(P, y, 0.0, xm, -n, 0)
+                    s = _locate_crossing(dim, mode, x, xm * h, y, f, y_new, f_new, K, omega,
+                                         sigma, zeta, n, model, rtol, atol, t_ref, x0g * h)
+                    h_t = h
+                    mode = MODE_LOSS
+                    t_ref = t + s
+                    x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
+                    h = -x
+                    continue
+        lands = mode == MODE_LOSS and (at_target or y_new[0] < -n)
         # ---- accepted step ------------------------------------------------------------------
         if n_eval > 0 or measure:
             if not have_dense:
-                dense_coefficients(t, h, y, y_new, K, omega, sigma, zeta, n, model, P)
-            i_eval = _emit(P, y, t, h, t_eval, out_eval, i_eval, n, model)
+                _dense(mode, x, h, y, y_new, K, omega, sigma, zeta, n, model, P, t_ref)
+            i_eval = _emit(P, y, mode, x, h, t_ref, t_eval, out_eval, i_eval, n, model)
             if measure:
-                _measure_step(P, y, y_new, t, h, n, model, w_h, harm, stats)
+                _measure_step(P, y, y_new, mode, x, h, t_ref, n, model, w_h, harm, stats)
         stats[S_ACCEPTED] += 1
-        if stats[S_H_FIRST] == 0.0:
+        if mode == MODE_T and stats[S_H_FIRST] == 0.0:
             stats[S_H_FIRST] = h
-        t = t_target if lands else t + h
+        if first_w_step:
+            stats[S_H_RECONTACT] = h
+            first_w_step = False
+        x = x_target if at_target else x + h
+        t = _time(mode, x, t_ref)
+        if mode == MODE_T and at_target:
+            t = t1
         for i in range(dim):
             y[i] = y_new[i]
             f[i] = f_new[i]
         if abs(y[0]) > BIG or abs(y[1]) > BIG or y[0] != y[0]:
             return st.DIVERGED
-        if pending and lands:
-            pending = False
-            y[0] = -n
-            stats[S_EVENTS] += 1
-            in_flight = y[1] < 0.0
-            derivative(t, y, f, omega, sigma, zeta, n, model)
         if err == 0.0:
             h *= 10.0
         else:
             h *= min(10.0, max(0.2, 0.9 * err ** (-0.125)))
+        if lands:
+            # contact is lost exactly at t_stop
+            t = t_ref
+            y[0] = -n
+            stats[S_EVENTS] += 1
+            in_flight = y[1] < 0.0
+            mode = MODE_T
+            x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
+            h = h_t
+        elif mode == MODE_RECONTACT and at_target:
+            # out of the singular layer: back to t, with the t-length of the last w-step
+            h_w = h
+            mode = MODE_T
+            x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
+            h = max(h_min, 2.0 * W_EXIT * h_w)
     # outputs at t1 exactly (t_eval may end at t1)
     while i_eval < n_eval and t_eval[i_eval] <= t1 * (1.0 + 1e-15) + 1e-300:
         out_eval[0, i_eval] = y[0]
@@ -277,21 +392,23 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
 
 
 @njit(cache=True, nogil=True)
-def _emit(P, y, t, h, t_eval, out_eval, i_eval, n, model):
-    """Write the dense output at every t_eval inside (t, t + h]."""
+def _emit(P, y, mode, x, h, t_ref, t_eval, out_eval, i_eval, n, model):
+    """Write the dense output at every t_eval inside the step (x, x + h] of the mode's variable."""
     n_eval = t_eval.shape[0]
-    while i_eval < n_eval and t_eval[i_eval] <= t + h:
-        x = (t_eval[i_eval] - t) / h if h > 0.0 else 1.0
-        qe = dense_eval(P, 0, y[0], x)
+    t_end = _time(mode, x + h, t_ref)
+    while i_eval < n_eval and t_eval[i_eval] <= t_end:
+        xi = (_variable(mode, t_eval[i_eval], t_ref) - x) / h if h > 0.0 else 1.0
+        xi = min(1.0, max(0.0, xi))
+        qe = dense_eval(P, 0, y[0], xi)
         out_eval[0, i_eval] = qe
-        out_eval[1, i_eval] = dense_eval(P, 1, y[1], x)
+        out_eval[1, i_eval] = dense_eval(P, 1, y[1], xi)
         out_eval[2, i_eval] = rhs_force(qe, n, model)
         i_eval += 1
     return i_eval
 
 
 @njit(cache=True, nogil=True)
-def _measure_step(P, y, y_new, t, h, n, model, w_h, harm, stats):
+def _measure_step(P, y, y_new, mode, x, h, t_ref, n, model, w_h, harm, stats):
     """Orbit measures over one contact step: extrema of q and the contact-force harmonics."""
     q0, q1 = y[0], y_new[0]
     for qq in (q0, q1):
@@ -307,12 +424,14 @@ def _measure_step(P, y, y_new, t, h, n, model, w_h, harm, stats):
         if qm > stats[S_MAX_Q]:
             stats[S_MAX_Q] = qm
     for j in range(8):
-        x = _GL_X[j]
-        qe = dense_eval(P, 0, y[0], x)
-        Fe = rhs_force(qe, n, model) * _GL_W[j] * h
+        xi = _GL_X[j]
+        qe = dense_eval(P, 0, y[0], xi)
+        xx = x + xi * h
+        dtdx = 1.0 if mode == MODE_T else abs(2.0 * xx)
+        Fe = rhs_force(qe, n, model) * _GL_W[j] * h * dtdx
         if Fe == 0.0:
             continue
-        tt = t + x * h
+        tt = _time(mode, xx, t_ref)
         c1 = cos(w_h * tt)
         s1 = sin(w_h * tt)
         ck = 1.0

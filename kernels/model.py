@@ -57,6 +57,44 @@ def rhs_force_and_stiffness(q, n, model):
     return p * s, p
 
 
+@njit(float64(float64, float64, int64), cache=True, nogil=True)
+def contact_side_force(q, n, model):
+    """F(q) continued past q = -n as the odd extension sign(s) |s|^n, s = 1 + q/n.
+
+    Used only by the integrator's stages inside a contact step: a step that lands exactly on
+    the switch has stages a round-off beyond it, where the clamped law would make F'(q) jump
+    (n = 1) and the error estimate of the variational equations explode. The odd extension is
+    exactly linear for n = 1 and C^1 for n > 1. Flight itself is integrated in closed form.
+    """
+    if model == TAYLOR:
+        return 1.0 + q + q * q / 6.0 - q * q * q / 54.0
+    s = 1.0 + q / n
+    if n == 1.0:
+        return s
+    a = abs(s)
+    if n == 1.5:
+        f = a * sqrt(a)
+    else:
+        f = a ** n
+    return f if s >= 0.0 else -f
+
+
+@njit(UniTuple(float64, 2)(float64, float64, int64), cache=True, nogil=True)
+def contact_side_force_and_stiffness(q, n, model):
+    """contact_side_force and its derivative |s|^(n-1)."""
+    if model == TAYLOR:
+        return 1.0 + q + q * q / 6.0 - q * q * q / 54.0, 1.0 + q / 3.0 - q * q / 18.0
+    s = 1.0 + q / n
+    if n == 1.0:
+        return s, 1.0
+    a = abs(s)
+    if n == 1.5:
+        r = sqrt(a)
+        return (a * r if s >= 0.0 else -a * r), r
+    p = a ** (n - 1.0)
+    return (p * a if s >= 0.0 else -p * a), p
+
+
 def contact_force(q, exponent=1.5, model="hertz"):
     """Vectorised F(q) for numpy arrays (post-processing; not used inside the kernels)."""
     import numpy as np

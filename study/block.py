@@ -101,7 +101,8 @@ def _solve(omega, sigma, zeta, period, seeds, options):
         row = {name: r[name][i] for name in FIELDS}
         minimal = row["minimal_period"]
         out.append({
-            # a 2T solve whose orbit repeats after T is the 1T orbit (minimal period 1)
+            # a 2T solve whose orbit repeats after T is a 1T orbit (minimal period 1); its
+            # multipliers are still those of the 2T map: callers re-solve it as 1T
             "period": int(minimal) if np.isfinite(minimal) and minimal >= 1 else int(period),
             "status": int(row["status"]),
             "x0": np.array([row["q0"], row["v0"]]),
@@ -150,9 +151,14 @@ def _point(omega, sigma, zeta, periods, prev, options):
         for s in found:
             seeds += _flip_seeds(s)
         sols = _solve(omega, sigma, zeta, 2, seeds, options)
-        # a 2T solve with minimal period 1 is the 1T orbit: count it as such
-        _merge(found, [s for s in sols if s["period"] == 1 and 1 in periods])
         _merge(found, [s for s in sols if s["period"] == 2])
+        # A 2T solve with minimal period 1 landed on a 1T orbit. Its monodromy is that of two
+        # periods (multipliers squared), so the orbit is re-solved as 1T from its start point
+        # (one Newton step) and kept only as that.
+        landed = [tuple(s["x0"]) for s in sols
+                  if s["period"] == 1 and s["status"] == st.CONVERGED]
+        if landed and 1 in periods:
+            _merge(found, _solve(omega, sigma, zeta, 1, landed, options))
     return found, tries_1t
 
 
@@ -167,8 +173,13 @@ def _record(arrays, idx, slot, sol):
 
 
 def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hertz", rtol=1e-10,
-                max_solutions=4) -> dict[str, np.ndarray]:
+                max_solutions=4, discover=False, transients=16) -> dict[str, np.ndarray]:
     """Every periodic response at each point of the block omega x sigma x zeta.
+
+    ``discover=True`` adds, per omega line, the discovery stage of study.discovery (transients
+    from ``transients`` initial states at up to 12 points of the line, continuation of every
+    branch found, branch switching at flips): isolas and the unstable halves of branches are
+    found without hand-given seeds. Off by default (it costs about 0.5-2 s per line).
 
     Returns {variable: array} with shape (len(omega), len(sigma), len(zeta), max_solutions)
     (+ (2,) for multipliers, + (4,) for force_harmonics); see VARIABLES for dtypes and the
@@ -199,6 +210,12 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
                                                                if np.isfinite(s["residual"])
                                                                else np.inf))
                     prev = found
+            if discover:
+                from study.discovery import discover_line
+                per_point = discover_line(omega, sigma[j], zeta[k], periods=periods,
+                                          exponent=exponent, model=model, rtol=rtol,
+                                          transients=int(transients),
+                                          initial=per_point).solutions
             for i in range(omega.size):
                 sols = per_point[i]
                 one = sorted([s for s in sols if s["period"] == 1], key=lambda s: s["ptp"])
