@@ -382,11 +382,13 @@ def continue_orbit(zeta, x0, *, omega, sigma, period=1, param="omega", direction
                    p_min=None, p_max=None, ds=0.01, ds_min=1e-6, ds_max=0.5, max_points=2000,
                    tangent=None, exponent=1.5, model="hertz", rtol=DEFAULT_RTOL,
                    max_steps=DEFAULT_MAX_STEPS, locate=("fold", "flip", "grazing"),
-                   stop_at_branch_point=True, polish=True) -> Branch:
+                   stop_at_branch_point=True, polish=True, dp_max=None) -> Branch:
     """Pseudo-arclength continuation of the period-``period`` orbit through (x0, omega, sigma)
     in ``param`` ("omega" or "sigma"), starting in ``direction`` (+1: increasing parameter, or
     along ``tangent`` if given), inside [p_min, p_max]. Locates the test-function zeros named in
-    ``locate`` between consecutive points. Returns a Branch; never raises for a failed solve.
+    ``locate`` between consecutive points; ``dp_max`` caps the parameter change per step (two
+    zeros of a test function closer than one step are not seen). Returns a Branch; never
+    raises for a failed solve.
     """
     system = System(float(zeta), float(exponent), model, float(rtol), int(max_steps))
     m = int(period)
@@ -433,6 +435,8 @@ def continue_orbit(zeta, x0, *, omega, sigma, period=1, param="omega", direction
     while len(us) < max_points:
         u_prev, t_prev = us[-1], t
         r = None
+        if dp_max is not None and abs(t_prev[2]) * h > dp_max:
+            h = max(ds_min, dp_max / abs(t_prev[2]))
         while h >= ds_min:
             u_pred = u_prev + h * t_prev
             r = _correct(fun, u_pred, t_prev)
