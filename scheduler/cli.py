@@ -159,6 +159,25 @@ def cmd_status(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+# -- plot (study/plots.py) --------------------------------------------------------------------
+
+def _plot_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("store", type=Path, nargs="?", help="a store written by hertzmap run")
+    p.add_argument("--out", type=Path, default=Path("results"), help="folder for the PNGs (default results/)")
+    p.add_argument("--which", nargs="+", default=["auto"], metavar="FIG",
+                   help="auto (default) or: map measures bifurcation response harmonics histories")
+    p.add_argument("--paper", nargs="+", default=[], metavar="FIG",
+                   help="the paper's analytic figures, no store needed: fig02 fig03 fig04 fig05")
+    p.add_argument("--no-products", action="store_true",
+                   help="do not write the products into the store (read-only)")
+
+
+@subcommand("plot", "products of a store into its products/ groups, and PNG figures")(_plot_args)
+def cmd_plot(args: argparse.Namespace) -> int:
+    from study.plots import plot_command
+    return plot_command(args)
+
+
 # -- entry point ------------------------------------------------------------------------------
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,553 @@
+"""PNG figures from a study's store (and the paper's analytic figures), matplotlib Agg.
+
+Entry points:
+
+* :func:`plot_store` - compute the products of a store (``study.products``), write them back into
+  it, and write the figures the store supports into a folder (default ``results/``).
+  ``hertzmap plot STORE [--out DIR] [--which ...]`` calls it.
+* :func:`plot_paper` - the paper's analytic figures that need no store (Fig. 2, 3, 4, 5):
+  ``hertzmap plot --paper fig02 fig03 fig04 fig05``.
+* One function per figure (``plot_loss_of_contact_map``, ``plot_map_measures``,
+  ``plot_bifurcation_set``, ``plot_frequency_response``, ``plot_force_harmonics``,
+  ``plot_time_histories``, ``paper_fig02`` ... ``paper_fig05``), each taking products and a path.
+
+No Dask, no scheduler. Figures are small (about 100 dpi) so that they can be committed.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Iterable, Sequence
+
+import numpy as np
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.colors import BoundaryNorm, ListedColormap  # noqa: E402
+from matplotlib.patches import Patch  # noqa: E402
+
+from study import products as P  # noqa: E402
+
+__all__ = [
+    "WHICH",
+    "PAPER_FIGURES",
+    "plot_store",
+    "plot_paper",
+    "plot_loss_of_contact_map",
+    "plot_map_measures",
+    "plot_bifurcation_set",
+    "plot_frequency_response",
+    "plot_force_harmonics",
+    "plot_time_histories",
+    "paper_fig02",
+    "paper_fig03",
+    "paper_fig04",
+    "paper_fig05",
+]
+
+DPI = 100
+
+#: Figures of :func:`plot_store` ("auto": those the store supports).
+WHICH = ("map", "measures", "bifurcation", "response", "harmonics", "histories")
+
+#: Colours of the orbit classes (ORBIT_CLASSES codes 1..8).
+CLASS_STYLE = {
+    1: ("tab:blue", "I: 1T stable"),
+    2: ("tab:green", "II: 2T stable, contact"),
+    3: ("tab:red", "III: 2T stable, contact loss"),
+    4: ("#9ecae1", "IV: 2T unstable, contact"),
+    5: ("#fcae91", "V: 2T unstable, contact loss"),
+    6: ("tab:purple", "1T stable, contact loss"),
+    7: ("#c6c6c6", "1T unstable"),
+    8: ("#dadaeb", "1T unstable, contact loss"),
+}
+
+#: Colours of the stable_set bit-mask combinations (loss-of-contact map).
+_SET_LABEL = {
+    0: "no stable response",
+    1: "1T in contact",
+    2: "1T, contact loss",
+    3: "1T contact / 1T contact loss",
+    4: "2T in contact",
+    5: "1T / 2T in contact",
+    6: "1T loss / 2T contact",
+    7: "1T / 1T loss / 2T",
+    8: "2T, contact loss",
+    9: "1T contact / 2T loss",
+    10: "1T loss / 2T loss",
+    11: "1T / 1T loss / 2T loss",
+    12: "2T contact / 2T loss",
+    13: "1T / 2T / 2T loss",
+    14: "1T loss / 2T / 2T loss",
+    15: "all four",
+}
+_SET_COLOR = {
+    0: "#ffffff", 1: "#deebf7", 2: "#6a51a3", 3: "#9e9ac8", 4: "#a1d99b", 5: "#41ab5d",
+    6: "#807dba", 7: "#54278f", 8: "#de2d26", 9: "#fcbba1", 10: "#a50f15", 11: "#fb6a4a",
+    12: "#fd8d3c", 13: "#fdae6b", 14: "#7f2704", 15: "#000000",
+}
+
+_CURVE_STYLE = {
+    "flip_1T": dict(color="k", lw=1.6, ls="-", label="flip of 1T (numerical)"),
+    "grazing_1T": dict(color="tab:purple", lw=1.2, ls="--", label="grazing of 1T"),
+    "grazing_2T": dict(color="tab:red", lw=1.2, ls="--", label="grazing of stable 2T"),
+    "boundary_2T": dict(color="tab:orange", lw=1.0, ls="-", label="2T existence boundary"),
+    "isola": dict(color="magenta", lw=1.6, ls=":", label="isola (heuristic)"),
+    "coexistence_1T": dict(color="tab:cyan", lw=1.0, ls="-.", label="1T coexistence (folds)"),
+}
+
+
+def _save(fig, path: Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+    return path
+
+
+def _zlabel(z: float) -> str:
+    return f"zeta = {z:g}"
+
+
+def _draw_curves(ax, curves, zeta, names, labelled=None):
+    labelled = set() if labelled is None else labelled
+    for name in names:
+        st = dict(_CURVE_STYLE[name])
+        label = st.pop("label")
+        for seg in P.curve_segments(curves, name, zeta):
+            ax.plot(seg[:, 0], seg[:, 1], **st, label=None if name in labelled else label)
+            labelled.add(name)
+    return labelled
+
+
+def _draw_mms(ax, mms, zeta, sigma1=True):
+    if mms is None:
+        return
+    m = mms.sel(zeta=zeta, method="nearest")
+    ax.plot(m["omega"], m["sigma2"], color="tab:blue", lw=1.0, label="MMS sigma2 (flip)")
+    if sigma1:
+        ax.plot(m["omega"], m["sigma1"], color="tab:blue", lw=1.0, ls=":", label="MMS sigma1")
+
+
+# ---------------------------------------------------------------------------------------------
+# maps
+# ---------------------------------------------------------------------------------------------
+
+def plot_loss_of_contact_map(lcm, curves, path, *, zeta=None, mms=None, title=None) -> Path:
+    """Kinds of stable response over (omega, sigma) with the contoured curves (flip, grazing,
+    isolas) and the MMS flip curve."""
+    zeta = float(lcm["zeta"].values[0] if zeta is None else zeta)
+    m = lcm.sel(zeta=zeta, method="nearest")
+    codes = m["stable_set"].transpose("sigma", "omega").values.astype(int)
+    codes = np.where(m["computed"].transpose("sigma", "omega").values, codes, 0)
+    present = sorted(set(np.unique(codes).tolist()))
+    cmap = ListedColormap([_SET_COLOR[c] for c in range(16)])
+    norm = BoundaryNorm(np.arange(-0.5, 16.5), 16)
+    fig, ax = plt.subplots(figsize=(8.2, 4.8), layout="constrained")
+    ax.pcolormesh(m["omega"], m["sigma"], codes, cmap=cmap, norm=norm, shading="nearest",
+                  rasterized=True)
+    handles = [Patch(facecolor=_SET_COLOR[c], edgecolor="0.6", label=_SET_LABEL[c]) for c in present]
+    _draw_curves(ax, curves, zeta, ("flip_1T", "grazing_1T", "grazing_2T", "isola"))
+    _draw_mms(ax, mms, zeta, sigma1=False)
+    ax.set_xlim(float(m["omega"].min()), float(m["omega"].max()))
+    ax.set_ylim(float(m["sigma"].min()), float(m["sigma"].max()))
+    ax.set_xlabel("omega (excitation frequency / natural frequency)")
+    ax.set_ylabel("sigma (excitation amplitude / preload)")
+    ax.set_title(title or f"Stable responses and contact loss, {_zlabel(zeta)}")
+    h2, l2 = ax.get_legend_handles_labels()
+    ax.legend(handles=handles + h2, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0),
+              title="stable responses / curves", title_fontsize=7, frameon=False)
+    return _save(fig, path)
+
+
+def plot_map_measures(lcm, path, *, zeta=None, curves=None) -> Path:
+    """Coexistence (number of stable responses), largest flight fraction and largest impact
+    velocity of the stable responses over (omega, sigma)."""
+    zeta = float(lcm["zeta"].values[0] if zeta is None else zeta)
+    m = lcm.sel(zeta=zeta, method="nearest")
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.8), layout="constrained", sharey=True)
+    panels = [("n_stable", "coexisting stable responses", "viridis"),
+              ("flight_fraction", "largest flight fraction (stable)", "magma_r"),
+              ("max_impact_velocity", "largest impact velocity |dq/dtau| (stable)", "magma_r")]
+    for ax, (var, title, cmap) in zip(axes, panels):
+        if var not in m:
+            ax.set_visible(False)
+            continue
+        z = m[var].transpose("sigma", "omega").values.astype(float)
+        z = np.where(m["computed"].transpose("sigma", "omega").values, z, np.nan)
+        if var == "n_stable":
+            nmax = int(np.nanmax(z)) if np.isfinite(z).any() else 1
+            cm = plt.get_cmap(cmap, nmax + 1)
+            pc = ax.pcolormesh(m["omega"], m["sigma"], z, cmap=cm, vmin=-0.5, vmax=nmax + 0.5,
+                               shading="nearest", rasterized=True)
+            fig.colorbar(pc, ax=ax, ticks=range(nmax + 1))
+        else:
+            pc = ax.pcolormesh(m["omega"], m["sigma"], z, cmap=cmap, shading="nearest",
+                               rasterized=True)
+            fig.colorbar(pc, ax=ax)
+        if curves is not None:
+            _draw_curves(ax, curves, zeta, ("flip_1T",))
+        ax.set_title(title, fontsize=9)
+        ax.set_xlabel("omega")
+    axes[0].set_ylabel("sigma")
+    fig.suptitle(f"Multistability and contact loss of the stable responses, {_zlabel(zeta)}",
+                 fontsize=10)
+    return _save(fig, path)
+
+
+def plot_bifurcation_set(curves, mms, path, *, zeta=None, lcm=None, omega_range=None,
+                         sigma_range=None, title=None) -> Path:
+    """Bifurcation set in (omega, sigma) (paper Fig. 3, 7, 9): MMS sigma1/sigma2 against the
+    numerical flip curve (squares), 2T existence boundary (folds) and isolas."""
+    if zeta is None:
+        zs = np.unique(curves["zeta"].values) if curves.sizes["vertex"] else mms["zeta"].values
+        zeta = float(zs[0])
+    fig, ax = plt.subplots(figsize=(7.2, 4.8), layout="constrained")
+    if lcm is not None:
+        m = lcm.sel(zeta=zeta, method="nearest")
+        iso = m["isola_2T"].transpose("sigma", "omega").values
+        if iso.any():
+            ax.pcolormesh(m["omega"], m["sigma"], np.where(iso, 1.0, np.nan), cmap="RdPu",
+                          vmin=0, vmax=2, shading="nearest", rasterized=True)
+    _draw_mms(ax, mms, zeta)
+    for seg in P.curve_segments(curves, "flip_1T", zeta):
+        step = max(1, len(seg) // 40)
+        ax.plot(seg[::step, 0], seg[::step, 1], "s", mfc="none", mec="k", ms=4)
+    ax.plot([], [], "s", mfc="none", mec="k", ms=4, label="flip of 1T (shooting, contoured)")
+    _draw_curves(ax, curves, zeta, ("boundary_2T", "isola"))
+    if omega_range:
+        ax.set_xlim(*omega_range)
+    if sigma_range:
+        ax.set_ylim(*sigma_range)
+    ax.set_xlabel("omega")
+    ax.set_ylabel("sigma")
+    ax.set_title(title or f"Bifurcation set, {_zlabel(zeta)}")
+    ax.legend(fontsize=7, loc="best")
+    return _save(fig, path)
+
+
+# ---------------------------------------------------------------------------------------------
+# lines
+# ---------------------------------------------------------------------------------------------
+
+def plot_frequency_response(fr, path, *, sigma=None, zeta=None, zoom=None, mms=None,
+                            title=None) -> Path:
+    """Peak-to-peak q against omega, every orbit coloured by its class (paper Fig. 6, 8, 10).
+    ``zoom`` = (omega_min, omega_max) adds a detail panel (Fig. 6b)."""
+    line = fr.sel(sigma=fr["sigma"].values[0] if sigma is None else sigma, method="nearest")
+    line = line.sel(zeta=line["zeta"].values[0] if zeta is None else zeta, method="nearest")
+    ncols = 2 if zoom else 1
+    fig, axes = plt.subplots(1, ncols, figsize=(6.2 * ncols, 4.3), layout="constrained",
+                             squeeze=False)
+    cls = line["orbit_class"].values
+    om = np.broadcast_to(line["omega"].values[:, None], cls.shape)
+    ptp = line["ptp"].values
+    for ax in axes[0]:
+        for c, (color, label) in CLASS_STYLE.items():
+            sel = cls == c
+            if not sel.any():
+                continue
+            stable = c in (1, 2, 3, 6)
+            ax.plot(om[sel], ptp[sel], "o" if stable else ".", ms=3 if stable else 2.5,
+                    color=color, label=label, ls="none", zorder=3 if stable else 2)
+        if mms is not None:
+            mm = mms.sel(sigma=float(line["sigma"]), zeta=float(line["zeta"]), method="nearest")
+            # MMS ptp of the 2T response is about 2 A plus the 1T part; show 2A for reference
+            ax.plot(mm["omega"], 2 * mm["A_upper"], color="k", lw=0.8, label="MMS 2A (upper)")
+            ax.plot(mm["omega"], 2 * mm["A_lower"], color="k", lw=0.8, ls="--",
+                    label="MMS 2A (lower)")
+        ax.set_xlabel("omega")
+        ax.set_ylabel("peak-to-peak q")
+    if zoom:
+        ax = axes[0][1]
+        ax.set_xlim(*zoom)
+        inside = (om >= zoom[0]) & (om <= zoom[1]) & np.isfinite(ptp)
+        if inside.any():
+            ax.set_ylim(0, 1.08 * float(np.nanmax(ptp[inside])))
+        ax.set_title("detail", fontsize=9)
+    axes[0][0].legend(fontsize=7, loc="upper left")
+    fig.suptitle(title or f"Frequency response, sigma = {float(line['sigma']):g}, "
+                 f"{_zlabel(float(line['zeta']))}", fontsize=10)
+    if "frequency_hz" in line.coords:
+        f0 = float(line.attrs.get("rig_f0_hz", np.nan))
+        sec = axes[0][0].secondary_xaxis("top", functions=(lambda w: w * f0, lambda f: f / f0))
+        sec.set_xlabel("excitation frequency [Hz]", fontsize=8)
+    return _save(fig, path)
+
+
+def plot_force_harmonics(fh, path, *, sigma=None, zeta=None, title=None) -> Path:
+    """Contact-force harmonics of the stable responses against omega (Fig. 12-13 counterpart):
+    H1 (at omega), H2 (at 2 omega) and the subharmonic H1/2 (at omega/2)."""
+    line = fh.sel(sigma=fh["sigma"].values[0] if sigma is None else sigma, method="nearest")
+    line = line.sel(zeta=line["zeta"].values[0] if zeta is None else zeta, method="nearest")
+    rig = "force_amplitude_N" in line
+    amp = line["force_amplitude_N" if rig else "force_amplitude"]
+    unit = "N" if rig else "F/N"
+    xname = "frequency_hz" if "frequency_hz" in line.coords else "omega"
+    x = line[xname].values
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6), layout="constrained")
+    cls = line["orbit_class"].values
+    for ax, r, name in zip(axes, (1.0, 2.0, 0.5), ("H1 (excitation frequency)",
+                                                   "H2 (twice the excitation frequency)",
+                                                   "H1/2 (subharmonic)")):
+        a = amp.sel(ratio=r).values
+        for c, (color, label) in CLASS_STYLE.items():
+            sel = cls == c
+            if not sel.any():
+                continue
+            xx = np.broadcast_to(x[:, None], cls.shape)[sel]
+            stable = c in (1, 2, 3, 6)
+            ax.plot(xx, a[sel], "o" if stable else ".", ms=3 if stable else 2, color=color,
+                    label=label, ls="none")
+        ax.set_title(name, fontsize=9)
+        ax.set_xlabel("excitation frequency [Hz]" if xname == "frequency_hz" else "omega")
+        ax.set_ylabel(f"amplitude [{unit}]")
+    axes[0].legend(fontsize=7)
+    fig.suptitle(title or f"Contact-force harmonics, sigma = {float(line['sigma']):g}, "
+                 f"{_zlabel(float(line['zeta']))}", fontsize=10)
+    return _save(fig, path)
+
+
+def plot_time_histories(th, path, *, title=None, max_cases=6, largest_only=True) -> Path:
+    """F_exp against forcing cycles omega tau / 2 pi (paper Fig. 14-15), one panel per orbit.
+
+    ``largest_only``: one panel per omega, the orbit of largest ptp (the resonant response,
+    reached sweeping omega down as in the experiment); else every orbit of the product."""
+    if largest_only and th.sizes["case"] and "ptp" in th.coords:
+        keep = []
+        for w in np.unique(th["omega"].values)[::-1]:
+            idx = np.flatnonzero(th["omega"].values == w)
+            keep.append(int(idx[np.nanargmax(np.nan_to_num(th["ptp"].values[idx], nan=-1.0))]))
+        th = th.isel(case=keep)
+    n = min(int(th.sizes["case"]), max_cases)
+    fig, axes = plt.subplots(n, 1, figsize=(6.5, 1.6 * n + 0.7), layout="constrained",
+                             squeeze=False, sharex=True)
+    for i in range(n):
+        ax = axes[i][0]
+        c = th.isel(case=i)
+        ax.plot(c["time"], c["F_exp"], color="k", lw=1.0)
+        ax.axhline(-1.0, color="tab:red", lw=0.6, ls=":")
+        ax.set_ylabel("F_exp")
+        ax.text(0.01, 0.95, f"omega = {float(c['omega']):.4g}, {int(c['period'])}T"
+                + ("" if bool(c["stable"]) else " (unstable)"), transform=ax.transAxes,
+                va="top", fontsize=8)
+    axes[-1][0].set_xlabel("omega tau / 2 pi (forcing cycles)")
+    fig.suptitle(title or f"Normal force F_exp = F/N - 1, sigma = {th.attrs.get('sigma', '')}, "
+                 f"zeta = {th.attrs.get('zeta', '')}", fontsize=10)
+    return _save(fig, path)
+
+
+# ---------------------------------------------------------------------------------------------
+# the paper's analytic figures
+# ---------------------------------------------------------------------------------------------
+
+def paper_fig02(path) -> Path:
+    """Fig. 2: Hertz restoring force (1 + 2q/3)^(3/2) and its Taylor approximation (Eq. 10)."""
+    from study.rig import restoring_force
+
+    q = np.linspace(-2.0, 2.0, 401)
+    taylor = 1 + q + q**2 / 6 - q**3 / 54
+    fig, ax = plt.subplots(figsize=(5.5, 4), layout="constrained")
+    ax.plot(q, restoring_force(q, 1.5), "k", lw=2.2, label="Hertz (1 + 2q/3)^(3/2), Eq. 7")
+    ax.plot(q, taylor, "k", lw=0.9, label="Taylor, Eq. 10")
+    ax.axvline(-1.5, color="tab:red", lw=0.6, ls=":")
+    ax.axvline(P.TAYLOR_CONTACT_LOSS, color="tab:blue", lw=0.6, ls=":")
+    inside = (q >= -1) & (q <= 1)
+    err = np.max(np.abs(restoring_force(q[inside], 1.5) - taylor[inside]))
+    ax.text(0.02, 0.97, f"max |difference| on -1 < q < 1: {err:.4f}", transform=ax.transAxes,
+            va="top", fontsize=8)
+    ax.set_xlabel("q")
+    ax.set_ylabel("F / N")
+    ax.set_title("Fig. 2: restoring force", fontsize=10)
+    ax.legend(fontsize=8, loc="lower right")
+    return _save(fig, path)
+
+
+def paper_fig03(path, zeta=0.005) -> Path:
+    """Fig. 3: MMS regions I, II, III in (omega, sigma) with sigma1, sigma2 (zeta = 0.005)."""
+    from study import multiple_scales as mms
+
+    om = np.linspace(1.9, 2.1, 401)
+    sg = np.linspace(0.0, 1.0, 301)
+    W, S = np.meshgrid(om, sg)
+    reg = mms.region(W, S, zeta)
+    cur = P.mms_curves(om, [zeta])
+    fig, ax = plt.subplots(figsize=(6, 4.3), layout="constrained")
+    ax.pcolormesh(om, sg, reg, cmap=ListedColormap(["#fcbba1", "#c7e9c0", "#f0f0f0"]),
+                  vmin=0.5, vmax=3.5, shading="nearest", rasterized=True)
+    _draw_mms(ax, cur, zeta)
+    for lbl, (x, y) in {"I": (2.0, 0.7), "II": (1.94, 0.42), "III": (2.07, 0.15)}.items():
+        ax.text(x, y, lbl, fontsize=12, ha="center")
+    ax.set_xlabel("omega")
+    ax.set_ylabel("sigma")
+    ax.set_title(f"Fig. 3: MMS bifurcation set, zeta = {zeta:g}", fontsize=10)
+    ax.legend(fontsize=8, loc="lower right")
+    return _save(fig, path)
+
+
+def paper_fig04(path, sigma=0.5, zeta=0.01) -> Path:
+    """Fig. 4: MMS subharmonic amplitude A(omega), softening (sigma = 0.5, zeta = 0.01)."""
+    r = P.mms_response(np.linspace(1.5, 2.3, 1601), sigma, zeta)
+    fig, ax = plt.subplots(figsize=(5.5, 4), layout="constrained")
+    ax.plot(r["omega"], r["A_upper"], "k", lw=1.8, label="stable (+ root)")
+    ax.plot(r["omega"], r["A_lower"], "k", lw=0.8, ls="--", label="unstable (- root)")
+    ax.plot([1.5, 2.3], [0, 0], color="0.5", lw=0.8, label="trivial (A = 0)")
+    ax.set_xlabel("omega")
+    ax.set_ylabel("A")
+    ax.set_title(f"Fig. 4: MMS amplitude, sigma = {sigma:g}, zeta = {zeta:g}", fontsize=10)
+    ax.legend(fontsize=8)
+    return _save(fig, path)
+
+
+def paper_fig05(path, sigma=0.5, zeta=0.01, fr=None) -> Path:
+    """Fig. 5: min q of the MMS subharmonic response against omega, with the Taylor contact-loss
+    level -1.348 (Eq. 12); optionally the numerical stable 2T orbits of a store (``fr``)."""
+    r = P.mms_response(np.linspace(1.5, 2.3, 1601), sigma, zeta)
+    fig, ax = plt.subplots(figsize=(5.5, 4), layout="constrained")
+    ax.plot(r["omega"], r["min_q_upper"], "k", lw=1.8, label="MMS, stable branch")
+    ax.plot(r["omega"], r["min_q_lower"], "k", lw=0.8, ls="--", label="MMS, unstable branch")
+    ax.axhline(P.TAYLOR_CONTACT_LOSS, color="tab:blue", lw=0.8, ls=":",
+               label="Taylor contact loss -1.348 (Eq. 12)")
+    ax.axhline(-1.5, color="tab:red", lw=0.8, ls=":", label="Hertz contact loss -1.5")
+    if fr is not None:
+        line = fr.sel(sigma=sigma, zeta=zeta, method="nearest")
+        cls = line["orbit_class"].values
+        om = np.broadcast_to(line["omega"].values[:, None], cls.shape)
+        sel = np.isin(cls, (2, 3))
+        ax.plot(om[sel], line["min_q"].values[sel], "o", ms=2.5, color="tab:red",
+                label="shooting, stable 2T (Hertz)")
+    ax.set_xlim(1.5, 2.3)
+    ax.set_xlabel("omega")
+    ax.set_ylabel("min q")
+    ax.set_title(f"Fig. 5: min q, sigma = {sigma:g}, zeta = {zeta:g}", fontsize=10)
+    ax.legend(fontsize=7, loc="lower right")
+    return _save(fig, path)
+
+
+PAPER_FIGURES = {"fig02": paper_fig02, "fig03": paper_fig03, "fig04": paper_fig04,
+                 "fig05": paper_fig05}
+
+
+def plot_paper(figures: Iterable[str], out: str | Path = "results") -> list[Path]:
+    """The paper's analytic figures (no store): fig02, fig03, fig04, fig05 -> OUT/paper_figNN.png."""
+    paths = []
+    for f in figures:
+        if f not in PAPER_FIGURES:
+            raise ValueError(f"unknown paper figure {f!r}; choose from {', '.join(PAPER_FIGURES)}")
+        paths.append(PAPER_FIGURES[f](Path(out) / f"paper_{f}.png"))
+    return paths
+
+
+# ---------------------------------------------------------------------------------------------
+# a whole store
+# ---------------------------------------------------------------------------------------------
+
+def _zoom_for(fr, sigma, zeta):
+    """(1.85, 2.1) when the line is wider and has 2T orbits there (the detail of Fig. 6b)."""
+    line = fr.sel(sigma=sigma, zeta=zeta, method="nearest")
+    om = line["omega"].values
+    if not (om.min() < 1.85 and om.max() > 2.05):
+        return None
+    near = (om >= 1.85) & (om <= 2.1)
+    if not (line["period"].values[near] == 2).any():
+        return None
+    return (1.85, min(float(om.max()), 2.1))
+
+
+def plot_store(store: str | Path, out: str | Path = "results", which: Sequence[str] = ("auto",),
+               *, write_products: bool = True, prefix: str | None = None,
+               omegas: Sequence[float] | None = None) -> list[Path]:
+    """Products of a store (written back into it unless ``write_products`` is False) and the
+    figures it supports, into ``out`` as ``<study>_<figure>[_...].png``. Returns the paths.
+
+    ``which``: "auto" (everything the store supports), or names from :data:`WHICH`. Maps and
+    bifurcation sets need >= 2 omega and >= 2 sigma; response curves are drawn for studies
+    with at most 8 (sigma, zeta) lines; harmonics need the ``force_harmonics`` output; time
+    histories are drawn for studies with at most 8 omega values, or at ``omegas``.
+    """
+    which = tuple(which)
+    auto = "auto" in which
+    bad = [w for w in which if w not in WHICH + ("auto",)]
+    if bad:
+        raise ValueError(f"unknown figure(s) {bad}; choose from auto, {', '.join(WHICH)}")
+    store = Path(store)
+    ds = P.open_store(store)
+    prods = P.compute_products(ds, write=False)
+    if write_products:
+        for name, prod in prods.items():
+            P.write_product(store, name, prod)
+    rig = P.rig_of(ds)
+    name = prefix or ds.attrs.get("hertzmap_study_name") or store.stem
+    out = Path(out)
+    paths: list[Path] = []
+    is_map = ds.sizes["omega"] >= 2 and ds.sizes["sigma"] >= 2
+    nlines = ds.sizes["sigma"] * ds.sizes["zeta"]
+    lcm, curves, mms = prods["loss_of_contact_map"], prods["bifurcation_curves"], prods["mms_curves"]
+    zetas = ds["zeta"].values
+    multi_z = len(zetas) > 1
+    for z in zetas:
+        zs = f"_zeta{z:g}" if multi_z else ""
+        if is_map and (auto or "map" in which):
+            paths.append(plot_loss_of_contact_map(lcm, curves, out / f"{name}_map{zs}.png",
+                                                  zeta=z, mms=mms))
+        if is_map and (auto or "measures" in which):
+            paths.append(plot_map_measures(lcm, out / f"{name}_measures{zs}.png", zeta=z,
+                                           curves=curves))
+        if is_map and (auto or "bifurcation" in which):
+            om = ds["omega"].values
+            paths.append(plot_bifurcation_set(curves, mms, out / f"{name}_bifurcation{zs}.png",
+                                              zeta=z, lcm=lcm,
+                                              omega_range=(float(om.min()), float(om.max())),
+                                              sigma_range=(float(ds["sigma"].min()),
+                                                           float(ds["sigma"].max()))))
+    few = ds.sizes["omega"] <= 8        # a scene of named frequencies: time histories only
+    if "frequency_response" in prods and (auto and nlines <= 8 and not few or "response" in which):
+        fr = prods["frequency_response"]
+        for s in ds["sigma"].values:
+            for z in zetas:
+                tag = f"_sigma{s:g}" + (f"_zeta{z:g}" if multi_z else "") if nlines > 1 else ""
+                if ds.sizes["omega"] >= 2:
+                    paths.append(plot_frequency_response(
+                        fr, out / f"{name}_response{tag}.png", sigma=s, zeta=z,
+                        zoom=_zoom_for(fr, s, z), mms=prods.get("mms_response")))
+    if "force_harmonics" in prods and (auto and not few or "harmonics" in which) \
+            and ds.sizes["omega"] >= 2:
+        fh = prods["force_harmonics"]
+        for s in ds["sigma"].values[:4]:
+            for z in zetas[:2]:
+                tag = f"_sigma{s:g}" + (f"_zeta{z:g}" if multi_z else "") if nlines > 1 else ""
+                paths.append(plot_force_harmonics(fh, out / f"{name}_harmonics{tag}.png",
+                                                  sigma=s, zeta=z))
+    want_hist = "histories" in which or (auto and few)
+    if want_hist:
+        th = P.time_histories(ds, omegas, rig=rig)
+        if write_products:
+            P.write_product(store, "time_histories", th)
+        if th.sizes["case"]:
+            paths.append(plot_time_histories(th, out / f"{name}_histories.png"))
+    return paths
+
+
+def plot_command(args) -> int:
+    """``hertzmap plot`` (scheduler/cli.py): returns the exit code (0, or 2 on a usage error)."""
+    import sys
+
+    if args.store is None and not args.paper:
+        print("hertzmap: error: plot: give a STORE or --paper FIG ...", file=sys.stderr)
+        return 2
+    try:
+        paths = plot_paper(args.paper, args.out) if args.paper else []
+        if args.store is not None:
+            if not (Path(args.store) / "zarr.json").is_file():
+                raise ValueError(f"{args.store} is not a zarr store")
+            paths += plot_store(args.store, args.out, args.which,
+                                write_products=not args.no_products)
+    except (ValueError, KeyError, FileNotFoundError, RuntimeError) as exc:
+        print(f"hertzmap: error: plot: {exc}", file=sys.stderr)
+        return 2
+    for p in paths:
+        print(p)
+    if args.store is not None and not args.no_products:
+        print(f"products: {', '.join(P.list_products(args.store))} in {args.store}/products/")
+    return 0
