@@ -625,6 +625,17 @@ def continue_curve(zeta, x0, omega, sigma, *, kind="fold", period=2, direction=1
             h *= 0.5
         if r is None:
             status = STEP_FAIL
+            asym = pts.get("asym", [])
+            if m == 2 and len(asym) > 2 and asym[-1] <= 1e-2 * max(asym):
+                # stuck next to the 1T orbit: the codimension-2 point where the fold curve
+                # meets the flip curve makes the system singular there
+                ul = us[-1]
+                branch.special.append(SpecialPoint("flip_meets_fold", m, float(ul[2]),
+                                                   float(ul[3]), ul[:2].copy(),
+                                                   np.array([np.nan, np.nan], complex),
+                                                   float(pts["fold"][-1]), float(asym[-1]), 0,
+                                                   len(us) - 1))
+                status = BRANCH_POINT
             break
         t = tn
         rec = record(un, Mn)

@@ -1,0 +1,96 @@
+"""study.discovery: isolas from transients alone, de-duplication, Fig. 6 classes, located points,
+and the block solver's discover option."""
+import numpy as np
+import pytest
+
+from kernels import shoot
+from kernels import status as st
+from study import block, discovery
+
+Z = 0.01
+ISOLA_FOLDS = (1.1082755, 1.7879383)   # zeta 0.01, sigma 0.2 (docs/discovery.md)
+
+
+@pytest.fixture(scope="module")
+def isola_line():
+    omega = np.linspace(1.0, 2.0, 11)
+    return discovery.discover_line(omega, 0.2, Z, sweep=False,
+                                   initial=[[] for _ in omega], transients=16)
+
+
+def test_isola_from_transients_alone(isola_line):
+    """No sweep, no MMS seed, no hand-given guess: transients land on the isola's stable half,
+    continuation finds its unstable half and both folds."""
+    counts = isola_line.classes().sum(axis=0)
+    assert counts[discovery.CLASS_2T_STABLE_LOSS - 1] >= 5
+    assert counts[discovery.CLASS_2T_UNSTABLE_LOSS - 1] >= 5
+    folds = sorted(d["omega"] for d in isola_line.special
+                   if d["kind"] == "fold" and d["period"] == 2)
+    assert np.allclose(folds, ISOLA_FOLDS, atol=1e-6)
+    closed = [b for b in isola_line.branches if b.period == 2]
+    assert closed and all(b.status == 0 or b.status == 1 for b in closed)   # boundary/closed
+
+
+def test_solutions_distinct_and_genuine(isola_line):
+    for i, sols in enumerate(isola_line.solutions):
+        assert all(s["status"] == st.CONVERGED for s in sols)
+        for a in range(len(sols)):
+            for b in range(a + 1, len(sols)):
+                assert not block._same_orbit(sols[a], sols[b])
+        for s in sols:
+            o = shoot(isola_line.omega[i], 0.2, Z, s["period"], s["x0"])
+            assert o.converged and o.minimal_period == s["period"]
+            assert abs(o.ptp - s["ptp"]) < 1e-7
+
+
+def test_2t_shift_is_one_orbit():
+    w, s = 1.5, 0.2
+    o = shoot(w, s, Z, 2, (-3.06, -1.40))
+    assert o.converged and o.minimal_period == 2
+    from kernels import simulate
+    x_shift = simulate(w, s, Z, o.x0, periods=1, samples_per_period=1)["final"]
+    sols = discovery._solve(w, s, Z, 2, [tuple(o.x0), tuple(x_shift)], dict(rtol=1e-10))
+    assert np.hypot(*(sols[0]["x0"] - sols[1]["x0"])) > 0.1
+    found = []
+    block._merge(found, sols)
+    assert len(found) == 1
+
+
+def test_2t_solve_landing_on_1t_is_the_1t_orbit():
+    w, s = 1.5, 0.2
+    one = shoot(w, s, Z, 1, (0.0, 0.0))
+    sols = discovery._solve(w, s, Z, 2, [tuple(one.x0 + 1e-3)], dict(rtol=1e-10))
+    assert sols[0]["period"] == 1
+    assert np.allclose(np.sort_complex(sols[0]["multipliers"]),
+                       np.sort_complex(one.multipliers), atol=1e-8)
+
+
+def test_classify():
+    base = dict(period=2, stable=True, loses_contact=True)
+    assert discovery.classify(base) == discovery.CLASS_2T_STABLE_LOSS
+    assert discovery.classify({**base, "stable": False}) == discovery.CLASS_2T_UNSTABLE_LOSS
+    assert discovery.classify({**base, "loses_contact": False}) == discovery.CLASS_2T_STABLE
+    assert discovery.classify({**base, "period": 1}) == discovery.CLASS_1T_STABLE
+    o = shoot(1.5, 0.2, Z, 1, (0.0, 0.0))
+    assert discovery.classify(o) == discovery.CLASS_1T_STABLE
+
+
+def test_initial_states_deterministic():
+    a = discovery.initial_states(16)
+    assert a == discovery.initial_states(16) and len(a) == 16 and a[0] == (0.0, 0.0)
+    assert discovery.transient_periods(1.5, 0.01) % 2 == 0
+
+
+def test_block_discover_option_keeps_contract():
+    omega = np.linspace(1.3, 1.7, 3)
+    out = block.solve_block(omega, [0.2], [Z], discover=True, transients=8)
+    ref = block.solve_block(omega, [0.2], [Z])
+    for name, (dtype, _, trail) in block.VARIABLES.items():
+        assert out[name].shape == (3, 1, 1, 4) + trail
+        assert out[name].dtype == dtype
+    # slot 0 is the 1T orbit; the isola's two 2T orbits are there at every point
+    assert np.all(out["period"][:, 0, 0, 0] == 1)
+    two = (out["period"] == 2) & (out["status"] == 0)
+    assert np.all(two.sum(axis=-1)[:, 0, 0] == 2)
+    assert np.all(out["loses_contact"][two])
+    assert (ref["status"] == 0).sum() <= (out["status"] == 0).sum()
