@@ -1,0 +1,305 @@
+"""Work-precision benchmark (``hertzmap bench``): error of periodic orbits against run time.
+
+For each case a reference orbit is solved by hertzmap at rtol = 1e-13. Every method then starts
+Newton from the same guess (reference + (1e-2, 1e-2)) and is scored by
+
+* the error of the start point, max |x0 - x0_ref|, and of the Floquet multipliers (the two
+  multipliers matched to the reference's, largest |mu - mu_ref|);
+* the time per orbit (median of repeated calls where affordable).
+
+Methods:
+
+* ``hertzmap``: the numba entry point ``kernels.shooting.shoot_batch_into`` over a batch of
+  identical solves (what the grid solver calls), per orbit, at rtol 1e-5 .. 1e-11;
+* ``paper-cd``: the paper's scheme (``kernels.central_difference.cd_shoot``: central
+  differences, N steps per period, forward-difference Newton Jacobian), N = 1000 .. 30000; its
+  multipliers are the eigenvalues of that Jacobian at the last iterate;
+* ``scipy-DOP853`` / ``scipy-Radau``: ``scipy.integrate.solve_ivp`` with the contact switches as
+  terminal events and restarts (as ``tests/oracle.py``; Radau with the analytic Jacobian of the
+  vector field), ``scipy.optimize.root`` (hybr) on Phi(x) - x; multipliers from central finite
+  differences of the period map (4 more maps, included in the time).
+
+Speed ratios at equal accuracy: for every point of another method, the fastest hertzmap run whose
+start-point error is <= that point's error (so ratios never favour hertzmap by interpolation).
+Writes ``<out>/bench.csv`` and ``<out>/bench.png`` (log-log, error vs time per orbit).
+No Dask involved.
+"""
+from __future__ import annotations
+
+import csv
+import os
+import platform
+import time
+from dataclasses import dataclass
+from math import pi
+from pathlib import Path
+
+import numpy as np
+
+CASES = [
+    # name, omega, sigma, zeta, period, rough guess
+    ("1T in contact", 1.5, 0.2, 0.01, 1, (-0.16, 0.006)),
+    ("1T long flights", 0.8, 1.5, 0.01, 1, (-7.7, 0.17)),
+    ("2T contact loss", 1.9, 0.5, 0.01, 2, (-0.09, 1.5)),
+]
+N_EXP = 1.5
+REF_RTOL = 1e-13
+
+FULL = dict(rtols=(1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11), cd_steps=(1000, 3000, 10000, 30000),
+            dop853=(1e-6, 1e-8, 1e-10, 1e-12), radau=(1e-5, 1e-7, 1e-9), budget=0.5, scipy_reps=3)
+QUICK = dict(rtols=(1e-5, 1e-7, 1e-9, 1e-11), cd_steps=(1000, 10000), dop853=(1e-7, 1e-10),
+             radau=(1e-6,), budget=0.15, scipy_reps=1)
+
+
+@dataclass
+class Point:
+    case: str
+    method: str
+    setting: str          # rtol or N
+    status: str
+    err_x0: float
+    err_mult: float
+    seconds: float        # per orbit
+    steps: float = float("nan")
+
+
+# -- timing -----------------------------------------------------------------------------------
+
+def per_call(fn, budget: float) -> float:
+    """Median seconds per call over 5 rounds filling about ``budget`` seconds."""
+    fn()
+    t0 = time.perf_counter()
+    fn()
+    one = time.perf_counter() - t0
+    reps = max(1, min(400, int(budget / 5 / max(one, 1e-7))))
+    times = []
+    for _ in range(5):
+        t0 = time.perf_counter()
+        for _ in range(reps):
+            fn()
+        times.append((time.perf_counter() - t0) / reps)
+    return float(np.median(times))
+
+
+def mult_error(mu, mu_ref) -> float:
+    mu = np.asarray(mu, complex)
+    mu_ref = np.asarray(mu_ref, complex)
+    if not np.all(np.isfinite(mu)):
+        return float("nan")
+    a = max(abs(mu[0] - mu_ref[0]), abs(mu[1] - mu_ref[1]))
+    b = max(abs(mu[0] - mu_ref[1]), abs(mu[1] - mu_ref[0]))
+    return float(min(a, b))
+
+
+# -- scipy (independent of kernels/, as tests/oracle.py) ----------------------------------------
+
+def scipy_map(x, omega, sigma, zeta, m, method, rtol, n=N_EXP, max_events=1000):
+    """Phi_{mT}(x) by solve_ivp with the contact switches q = -n as terminal events and restarts;
+    the event direction alternates so that a restart on the surface does not re-detect it."""
+    from scipy.integrate import solve_ivp
+
+    def rhs(t, y):
+        s = 1.0 + y[0] / n
+        return [y[1], 1.0 + sigma * np.cos(omega * t) - 2.0 * zeta * y[1] - (s ** n if s > 0 else 0.0)]
+
+    def jac(t, y):
+        s = 1.0 + y[0] / n
+        return [[0.0, 1.0], [-(s ** (n - 1.0) if s > 0 else 0.0), -2.0 * zeta]]
+
+    def surface(t, y):
+        return y[0] + n
+    surface.terminal = True
+
+    t, t1 = 0.0, m * 2.0 * pi / omega
+    y = np.array(x, float)
+    kw = dict(method=method, rtol=rtol, atol=rtol)
+    if method == "Radau":
+        kw["jac"] = jac
+    direction = -1.0 if y[0] + n > 0.0 or (y[0] + n == 0.0 and y[1] >= 0.0) else 1.0
+    for _ in range(max_events):
+        surface.direction = direction
+        sol = solve_ivp(rhs, (t, t1), y, events=surface, **kw)
+        if sol.status == 1 and sol.t_events[0].size:
+            t = float(sol.t_events[0][0])
+            y = sol.y_events[0][0].copy()
+            y[0] = -n
+            direction = -direction      # loss -> next is a recontact, and back
+            continue
+        if sol.status < 0:
+            return np.full(2, np.nan)
+        return sol.y[:, -1]
+    return np.full(2, np.nan)
+
+
+def scipy_orbit(guess, omega, sigma, zeta, m, method, rtol):
+    """(x0, multipliers, ok): root (hybr) on Phi(x) - x, monodromy by central differences."""
+    from scipy.optimize import root
+
+    def g(x):
+        if not np.all(np.isfinite(x)) or np.abs(x).max() > 1e6:
+            return np.full(2, 1e6)
+        return scipy_map(x, omega, sigma, zeta, m, method, rtol) - x
+    sol = root(g, np.asarray(guess, float), method="hybr", options={"xtol": max(rtol, 1e-13)})
+    x = sol.x
+    delta = max(1e-7, 1e2 * rtol) ** 0.5 * 1e-2       # ~ balanced truncation / tolerance noise
+    M = np.empty((2, 2))
+    for j in range(2):
+        e = np.zeros(2)
+        e[j] = delta
+        M[:, j] = (scipy_map(x + e, omega, sigma, zeta, m, method, rtol)
+                   - scipy_map(x - e, omega, sigma, zeta, m, method, rtol)) / (2 * delta)
+    if not np.all(np.isfinite(M)):
+        return x, np.full(2, np.nan), False
+    return x, np.linalg.eigvals(M), bool(sol.success)
+
+
+# -- one case ---------------------------------------------------------------------------------
+
+def run_case(name, omega, sigma, zeta, m, rough, cfg, log=print) -> list[Point]:
+    from kernels import shoot
+    from kernels import status as kst
+    from kernels.central_difference import cd_shoot
+    from kernels.shooting import FIELDS, N_FIELDS, shoot_batch_into
+
+    ref = shoot(omega, sigma, zeta, m, guess=rough, rtol=REF_RTOL, exponent=N_EXP)
+    if not ref.converged:
+        raise RuntimeError(f"{name}: reference did not converge ({ref.status_name})")
+    guess = ref.x0 + 1e-2
+    pts: list[Point] = []
+    F = {f: i for i, f in enumerate(FIELDS)}
+
+    nb = 64
+    args = [np.full(nb, v) for v in (omega, sigma, zeta)] + [np.full(nb, m, np.int64)] + \
+        [np.full(nb, guess[0]), np.full(nb, guess[1])]
+    res = np.empty((nb, N_FIELDS))
+    for rtol in cfg["rtols"]:
+        batch = lambda: shoot_batch_into(*args, N_EXP, 0, rtol, rtol, 40, 200_000, res)  # noqa: E731
+        t = per_call(batch, cfg["budget"]) / nb
+        r = res[0]
+        mu = [complex(r[F["multiplier1_re"]], r[F["multiplier1_im"]]),
+              complex(r[F["multiplier2_re"]], r[F["multiplier2_im"]])]
+        pts.append(Point(name, "hertzmap", f"{rtol:.0e}", kst.NAMES[int(r[F["status"]])],
+                         float(np.abs(r[1:3] - ref.x0).max()), mult_error(mu, ref.multipliers), t,
+                         float(r[F["steps"]])))
+
+    out = np.zeros(9)
+    for N in cfg["cd_steps"]:
+        fn = lambda: cd_shoot(omega, sigma, zeta, m, guess[0], guess[1], N_EXP, 0, N, 40, 1e-10, out)  # noqa: E731
+        t = per_call(fn, cfg["budget"])
+        mu = np.linalg.eigvals(out[5:9].reshape(2, 2))
+        pts.append(Point(name, "paper-cd", str(N), kst.NAMES[int(out[0])],
+                         float(np.abs(out[1:3] - ref.x0).max()), mult_error(mu, ref.multipliers), t,
+                         float(N * m)))
+
+    for method, rtols in (("DOP853", cfg["dop853"]), ("Radau", cfg["radau"])):
+        scipy_map(guess, omega, sigma, zeta, m, method, 1e-6)       # warm scipy's code paths
+        for rtol in rtols:
+            times = []
+            for _ in range(cfg["scipy_reps"]):
+                t0 = time.perf_counter()
+                x, mu, ok = scipy_orbit(guess, omega, sigma, zeta, m, method, rtol)
+                times.append(time.perf_counter() - t0)
+            pts.append(Point(name, f"scipy-{method}", f"{rtol:.0e}",
+                             "converged" if ok else "not_converged",
+                             float(np.abs(x - ref.x0).max()), mult_error(mu, ref.multipliers),
+                             float(np.median(times))))
+    for p in pts:
+        log(f"  {p.method:13s} {p.setting:>6s} {p.status:13s} err x0 {p.err_x0:8.1e}  "
+            f"err mu {p.err_mult:8.1e}  {p.seconds * 1e3:10.3f} ms")
+    return pts
+
+
+def ratios(pts: list[Point]) -> list[tuple[str, str, str, float, float, float]]:
+    """(case, method, setting, its error, its time / fastest hertzmap time at <= that error)."""
+    out = []
+    for case in dict.fromkeys(p.case for p in pts):
+        hm = [p for p in pts if p.case == case and p.method == "hertzmap" and p.status == "converged"]
+        for p in pts:
+            if p.case != case or p.method == "hertzmap" or not np.isfinite(p.err_x0):
+                continue
+            ok = [h for h in hm if h.err_x0 <= p.err_x0]
+            if not ok:
+                out.append((case, p.method, p.setting, p.err_x0, p.seconds, float("nan")))
+                continue
+            best = min(ok, key=lambda h: h.seconds)
+            out.append((case, p.method, p.setting, p.err_x0, p.seconds, p.seconds / best.seconds))
+    return out
+
+
+def write_csv(pts: list[Point], path: Path) -> None:
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["case", "method", "setting", "status", "err_x0", "err_multipliers",
+                    "seconds_per_orbit", "steps"])
+        for p in pts:
+            w.writerow([p.case, p.method, p.setting, p.status, f"{p.err_x0:.3e}",
+                        f"{p.err_mult:.3e}", f"{p.seconds:.4e}", p.steps])
+
+
+def plot(pts: list[Point], path: Path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cases = list(dict.fromkeys(p.case for p in pts))
+    fig, axes = plt.subplots(1, len(cases), figsize=(4.2 * len(cases), 3.8), sharey=True)
+    axes = np.atleast_1d(axes)
+    style = {"hertzmap": "o-", "paper-cd": "s-", "scipy-DOP853": "^-", "scipy-Radau": "v-"}
+    for ax, case in zip(axes, cases):
+        for method, mk in style.items():
+            sel = [p for p in pts if p.case == case and p.method == method]
+            if not sel:
+                continue
+            ax.loglog([p.seconds for p in sel], [max(p.err_x0, 1e-16) for p in sel], mk,
+                      label=method, ms=4)
+        ax.set_title(case, fontsize=10)
+        ax.set_xlabel("time per orbit [s]")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].set_ylabel("start-point error vs rtol 1e-13")
+    axes[0].legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def run_bench(out_dir: Path = Path("results"), quick: bool = False, log=print) -> dict:
+    cfg = QUICK if quick else FULL
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    t_all = time.perf_counter()
+    log(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+        f"load average {os.getloadavg()[0]:.2f} (timings are noisy on a shared machine)")
+    pts: list[Point] = []
+    for name, w, s, z, m, rough in CASES:
+        log(f"{name} (omega {w}, sigma {s}, zeta {z}, {m}T)")
+        pts += run_case(name, w, s, z, m, rough, cfg, log)
+    suffix = "_quick" if quick else ""
+    csv_path, png_path = out_dir / f"bench{suffix}.csv", out_dir / f"bench{suffix}.png"
+    write_csv(pts, csv_path)
+    plot(pts, png_path)
+    log("")
+    log("speed-up of hertzmap at equal or better start-point accuracy "
+        "(other method's time / fastest hertzmap time with error <= its error):")
+    rs = ratios(pts)
+    summary = {}
+    for case in dict.fromkeys(r[0] for r in rs):
+        for method in dict.fromkeys(r[1] for r in rs):
+            sel = [r for r in rs if r[0] == case and r[1] == method]
+            if not sel:
+                continue
+            cells = "  ".join(f"{st}: {x:.0f}x" if np.isfinite(x) else f"{st}: (err {e:.0e} < hm)"
+                              for _, _, st, e, _, x in sel)
+            log(f"  {case:16s} {method:13s} {cells}")
+    for method in dict.fromkeys(r[1] for r in rs):
+        per_case = []
+        for case in dict.fromkeys(r[0] for r in rs):
+            xs = [r[5] for r in rs if r[0] == case and r[1] == method and np.isfinite(r[5])]
+            if xs:
+                per_case.append(min(xs))
+        if per_case:
+            summary[method] = (min(per_case), float(np.median([r[5] for r in rs if r[1] == method
+                                                                 and np.isfinite(r[5])])))
+            log(f"  {method:13s} worst setting per case, min over cases {summary[method][0]:.0f}x;"
+                f" median over all settings {summary[method][1]:.0f}x")
+    log(f"wrote {csv_path} and {png_path} ({time.perf_counter() - t_all:.0f} s)")
+    return {"points": pts, "ratios": rs, "summary": summary, "csv": csv_path, "png": png_path}
