@@ -178,6 +178,20 @@ def cmd_plot(args: argparse.Namespace) -> int:
     return plot_command(args)
 
 
+# -- bench (study/benchmark.py) --------------------------------------------------------------
+
+def _bench_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--out", type=Path, default=Path("results"), help="folder for bench.csv and bench.png")
+    p.add_argument("--quick", action="store_true", help="fewer tolerances and repeats (< 2 min)")
+
+
+@subcommand("bench", "work-precision benchmark: hertzmap vs the paper's scheme vs scipy")(_bench_args)
+def cmd_bench(args: argparse.Namespace) -> int:
+    from study.benchmark import run_bench
+    run_bench(args.out, quick=args.quick)
+    return EXIT_OK
+
+
 # -- entry point ------------------------------------------------------------------------------
 
 def build_parser() -> argparse.ArgumentParser:
