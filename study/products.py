@@ -799,14 +799,31 @@ def time_histories(ds: xr.Dataset, omegas: Iterable[float] | None = None,
 # derived numbers (VALIDATION.md)
 # ---------------------------------------------------------------------------------------------
 
-def flip_minimum(curves: xr.Dataset, zeta: float) -> tuple[float, float]:
-    """(omega, sigma) of the lowest point of the numerical flip curve at ``zeta`` (sigma*)."""
-    segs = curve_segments(curves, "flip_1T", zeta)
-    if not segs:
+def flip_minimum(lcm: xr.Dataset, zeta: float) -> tuple[float, float]:
+    """(omega, sigma) of the lowest point of the numerical flip curve at ``zeta`` (sigma*).
+
+    On each omega line of the grid, the lowest sigma where ``flip_indicator_1T`` changes sign
+    (+ to -) is interpolated linearly; a parabola through the lowest such crossing and its two
+    neighbours gives the minimum (accurate when the omega step is below about zeta)."""
+    m = lcm.sel(zeta=zeta, method="nearest")
+    f = m["flip_indicator_1T"].transpose("omega", "sigma").values
+    om, sg = m["omega"].values, m["sigma"].values
+    cross = np.full(om.size, np.nan)
+    for i in range(om.size):
+        with np.errstate(invalid="ignore"):
+            k = np.flatnonzero((f[i, :-1] > 0) & (f[i, 1:] <= 0))
+        if k.size:
+            j = k[0]
+            cross[i] = sg[j] + (sg[j + 1] - sg[j]) * f[i, j] / (f[i, j] - f[i, j + 1])
+    if not np.isfinite(cross).any():
         return (np.nan, np.nan)
-    pts = np.concatenate(segs)
-    i = int(np.argmin(pts[:, 1]))
-    return float(pts[i, 0]), float(pts[i, 1])
+    i = int(np.nanargmin(cross))
+    if 0 < i < om.size - 1 and np.isfinite(cross[i - 1:i + 2]).all():
+        a, b, c = np.polyfit(om[i - 1:i + 2], cross[i - 1:i + 2], 2)
+        if a > 0:
+            w = -b / (2 * a)
+            return float(w), float(c - b * b / (4 * a))
+    return float(om[i]), float(cross[i])
 
 
 def branch_end(fr: xr.Dataset, classes: Iterable[int] = (2, 3), side: str = "low"
