@@ -94,8 +94,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         spec.check()
     except ClusterError as exc:
         return _error(str(exc))
-    if args.task_seconds is not None and not args.task_seconds > 0:
-        return _error(f"--task-seconds must be > 0, got {args.task_seconds}")
+    if args.task_seconds is not None and not 0 < args.task_seconds < float("inf"):
+        return _error(f"--task-seconds must be > 0 and finite, got {args.task_seconds}")
     if args.error_sample is not None and args.error_sample < 0:
         return _error(f"--error-sample must be >= 0, got {args.error_sample}")
     if spec.kind == "local" and spec.workers is None:
@@ -111,11 +111,11 @@ def cmd_run(args: argparse.Namespace) -> int:
         error_sample=8 if args.error_sample is None else args.error_sample,
         command=f"hertzmap run {args.study}",
     )
-    if args.dry_run:
-        print(describe(study, opts))
-        print("dry run: nothing written")
-        return EXIT_OK
     try:
+        if args.dry_run:
+            print(describe(study, opts))
+            print("dry run: nothing written")
+            return EXIT_OK
         summary = run_study(study, opts)
     except (StoreError, RunError, ClusterError) as exc:
         return _error(str(exc))
@@ -130,6 +130,8 @@ def cmd_run(args: argparse.Namespace) -> int:
 def _status_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("store", type=Path, help="a store written by hertzmap run")
     p.add_argument("--json", action="store_true", help="print the status as JSON")
+    p.add_argument("--check", action="store_true", help="also read every chunk of the tasks "
+                   "flagged done; exit 1 if any is missing or unreadable (rerun to repair)")
 
 
 @subcommand("status", "tasks done/total, study name and hash, versions of a store")(_status_args)
@@ -137,12 +139,14 @@ def cmd_status(args: argparse.Namespace) -> int:
     from scheduler.store import StoreError, store_status
 
     try:
-        info = store_status(args.store)
+        info = store_status(args.store, check=args.check)
     except (StoreError, KeyError, FileNotFoundError) as exc:
         return _error(str(exc))
+    damaged = info.get("damaged") or {}
+    rc = EXIT_FAILED if damaged else EXIT_OK
     if args.json:
         print(json.dumps(info, indent=2, default=str))
-        return EXIT_OK
+        return rc
     total, done = info["tasks_total"], info["tasks_done"]
     state = "complete" if done == total else ("in progress (locked)" if info["locked_by"]
                                               else "incomplete: rerun hertzmap run to resume")
@@ -156,7 +160,11 @@ def cmd_status(args: argparse.Namespace) -> int:
     if info["locked_by"]:
         print(f"lock      held by host {info['locked_by'].get('host')} pid {info['locked_by'].get('pid')}")
     print("history   " + (info.get("history") or "").replace("\n", "\n          "))
-    return EXIT_OK
+    if args.check:
+        print(f"check     {len(damaged)} damaged task(s)" + (
+            "; rerun hertzmap run to recompute them: " + "; ".join(
+                f"{k}: {', '.join(v)}" for k, v in list(damaged.items())[:5]) if damaged else ": ok"))
+    return rc
 
 
 # -- plot (study/plots.py) --------------------------------------------------------------------

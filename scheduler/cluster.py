@@ -27,6 +27,11 @@ def default_workers() -> int:
         return max(1, os.cpu_count() or 1)
 
 
+def max_local_workers() -> int:
+    """Most worker processes an embedded LocalCluster may start (16 per core)."""
+    return 16 * default_workers()
+
+
 def parse_cluster_options(items: list[str]) -> dict[str, Any]:
     """``KEY=VALUE`` strings to kwargs; VALUE is read as a TOML value when it parses as one
     (numbers, booleans, quoted strings, [lists]), else kept as a plain string."""
@@ -68,6 +73,15 @@ class ClusterSpec:
                                "pip install 'hertzmap[jobqueue]'")
         if self.workers is not None and self.workers < 1:
             raise ClusterError(f"--workers must be >= 1, got {self.workers}")
+        if self.kind == "local" and self.workers is not None and self.workers > max_local_workers():
+            raise ClusterError(f"--workers {self.workers} is more than a local cluster can run "
+                               f"here (at most {max_local_workers()} processes: 16 per core); "
+                               "use --scheduler or --cluster for more")
+        if self.kind == "address" and self.address is not None and (
+                not isinstance(self.address, str) or not self.address.strip()
+                or any(c.isspace() for c in self.address)):
+            raise ClusterError(f"--scheduler: expected an address such as tcp://host:8786, "
+                               f"got {self.address!r}")
 
 
 def _dashboard_address() -> str | None:
@@ -80,7 +94,11 @@ def make_client(spec: ClusterSpec):
 
     spec.check()
     if spec.kind == "address":
-        client = Client(spec.address, timeout="30s")
+        try:
+            client = Client(spec.address, timeout="30s")
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise ClusterError(f"--scheduler {spec.address}: cannot connect to a Dask scheduler "
+                               f"there ({type(exc).__name__}: {exc})") from None
         return client, None
     if spec.kind == "local":
         cluster = LocalCluster(n_workers=spec.workers or default_workers(), threads_per_worker=1,

@@ -8,10 +8,15 @@ the tasks not flagged.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib.util
 import math
+import os
+import shutil
+import signal
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,7 +24,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from scheduler.cluster import ClusterSpec, make_client, worker_count
+from scheduler.cluster import ClusterError, ClusterSpec, make_client, worker_count
 from scheduler.plan import DEFAULT_TASK_SECONDS, Plan, Task, choose_chunks, make_plan
 from scheduler.store import Lock, Store, StoreError, open_or_create, read_attrs
 from scheduler.worker import DEFAULT_SOLVER, Warmup, run_task, solve_points
@@ -88,8 +93,86 @@ def plan_for(study: Study, store_path: Path, task_seconds: float) -> tuple[Plan,
     return plan, "new"
 
 
+#: Bytes the client holds per task while a study runs (plan, spec, future, bookkeeping).
+CLIENT_BYTES_PER_TASK = 8_000
+#: Refuse when the store's estimate exceeds this fraction of the free disk space / inodes.
+DISK_MARGIN = 0.95
+#: Set to 1 to skip the disk-space check (e.g. the store compresses far below its
+#: uncompressed estimate, or a file system that misreports its free space).
+SKIP_SPACE_ENV = "HERTZMAP_SKIP_SPACE_CHECK"
+
+
+def _existing_parent(path: Path) -> Path:
+    p = Path(path).absolute()
+    while not p.exists() and p != p.parent:
+        p = p.parent
+    return p
+
+
+def _available_memory() -> int | None:
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def resource_estimate(study: Study, plan: Plan) -> dict[str, int]:
+    """Bytes and files a run needs: the store (uncompressed), its chunk files, the client's
+    memory, one block in a worker's memory."""
+    bpp = bytes_per_point(study)
+    n_tasks = len(plan.tasks)
+    block_points = math.prod(plan.chunks)
+    return {
+        "store_bytes": study.size * bpp + n_tasks * 64,
+        "store_files": n_tasks * (len(stored_variables(study)) + 1) + 64,
+        "client_bytes": n_tasks * CLIENT_BYTES_PER_TASK + 4 * block_points * bpp
+        + 64 * sum(study.shape),
+        "block_bytes": 4 * block_points * bpp,
+    }
+
+
+def check_resources(study: Study, plan: Plan, store_path: Path, *, new_store: bool) -> dict[str, int]:
+    """Refuse (RunError naming ``grid``) a study whose store cannot fit on the disk of
+    ``store_path`` or whose bookkeeping cannot fit in this machine's memory. Reads only."""
+    est = resource_estimate(study, plan)
+    where = _existing_parent(store_path)
+    shape = " x ".join(str(n) for n in study.shape)
+    if new_store and os.environ.get(SKIP_SPACE_ENV, "") not in ("1", "true", "yes"):
+        try:
+            free = shutil.disk_usage(where).free
+            vfs = os.statvfs(where)
+            free_files = vfs.f_favail if vfs.f_files else None
+        except OSError:
+            free, free_files = None, None
+        if free is not None and est["store_bytes"] > DISK_MARGIN * free:
+            raise RunError(
+                f"grid: {shape} points x {study.max_solutions} slots need a store of about "
+                f"{_fmt_bytes(est['store_bytes'])} (uncompressed), more than the "
+                f"{_fmt_bytes(free)} free at {where}; split the study, use fewer "
+                f"solution slots or products, or --store on a larger disk "
+                f"({SKIP_SPACE_ENV}=1 to skip this check)")
+        if free_files is not None and est["store_files"] > DISK_MARGIN * free_files:
+            raise RunError(
+                f"grid: the store needs about {est['store_files']} files (one per chunk and "
+                f"variable), more than the {free_files} free inodes at {where}; raise "
+                f"--task-seconds (fewer, larger chunks) or split the study")
+    mem = _available_memory()
+    if mem is not None and est["client_bytes"] > mem:
+        raise RunError(
+            f"grid: {shape} points in {len(plan.tasks)} tasks need about "
+            f"{_fmt_bytes(est['client_bytes'])} of memory in the client, more than the "
+            f"{_fmt_bytes(mem)} available; raise --task-seconds or split the study")
+    return est
+
+
 def describe(study: Study, opts: RunOptions) -> str:
+    """The --dry-run report. Raises RunError when the study cannot fit (disk, memory)."""
     plan, note = plan_for(study, opts.store, opts.task_seconds)
+    check_resources(study, plan, opts.store, new_store=not note.startswith("exists (same"))
     n_o, n_s, n_z = study.shape
     size = study.size * bytes_per_point(study)
     est = plan.estimated_seconds()
@@ -197,6 +280,23 @@ def estimate_error(client, study: Study, samples: list[tuple], *, solver: str = 
     return out
 
 
+def record_error_estimate(store: Store, summary: dict[str, Any]) -> None:
+    """The error estimate and the wall time of this run into the store's attrs
+    (``hertzmap_error_estimate``, JSON; NaN as null), then the history line."""
+    import json
+    e = dict(summary.get("error") or {})
+    e["wall_seconds"] = summary.get("wall")
+    e = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in e.items()}
+    try:
+        store._group.attrs["hertzmap_error_estimate"] = json.dumps(e)
+        dev = e.get("max_deviation")
+        store.add_history(f"error estimate: max |d(q0, v0)| = "
+                          f"{'n/a' if dev is None else format(dev, '.2e')} over {e.get('matched', 0)}/"
+                          f"{e.get('n', 0)} orbits at rtol {e.get('rtol_ref')}; wall {e['wall_seconds']:.2f} s")
+    except Exception as exc:  # a report, never a reason to fail the run
+        summary.setdefault("error", {})["store_failed"] = f"{type(exc).__name__}: {exc}"
+
+
 # -- progress -------------------------------------------------------------------------------
 
 class Progress:
@@ -258,17 +358,91 @@ def run_study(study: Study, opts: RunOptions, *, out: TextIO | None = None,
     err = sys.stderr if err is None else err
     check_solver(opts.solver)
     opts.cluster.check()
+    plan, note = plan_for(study, opts.store, opts.task_seconds)
+    check_resources(study, plan, opts.store,
+                    new_store=opts.overwrite or not note.startswith("exists (same"))
     chunks = choose_chunks(study, opts.task_seconds)
-    store, resumed = open_or_create(opts.store, study, chunks, overwrite=opts.overwrite,
-                                    action=f"{opts.command}: created")
-    with Lock(store.path):
-        return _run_locked(study, opts, store, resumed, out, err, client)
+    early = None
+    if client is None and opts.cluster.kind == "address":
+        # connect before anything is written: an unreachable scheduler changes nothing
+        early = make_client(opts.cluster)
+    try:
+        store, resumed = open_or_create(opts.store, study, chunks, overwrite=opts.overwrite,
+                                        action=f"{opts.command}: created")
+        with Lock(store.path):
+            return _run_locked(study, opts, store, resumed, out, err, client, early)
+    except BaseException:
+        if early is not None:
+            early[0].close()
+        raise
 
 
-def _run_locked(study, opts, store: Store, resumed: bool, out, err, client) -> dict[str, Any]:
+class _DeferInterrupt:
+    """SIGINT (Ctrl-C) raises KeyboardInterrupt at once, except inside :meth:`critical`
+    (a block write and its flag, a history line), where it is deferred to the section's end.
+    Only in the main thread (signal handlers cannot be set elsewhere)."""
+
+    def __init__(self):
+        self.pending = False
+        self.inside = False
+        self.old = None
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            self.old = signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def __exit__(self, *exc):
+        if self.old is not None:
+            signal.signal(signal.SIGINT, self.old)
+            self.old = None
+
+    def _handler(self, signum, frame):
+        if self.inside:
+            self.pending = True
+        else:
+            raise KeyboardInterrupt
+
+    @contextlib.contextmanager
+    def critical(self):
+        self.inside = True
+        try:
+            yield
+        finally:
+            self.inside = False
+        if self.pending:
+            self.pending = False
+            raise KeyboardInterrupt
+
+
+def _scheduler_lost(client) -> bool:
+    try:
+        return client.status not in ("running", "connecting", "newly-created")
+    except Exception:
+        return True
+
+
+def _run_locked(study, opts, store: Store, resumed: bool, out, err, client,
+                early=None) -> dict[str, Any]:
     plan = make_plan(study, store.chunks)
     names = stored_variables(study)
     done = store.done_mask()
+    if resumed:
+        # a damaged store is repaired, never silently mixed: tasks flagged done whose
+        # chunks are missing or unreadable (or whose flag is unreadable) are recomputed
+        damaged = store.verify([t for t in plan.tasks if done[t.index]], names)
+        for idx in store.unreadable_flags():
+            damaged.setdefault(idx, []).append("task_done: flag unreadable")
+        if damaged:
+            for idx in damaged:
+                store.unmark(idx)
+            done = store.done_mask()
+            first = "; ".join(f"task {i}: {', '.join(p)}" for i, p in list(damaged.items())[:3])
+            print(f"warning: {store.path}: {len(damaged)} task(s) flagged done have damaged "
+                  f"chunks ({first}{' ...' if len(damaged) > 3 else ''}); they are recomputed",
+                  file=err)
+            store.add_history(f"{opts.command}: {len(damaged)} damaged task(s) re-queued: "
+                              + ", ".join("-".join(map(str, i)) for i in damaged))
     todo = [t for t in plan.tasks if not done[t.index]]
     n_done0 = len(plan.tasks) - len(todo)
     if resumed:
@@ -293,8 +467,36 @@ def _run_locked(study, opts, store: Store, resumed: bool, out, err, client) -> d
     cluster = None
     t_setup = time.perf_counter()
     if own_client:
-        client, cluster = make_client(opts.cluster)
+        client, cluster = early if early is not None else make_client(opts.cluster)
+    interrupt = _DeferInterrupt()
+    futures = []
     try:
+        return _compute(study, opts, store, plan, names, todo, n_done0, summary, client,
+                        own_client, t_setup, out, err, interrupt, futures)
+    except KeyboardInterrupt:
+        with contextlib.suppress(Exception):
+            client.cancel(futures)
+        n = int(store.done_mask().sum())
+        with contextlib.suppress(Exception):
+            store.add_history(f"{opts.command}: interrupted with {n}/{len(plan.tasks)} tasks done")
+        print(f"\nhertzmap: interrupted: {n}/{len(plan.tasks)} tasks are done and kept in "
+              f"{store.path}; rerun the same command ({opts.command}) to resume", file=err,
+              flush=True)
+        raise
+    finally:
+        interrupt.__exit__()
+        if own_client:
+            with contextlib.suppress(Exception):
+                client.close()
+            if cluster is not None:
+                with contextlib.suppress(Exception):
+                    cluster.close()
+
+
+def _compute(study, opts, store, plan, names, todo, n_done0, summary, client, own_client,
+             t_setup, out, err, interrupt, futures) -> dict[str, Any]:
+    interrupt.__enter__()
+    if True:
         if opts.cluster.kind != "local" and own_client:
             print(f"waiting for workers ({opts.cluster.describe()}) ...", file=out, flush=True)
         # an existing scheduler with --workers N: wait for N workers before starting
@@ -325,18 +527,23 @@ def _run_locked(study, opts, store: Store, resumed: bool, out, err, client) -> d
         per_pid: dict[int, float] = {}
         n_conv = n_fail = n_points_with = n_points_run = 0
         t0 = time.perf_counter()
-        futures = client.map(run_task, specs, key=keys, pure=False)
+        futures.extend(client.map(run_task, specs, key=keys, pure=False))
+        lost = None
         for fut in as_completed(futures):
             try:
                 res = fut.result()
             except Exception as exc:  # a task failed for good (after Dask's retries)
+                if _scheduler_lost(client):
+                    lost = exc
+                    break
                 summary["failed"].append((fut.key, f"{type(exc).__name__}: {exc}"))
                 fut.release()
                 continue
             task = by_index[tuple(res["index"])]
             arrays = res["arrays"]
-            store.write_block(task.slices, arrays, names)   # 1. the block ...
-            store.mark_done(task.index)                     # 2. ... then its flag
+            with interrupt.critical():
+                store.write_block(task.slices, arrays, names)   # 1. the block ...
+                store.mark_done(task.index)                     # 2. ... then its flag
             fut.release()
             compute += res["seconds"]
             per_pid[res["pid"]] = per_pid.get(res["pid"], 0.0) + res["seconds"]
@@ -351,6 +558,17 @@ def _run_locked(study, opts, store: Store, resumed: bool, out, err, client) -> d
         wall = time.perf_counter() - t0
         progress.close()
 
+        if lost is not None or (len(summary["failed"]) and _scheduler_lost(client)):
+            n = int(store.done_mask().sum())
+            msg = (f"lost the Dask scheduler ({opts.cluster.describe()}) after {n}/"
+                   f"{len(plan.tasks)} tasks: they are kept in {store.path}; restart the "
+                   f"scheduler and rerun the same command ({opts.command}) to resume")
+            with interrupt.critical():
+                store.add_history(f"{opts.command}: scheduler lost with {n}/{len(plan.tasks)} tasks done")
+            print(f"hertzmap: {msg}", file=err, flush=True)
+            summary.update(complete=False, scheduler_lost=True,
+                           failed=[("scheduler", msg)], tasks_done=n)
+            return summary
         n_run = summary["tasks_run"]
         overhead = 1.0 - compute / (n_workers * wall) if wall > 0 else math.nan
         summary.update(
@@ -362,23 +580,20 @@ def _run_locked(study, opts, store: Store, resumed: bool, out, err, client) -> d
             orbits_per_second=n_conv / wall if wall > 0 else math.nan,
             worker_processes_seen=len(per_pid),
         )
-        if summary["failed"]:
-            summary["complete"] = False
-            store.add_history(f"{opts.command}: stopped, {len(summary['failed'])} tasks failed")
-        else:
-            summary["complete"] = bool(store.done_mask().all())
-            store.add_history(f"{opts.command}: completed {len(plan.tasks)}/{len(plan.tasks)} tasks")
+        with interrupt.critical():
+            if summary["failed"]:
+                summary["complete"] = False
+                store.add_history(f"{opts.command}: stopped, {len(summary['failed'])} tasks failed")
+            else:
+                summary["complete"] = bool(store.done_mask().all())
+                store.add_history(f"{opts.command}: completed {len(plan.tasks)}/{len(plan.tasks)} tasks")
         try:
             summary["error"] = estimate_error(client, study, sampler.samples, solver=opts.solver)
         except Exception as exc:  # the estimate is a report, never a reason to fail the run
             summary["error"] = {"n": 0, "failed": f"{type(exc).__name__}: {exc}"}
+        record_error_estimate(store, summary)
         print_summary(summary, out)
         return summary
-    finally:
-        if own_client:
-            client.close()
-            if cluster is not None:
-                cluster.close()
 
 
 def _has_dashboard(client) -> bool:
@@ -404,6 +619,7 @@ def print_summary(s: dict[str, Any], out: TextIO) -> None:
     elif e.get("n"):
         lines.append(f"error estimate: max |d(q0, v0)| = {e['max_deviation']:.2e} over "
                      f"{e['matched']}/{e['n']} sampled orbits re-solved at rtol {e['rtol_ref']:g}"
+                     f" (wall {s['wall']:.2f} s; in the store's attrs: hertzmap_error_estimate)"
                      + (" (reference rtol not tighter than the run's)" if e.get("ref_equals_run") else ""))
     lines.append(f"store: {s['store']} ({s['tasks_done_before'] + s['tasks_run']}/{s['tasks_total']} tasks done)")
     if s["failed"]:

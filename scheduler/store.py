@@ -27,6 +27,7 @@ from study.dataset import (STORE_FORMAT, VARIABLES, block_dataset, history_line,
                            stored_variables, template)
 from study.spec import Study
 
+ALL_CHUNKS_ATTR = "hertzmap_all_chunks_written"
 LOCK_SUFFIX = ".lock"      # the lock of STORE is the file STORE.lock next to it
 
 
@@ -93,6 +94,9 @@ class Store:
                          "zeta": ds.attrs["hertzmap_chunk_shape"][2]})
         # task_done must be written now (not lazily): keep it numpy-backed
         lazy["task_done"] = ds["task_done"]
+        # every block write stores all its chunks (even all-fill ones): a done task whose
+        # chunk file is missing is then known to be damaged (see verify)
+        lazy.attrs[ALL_CHUNKS_ATTR] = True
         for name in lazy.variables:
             lazy[name].encoding = enc[name]
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -119,10 +123,68 @@ class Store:
 
     # -- task state -----------------------------------------------------------------------
     def done_mask(self) -> np.ndarray:
-        return np.asarray(self._done[...], dtype=bool)
+        """The task_done flags. A flag chunk that cannot be read (truncated file) counts as
+        not done (the task is recomputed): see :meth:`unreadable_flags`."""
+        try:
+            return np.asarray(self._done[...], dtype=bool)
+        except Exception:
+            mask = np.zeros(self._done.shape, dtype=bool)
+            for idx in np.ndindex(*self._done.shape):
+                try:
+                    mask[idx] = bool(self._done[idx])
+                except Exception:
+                    mask[idx] = False
+            return mask
+
+    def unreadable_flags(self) -> list[tuple[int, int, int]]:
+        """Chunk indices whose task_done flag file exists but cannot be decoded."""
+        bad = []
+        try:
+            self._done[...]
+            return bad
+        except Exception:
+            pass
+        for idx in np.ndindex(*self._done.shape):
+            try:
+                self._done[idx]
+            except Exception:
+                bad.append(tuple(int(i) for i in idx))
+        return bad
 
     def mark_done(self, index: tuple[int, int, int]) -> None:
         self._done[index] = True
+
+    def unmark(self, index: tuple[int, int, int]) -> None:
+        self._done[index] = False
+
+    def _chunk_file(self, name: str, index: tuple[int, ...]) -> Path:
+        arr = self._group[name]
+        extra = (0,) * (arr.ndim - len(index))
+        return self.path / name / "c" / "/".join(str(int(i)) for i in (*index, *extra))
+
+    def verify(self, tasks, names: tuple[str, ...]) -> dict[tuple[int, int, int], list[str]]:
+        """Check the chunks of tasks flagged done: each stored variable's chunk must exist (in
+        stores that write every chunk) and decode. Returns {task index: [problems]} for the
+        damaged ones (empty when all is well). Reads every chunk of those tasks."""
+        all_written = bool(self.attrs.get(ALL_CHUNKS_ATTR))
+        damaged: dict[tuple[int, int, int], list[str]] = {}
+        arrays = {n: self._group[n] for n in names}
+        for t in tasks:
+            problems = []
+            for name, arr in arrays.items():
+                f = self._chunk_file(name, t.index)
+                if not f.is_file():
+                    if all_written:
+                        problems.append(f"{name}: chunk file missing")
+                    continue
+                block = tuple(t.index) + (0,) * (arr.ndim - 3)
+                try:
+                    arr.get_block_selection(block)
+                except Exception as exc:
+                    problems.append(f"{name}: chunk unreadable ({type(exc).__name__})")
+            if problems:
+                damaged[tuple(t.index)] = problems
+        return damaged
 
     # -- data -----------------------------------------------------------------------------
     def write_block(self, slices: tuple[slice, slice, slice], arrays: dict[str, np.ndarray],
@@ -131,7 +193,7 @@ class Store:
         ds = block_dataset(arrays, names)
         region = {"omega": slices[0], "sigma": slices[1], "zeta": slices[2]}
         ds.to_zarr(zarr.storage.LocalStore(self.path), region=region, consolidated=False,
-                   zarr_format=3)
+                   zarr_format=3, write_empty_chunks=bool(self.attrs.get(ALL_CHUNKS_ATTR)))
 
     def add_history(self, action: str) -> None:
         hist = self._group.attrs.get("history", "")
@@ -242,8 +304,9 @@ def _pid_alive(pid: Any) -> bool:
     return True
 
 
-def store_status(path: str | Path) -> dict[str, Any]:
-    """Summary of a store for ``hertzmap status``."""
+def store_status(path: str | Path, check: bool = False) -> dict[str, Any]:
+    """Summary of a store for ``hertzmap status``. ``check``: also verify every chunk of the
+    tasks flagged done (``damaged``: {"i-j-k": [problems]})."""
     store = Store(path)
     done = store.done_mask()
     info = dict(store.info)
@@ -253,5 +316,26 @@ def store_status(path: str | Path) -> dict[str, Any]:
     info["dims"] = {k: int(v) for k, v in ds.sizes.items()}
     info["variables"] = [n for n in ds.data_vars if n in VARIABLES]
     lock = lock_path(store.path)
-    info["locked_by"] = json.loads(lock.read_text()) if lock.exists() else None
+    try:
+        info["locked_by"] = json.loads(lock.read_text()) if lock.exists() else None
+    except (OSError, ValueError):
+        info["locked_by"] = {"host": "?", "pid": "? (unreadable lock file)"}
+    if check:
+        from scheduler.plan import make_plan
+        from study.spec import StudyError, parse_study
+
+        try:
+            study = parse_study(store.attrs.get("hertzmap_study_toml", ""),
+                                default_name=store.info["hertzmap_study_name"])
+        except StudyError as exc:
+            raise StoreError(f"{store.path}: the study recorded in the store is invalid ({exc})") from None
+        if study.hash != store.study_hash:
+            raise StoreError(f"{store.path}: the recorded study does not match its hash "
+                             "(attrs edited or written by another version)")
+        plan = make_plan(study, store.chunks)
+        flagged = [t for t in plan.tasks if done[t.index]]
+        damaged = store.verify(flagged, stored_variables(study))
+        for idx in store.unreadable_flags():
+            damaged.setdefault(idx, []).append("task_done: flag unreadable")
+        info["damaged"] = {"-".join(map(str, k)): v for k, v in sorted(damaged.items())}
     return info

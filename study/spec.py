@@ -164,22 +164,31 @@ class Study:
 # parsing helpers
 
 
+def _r(value: Any, limit: int = 80) -> str:
+    """repr of a value for an error message, shortened (a study file may hold huge values)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 5] + " ...>"
+
+
 def _is_number(x: Any) -> bool:
     return isinstance(x, (int, float)) and not isinstance(x, bool)
 
 
 def _number(value: Any, field_name: str, allowed: str) -> float:
     if not _is_number(value):
-        raise StudyError(field_name, f"expected a number ({allowed}), got {value!r}")
-    x = float(value)
+        raise StudyError(field_name, f"expected a number ({allowed}), got {_r(value)}")
+    try:
+        x = float(value) + 0.0          # + 0.0: -0.0 is stored (and hashed) as 0.0
+    except OverflowError:               # an integer beyond the float range
+        raise StudyError(field_name, f"must be a finite number ({allowed}), got {_r(value)}") from None
     if not math.isfinite(x):
-        raise StudyError(field_name, f"must be a finite number ({allowed}), got {value!r}")
+        raise StudyError(field_name, f"must be a finite number ({allowed}), got {_r(value)}")
     return x
 
 
 def _integer(value: Any, field_name: str, lo: int, hi: int) -> int:
     if not isinstance(value, int) or isinstance(value, bool):
-        raise StudyError(field_name, f"expected an integer in {lo}..{hi}, got {value!r}")
+        raise StudyError(field_name, f"expected an integer in {lo}..{hi}, got {_r(value)}")
     if not lo <= value <= hi:
         raise StudyError(field_name, f"must be in {lo}..{hi}, got {value}")
     return int(value)
@@ -206,7 +215,7 @@ def _refuse_unknown(table: Mapping[str, Any], prefix: str, allowed: tuple[str, .
 def _check_axis_value(x: float, field_name: str, axis: str) -> None:
     lower, strict, desc = _AXIS_RULES[axis]
     if (x <= lower) if strict else (x < lower):
-        raise StudyError(field_name, f"{axis} must be {desc} (finite), got {x!r}")
+        raise StudyError(field_name, f"{axis} must be {desc} (finite), got {_r(x)}")
 
 
 def _parse_axis(value: Any, axis: str) -> tuple[float, ...]:
@@ -233,7 +242,7 @@ def _parse_axis(value: Any, axis: str) -> tuple[float, ...]:
         _check_axis_value(stop, f"{fname}.stop", axis)
         num = value["num"]
         if not isinstance(num, int) or isinstance(num, bool) or num < 1:
-            raise StudyError(f"{fname}.num", f"expected an integer >= 1, got {num!r}")
+            raise StudyError(f"{fname}.num", f"expected an integer >= 1, got {_r(num)}")
         if num > MAX_GRID_POINTS:
             raise StudyError(f"{fname}.num", f"must be <= {MAX_GRID_POINTS}, got {num}")
         if num == 1 and start != stop:
@@ -249,10 +258,23 @@ def _parse_axis(value: Any, axis: str) -> tuple[float, ...]:
     seen: dict[float, int] = {}
     for i, x in enumerate(values):
         if x in seen:
-            raise StudyError(fname, f"duplicated value {x!r} (positions {seen[x]} and {i}); "
+            raise StudyError(fname, f"duplicated value {_r(x)} (positions {seen[x]} and {i}); "
                              "axis values must be distinct")
         seen[x] = i
     return tuple(values)
+
+
+def _axis_length(value: Any) -> int | None:
+    """Number of values an axis asks for, when that is clear before validation (else None)."""
+    if _is_number(value):
+        return 1
+    if isinstance(value, list):
+        return len(value) or None
+    if isinstance(value, dict):
+        num = value.get("num")
+        if isinstance(num, int) and not isinstance(num, bool) and num >= 1:
+            return num
+    return None
 
 
 # ----------------------------------------------------------------------------------------
@@ -280,18 +302,28 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
         raise StudyError("study.name", "missing; give [study] name = \"...\"")
     if not isinstance(name, str) or not _NAME_RE.match(name):
         raise StudyError("study.name", "must be 1-64 characters from letters, digits, '.', '_', '-' "
-                         f"(starting with a letter or digit), got {name!r}")
+                         f"(starting with a letter or digit), got {_r(name)}")
     description = st.get("description", "")
     if not isinstance(description, str):
-        raise StudyError("study.description", f"expected a string, got {description!r}")
+        raise StudyError("study.description", f"expected a string, got {_r(description)}")
 
     # [grid]
     grid = _table(doc, "grid", required=True)
     _refuse_unknown(grid, "grid", AXES)
-    axes = {}
     for ax in AXES:
         if ax not in grid:
             raise StudyError(f"grid.{ax}", "missing; give a number, a list or {start, stop, num}")
+    # the size is checked before any axis is expanded: a huge grid is refused at once,
+    # without allocating its axes
+    lengths = {ax: _axis_length(grid[ax]) for ax in AXES}
+    if all(n is not None for n in lengths.values()):
+        size = math.prod(lengths.values())
+        if size > MAX_GRID_POINTS:
+            raise StudyError("grid", f"{size} points (omega x sigma x zeta = "
+                             f"{' x '.join(str(lengths[a]) for a in AXES)}) exceeds the limit of "
+                             f"{MAX_GRID_POINTS}; split the study")
+    axes = {}
+    for ax in AXES:
         axes[ax] = _parse_axis(grid[ax], ax)
     size = math.prod(len(v) for v in axes.values())
     if size > MAX_GRID_POINTS:
@@ -305,13 +337,13 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
     kind = mt.get("kind", "hertz")
     if kind not in MODEL_KINDS:
         raise StudyError("model.kind", f"must be one of {', '.join(map(repr, MODEL_KINDS))}, "
-                         f"got {kind!r}")
+                         f"got {_r(kind)}")
     if kind == "hertz":
         lo, hi = EXPONENT_RANGE
         exponent = _number(mt.get("exponent", 1.5), "model.exponent", f"{lo} < exponent <= {hi}")
         if not lo < exponent <= hi:
             raise StudyError("model.exponent", f"must satisfy {lo:g} < exponent <= {hi:g}, "
-                             f"got {exponent!r}")
+                             f"got {_r(exponent)}")
     else:
         if "exponent" in mt:
             raise StudyError("model.exponent", "only allowed with kind = \"hertz\" "
@@ -324,7 +356,7 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
     lo, hi = RTOL_RANGE
     rtol = _number(so.get("rtol", 1e-10), "solver.rtol", f"{lo:g} <= rtol <= {hi:g}")
     if not lo <= rtol <= hi:
-        raise StudyError("solver.rtol", f"must satisfy {lo:g} <= rtol <= {hi:g}, got {rtol!r}")
+        raise StudyError("solver.rtol", f"must satisfy {lo:g} <= rtol <= {hi:g}, got {_r(rtol)}")
     max_solutions = _integer(so.get("max_solutions", 4), "solver.max_solutions",
                              *MAX_SOLUTIONS_RANGE)
 
@@ -334,13 +366,13 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
     periods = se.get("periods", [1, 2])
     if not isinstance(periods, list) or not periods:
         raise StudyError("search.periods", f"expected a non-empty list, a subset of {list(PERIODS_ALLOWED)}, "
-                         f"got {periods!r}")
+                         f"got {_r(periods)}")
     for p in periods:
-        if isinstance(p, bool) or p not in PERIODS_ALLOWED:
+        if not isinstance(p, int) or isinstance(p, bool) or p not in PERIODS_ALLOWED:
             raise StudyError("search.periods", f"each period must be one of {list(PERIODS_ALLOWED)}, "
-                             f"got {p!r}")
+                             f"got {_r(p)}")
     if len(set(periods)) != len(periods):
-        raise StudyError("search.periods", f"duplicated period in {periods!r}")
+        raise StudyError("search.periods", f"duplicated period in {_r(periods)}")
     periods_t = tuple(sorted(int(p) for p in periods))
 
     # [products]
@@ -349,12 +381,12 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
     outputs = pr.get("outputs", list(DEFAULT_PRODUCTS))
     if not isinstance(outputs, list):
         raise StudyError("products.outputs", f"expected a list of names from {list(PRODUCTS)}, "
-                         f"got {outputs!r}")
+                         f"got {_r(outputs)}")
     for o in outputs:
         if o not in PRODUCTS:
-            raise StudyError("products.outputs", f"unknown product {o!r}; allowed: {', '.join(PRODUCTS)}")
+            raise StudyError("products.outputs", f"unknown product {_r(o)}; allowed: {', '.join(PRODUCTS)}")
     if len(set(outputs)) != len(outputs):
-        raise StudyError("products.outputs", f"duplicated product in {outputs!r}")
+        raise StudyError("products.outputs", f"duplicated product in {_r(outputs)}")
     products = tuple(p for p in PRODUCTS if p in outputs or p == CORE_PRODUCT)
 
     # [rig]
@@ -368,12 +400,12 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
                 raise StudyError(f"rig.{key}", f"missing ({desc})")
             x = _number(rt[key], f"rig.{key}", desc)
             if not check(x):
-                raise StudyError(f"rig.{key}", f"out of range: {desc}, got {x!r}")
+                raise StudyError(f"rig.{key}", f"out of range: {desc}, got {_r(x)}")
             values[key] = x
         contact = rt.get("contact", "double")
         if contact not in CONTACTS:
             raise StudyError("rig.contact", f"must be one of {', '.join(map(repr, CONTACTS))}, "
-                             f"got {contact!r}")
+                             f"got {_r(contact)}")
         values["contact"] = contact
         rig = tuple(sorted(values.items()))
 

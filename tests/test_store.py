@@ -277,7 +277,12 @@ def test_resume_with_other_solver_code_warns(tmp_path, client, capsys):
     s = study()
     path = tmp_path / "g.zarr"
     store, _ = open_or_create(path, s, choose_chunks(s), overwrite=False, action="t")
-    store.mark_done((0, 0, 0))
+    t = make_plan(s, store.chunks).tasks[0]
+    so, ss, sz = t.slices
+    store.write_block(t.slices, placeholder_solve_block(
+        s.axis("omega")[so], s.axis("sigma")[ss], s.axis("zeta")[sz], **s.solver_kwargs()),
+        stored_variables(s))
+    store.mark_done(t.index)
     store._group.attrs["hertzmap_code_hash"] = "0" * 64
     run(path, client)
     assert "solver code (kernels/, study/) changed" in capsys.readouterr().err
