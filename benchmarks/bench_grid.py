@@ -1,0 +1,143 @@
+"""Throughput of a grid study on 1 and 2 Dask workers, Dask overhead per task, numba cold start
+with and without the compile cache, peak memory per worker, and the study's own error estimate.
+
+    .venv/bin/python benchmarks/bench_grid.py [--omega 41] [--sigma 25]     (about a minute)
+
+A small study (the default study's (omega, sigma) window at zeta 0.01, 1T and 2T seeds, rtol
+1e-10; 41 x 25 = 1025 points by default) is run with ``scheduler.run.run_study`` into stores in a
+temporary directory, on a LocalCluster of 1 then 2 single-threaded worker processes (started
+before timing, kernels warmed from the numba cache by the worker plugin). Figures:
+
+* points/s = grid points / wall time from submission to the last write (setup excluded);
+  parallel efficiency = points/s on 2 workers / (2 x points/s on 1 worker);
+* Dask overhead per task: (workers x wall - sum of solver times inside the tasks) / tasks, and the
+  round trip of an empty task (client.map over 200 no-ops);
+* cold start: a new process importing the block solver and solving one point
+  (scheduler.worker.warm_up), with an empty numba cache dir, then again from that cache;
+* peak memory: ru_maxrss of every worker process after the run (client.run);
+* the error estimate the run stored in the store's attrs (hertzmap_error_estimate).
+"""
+from __future__ import annotations
+
+import argparse
+import io
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+STUDY = """
+[study]
+name = "bench_grid"
+description = "benchmark grid"
+
+[grid]
+omega = {{ start = 0.5, stop = 2.5, num = {n_omega} }}
+sigma = {{ start = 0.05, stop = 1.0, num = {n_sigma} }}
+zeta = 0.01
+
+[model]
+kind = "hertz"
+exponent = 1.5
+
+[solver]
+rtol = 1e-10
+max_solutions = 4
+
+[search]
+periods = [1, 2]
+
+[products]
+outputs = ["orbits", "measures"]
+"""
+
+
+def _maxrss_mb():
+    import resource
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def _noop(i):
+    return i
+
+
+def cold_start(cache_dir: str) -> float:
+    code = ("import time; t = time.perf_counter(); from scheduler.worker import warm_up; "
+            "warm_up(); print(time.perf_counter() - t)")
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache_dir)
+    r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                       check=True, cwd=Path(__file__).resolve().parents[1])
+    return float(r.stdout.strip().splitlines()[-1])
+
+
+def run_on(workers: int, study, tmp: Path) -> dict:
+    from distributed import Client, LocalCluster
+
+    from scheduler.cluster import ClusterSpec
+    from scheduler.run import RunOptions, run_study
+    from scheduler.store import read_attrs
+
+    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        opts = RunOptions(store=tmp / f"w{workers}.zarr", cluster=ClusterSpec(kind="local", workers=workers),
+                          command=f"bench_grid {workers} workers")
+        buf = io.StringIO()
+        s = run_study(study, opts, out=buf, err=io.StringIO(), client=client)
+        futs = client.map(_noop, range(200), pure=False)   # empty-task round trip
+        t0 = time.perf_counter()
+        futs = client.map(_noop, range(1000, 1200), pure=False)
+        client.gather(futs)
+        s["noop_per_task"] = (time.perf_counter() - t0) / 200
+        s["maxrss_mb"] = sorted(client.run(_maxrss_mb).values())
+        s["printed"] = buf.getvalue()
+        s["attr"] = json.loads((read_attrs(opts.store) or {}).get("hertzmap_error_estimate", "null") or "null")
+    return s
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--omega", type=int, default=41)
+    ap.add_argument("--sigma", type=int, default=25)
+    a = ap.parse_args(argv)
+    import logging
+    for name in ("distributed", "tornado", "asyncio"):   # shutdown chatter (closed comms)
+        logging.getLogger(name).setLevel(logging.CRITICAL)
+    from study.spec import load_study
+
+    print(f"machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f} at start "
+          "(shared machine: timings are noisy)")
+    with tempfile.TemporaryDirectory() as d:
+        tmp = Path(d)
+        (tmp / "s.toml").write_text(STUDY.format(n_omega=a.omega, n_sigma=a.sigma))
+        study = load_study(tmp / "s.toml")
+        print(f"study: {a.omega} omega x {a.sigma} sigma x 1 zeta = {study.size} points, "
+              "periods 1 and 2, rtol 1e-10")
+        res = {w: run_on(w, study, tmp) for w in (1, 2)}
+        for w, s in res.items():
+            per_task_over = (s["workers"] * s["wall"] - s["compute"]) / max(1, s["tasks_run"])
+            print(f"{w} worker(s): {s['points']} points in {s['wall']:.2f} s wall -> "
+                  f"{s['points_per_second']:.0f} points/s ({1e3 * s['compute'] / s['points']:.1f} ms "
+                  f"solver time per point); {s['tasks_run']} tasks of {1e3 * s['per_task']:.0f} ms; "
+                  f"dask overhead {100 * s['overhead']:.1f} % = {1e3 * per_task_over:.0f} ms per task; "
+                  f"empty-task round trip {1e3 * s['noop_per_task']:.2f} ms; "
+                  f"peak RSS per worker {', '.join(f'{m:.0f}' for m in s['maxrss_mb'])} MB")
+            print("    printed by the run: " + [ln for ln in s["printed"].splitlines()
+                                                 if ln.startswith("error estimate")][0])
+            print(f"    store attrs hertzmap_error_estimate: {s['attr']}")
+        eff = res[2]["points_per_second"] / (2 * res[1]["points_per_second"])
+        print(f"parallel efficiency on 2 workers: {100 * eff:.0f} %")
+        pps = res[2]["points_per_second"]
+        print(f"100,000 points (1T and 2T seeds) at this rate on 2 workers: {1e5 / pps:.0f} s "
+              f"(target < 60 s)")
+    with tempfile.TemporaryDirectory() as cache:
+        cold = cold_start(cache)
+        warm = cold_start(cache)
+    print(f"numba cold start (new process, import the block solver, solve one point): "
+          f"{cold:.1f} s with an empty cache, {warm:.2f} s from the disk cache")
+
+
+if __name__ == "__main__":
+    main()
