@@ -60,7 +60,9 @@ class Point:
     err_x0: float
     err_mult: float
     seconds: float        # per orbit
-    steps: float = float("nan")
+    steps: float = float("nan")        # per period map (hertzmap: DOP853 steps; paper: N * m)
+    iterations: float = float("nan")
+    floor: float = float("nan")        # hertzmap: time / ((iterations + 1) maps x steps x bare step)
 
 
 # -- timing -----------------------------------------------------------------------------------
@@ -79,6 +81,31 @@ def per_call(fn, budget: float) -> float:
             fn()
         times.append((time.perf_counter() - t0) / reps)
     return float(np.median(times))
+
+
+def bare_step_seconds(n: int = 500_000) -> float:
+    """Seconds of one bare DOP853 step with its variational equations (the arithmetic unit)."""
+    from kernels._dop853 import step_var
+    from numba import njit
+
+    @njit(cache=False)
+    def steps(k):
+        y = np.array([0.1, 0.2, 1.0, 0.0, 0.0, 1.0])
+        f = np.array([0.2, 0.3, 0.0, 1.0, -1.0, -0.02])
+        y_new = np.empty(6)
+        f_new = np.empty(6)
+        K = np.empty((16, 2))
+        acc = 0.0
+        for i in range(k):
+            acc += step_var(0.001 * i, 0.1, y, f, y_new, f_new, K, 1.0, 0.3, 0.01, 1.5, 0, 1e-10, 1e-10)
+        return acc
+    steps(10)
+    times = []
+    for _ in range(3):
+        t0 = time.perf_counter()
+        steps(n)
+        times.append((time.perf_counter() - t0) / n)
+    return float(min(times))
 
 
 def mult_error(mu, mu_ref) -> float:
@@ -172,15 +199,21 @@ def run_case(name, omega, sigma, zeta, m, rough, cfg, log=print) -> list[Point]:
     args = [np.full(nb, v) for v in (omega, sigma, zeta)] + [np.full(nb, m, np.int64)] + \
         [np.full(nb, guess[0]), np.full(nb, guess[1])]
     res = np.empty((nb, N_FIELDS))
+    bare = bare_step_seconds()
     for rtol in cfg["rtols"]:
         batch = lambda: shoot_batch_into(*args, N_EXP, 0, rtol, rtol, 40, 200_000, res)  # noqa: E731
         t = per_call(batch, cfg["budget"]) / nb
         r = res[0]
         mu = [complex(r[F["multiplier1_re"]], r[F["multiplier1_im"]]),
               complex(r[F["multiplier2_re"]], r[F["multiplier2_im"]])]
+        # steps of one period map: a solve started on its own orbit does one map + the measure
+        # pass (Orbit.steps of a multi-iteration solve over-counts: kernels.integrate's step
+        # counters accumulate across the Newton maps and shoot_into adds running totals)
+        spm = shoot(omega, sigma, zeta, m, guess=tuple(r[1:3]), rtol=rtol, exponent=N_EXP).steps / 2
+        it = float(r[F["iterations"]])
         pts.append(Point(name, "hertzmap", f"{rtol:.0e}", kst.NAMES[int(r[F["status"]])],
                          float(np.abs(r[1:3] - ref.x0).max()), mult_error(mu, ref.multipliers), t,
-                         float(r[F["steps"]])))
+                         spm, it, t / ((it + 1) * spm * bare)))
 
     out = np.zeros(9)
     for N in cfg["cd_steps"]:
@@ -204,8 +237,10 @@ def run_case(name, omega, sigma, zeta, m, rough, cfg, log=print) -> list[Point]:
                              float(np.abs(x - ref.x0).max()), mult_error(mu, ref.multipliers),
                              float(np.median(times))))
     for p in pts:
+        extra = (f"  {p.steps:5.0f} steps/map, {p.iterations:.0f} it, {p.floor:.2f}x floor"
+                 if p.method == "hertzmap" else "")
         log(f"  {p.method:13s} {p.setting:>6s} {p.status:13s} err x0 {p.err_x0:8.1e}  "
-            f"err mu {p.err_mult:8.1e}  {p.seconds * 1e3:10.3f} ms")
+            f"err mu {p.err_mult:8.1e}  {p.seconds * 1e3:10.3f} ms{extra}")
     return pts
 
 
@@ -230,10 +265,11 @@ def write_csv(pts: list[Point], path: Path) -> None:
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["case", "method", "setting", "status", "err_x0", "err_multipliers",
-                    "seconds_per_orbit", "steps"])
+                    "seconds_per_orbit", "steps_per_map", "newton_iterations", "time_over_floor"])
         for p in pts:
             w.writerow([p.case, p.method, p.setting, p.status, f"{p.err_x0:.3e}",
-                        f"{p.err_mult:.3e}", f"{p.seconds:.4e}", p.steps])
+                        f"{p.err_mult:.3e}", f"{p.seconds:.4e}", p.steps, p.iterations,
+                        f"{p.floor:.3f}"])
 
 
 def plot(pts: list[Point], path: Path) -> None:
@@ -301,5 +337,9 @@ def run_bench(out_dir: Path = Path("results"), quick: bool = False, log=print) -
                                                                  and np.isfinite(r[5])])))
             log(f"  {method:13s} worst setting per case, min over cases {summary[method][0]:.0f}x;"
                 f" median over all settings {summary[method][1]:.0f}x")
+    fl = [p.floor for p in pts if p.method == "hertzmap" and np.isfinite(p.floor)]
+    if fl:
+        log(f"  hertzmap time / arithmetic floor ((iterations + 1) maps x steps per map x bare step): "
+            f"median {np.median(fl):.2f}, max {max(fl):.2f}")
     log(f"wrote {csv_path} and {png_path} ({time.perf_counter() - t_all:.0f} s)")
     return {"points": pts, "ratios": rs, "summary": summary, "csv": csv_path, "png": png_path}
