@@ -128,7 +128,12 @@ def main(argv=None):
                                                  if ln.startswith("error estimate")][0])
             print(f"    store attrs hertzmap_error_estimate: {s['attr']}")
         eff = res[2]["points_per_second"] / (2 * res[1]["points_per_second"])
-        print(f"parallel efficiency on 2 workers: {100 * eff:.0f} %")
+        print(f"parallel efficiency on 2 workers: {100 * eff:.0f} % (points/s ratio; meaningless when "
+              f"the per-point solver time differs between the runs: "
+              f"{1e3 * res[1]['compute'] / res[1]['points']:.1f} vs "
+              f"{1e3 * res[2]['compute'] / res[2]['points']:.1f} ms)")
+        print(f"2-worker utilisation (solver time inside tasks / (2 x wall)): "
+              f"{100 * (1 - res[2]['overhead']):.0f} %")
         pps = res[2]["points_per_second"]
         print(f"100,000 points (1T and 2T seeds) at this rate on 2 workers: {1e5 / pps:.0f} s "
               f"(target < 60 s)")
