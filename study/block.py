@@ -10,6 +10,12 @@ of the primary resonance with contact loss, the 2T branches) are followed from w
   the flip eigenvector of the 1T orbit where it has a multiplier below -1 (x0 +- d e); and the
   2T solutions at the neighbouring point of each sweep.
 
+Continuation seeds use a secant predictor along the branch. The linear, multiple-scales and flip
+seeds are shot once per point (on the way up); on the way down only the orbits that the way up
+did not reach by continuation are continued. Exploratory 2T seeds get 15 Newton steps. Together
+these made a block 5.6x cheaper (15 -> 2.7 ms per point with 1T and 2T, sigma 0.2/0.5/0.8 lines
+at zeta 0.01) with no orbit lost and 4 more found.
+
 Distinct solutions are kept once: two orbits are the same when their invariants (min q, max q,
 trace of the monodromy) agree; a 2T solve that lands on the 1T orbit (minimal period 1) is
 dropped. Slot 0 always holds the 1T result (converged or the failure status of its best try).
@@ -28,6 +34,8 @@ from kernels.shooting import FIELDS
 
 N_HARMONICS = 4
 FLIP_SEED_OFFSETS = (0.05, 0.3)
+MAX_ITER_1T = 40
+MAX_ITER_2T = 15          # a 2T seed that has not converged in 15 Newton steps is a bad seed
 SAME_ORBIT_TOL = 1e-6
 
 VARIABLES = {
@@ -58,6 +66,9 @@ def linear_response_seed(omega, sigma, zeta):
 
 
 def _mms_seeds(omega, sigma, zeta):
+    # Far from omega = 2 the multiple-scales response is no theory, but it is a cheap seed that
+    # lands on unstable halves of 2T branches the sweeps miss (measured on sigma 0.2/0.5/0.8
+    # lines: restricting it to |omega - 2| < 0.3 lost 17 unstable orbits of 1330).
     try:
         from study.multiple_scales import mms_2t_seed
     except ImportError:     # analytic layer absent: the other seeds still work
@@ -130,27 +141,64 @@ def _same_orbit(a, b):
 
 
 def _merge(found, candidates):
+    """Add the converged candidates that are new orbits; a candidate that duplicates a known
+    orbit passes on its ``continued`` mark (reached by continuation from the previous point)."""
     for c in candidates:
         if c["status"] != st.CONVERGED:
             continue
-        if not any(_same_orbit(c, f) for f in found):
+        same = [f for f in found if _same_orbit(c, f)]
+        if same:
+            if c.get("continued"):
+                same[0]["continued"] = True
+        else:
             found.append(c)
 
 
-def _point(omega, sigma, zeta, periods, prev, options):
-    """All solutions at one point, seeded by the previous point's solutions ``prev``."""
-    one = [s for s in prev if s["period"] == 1]
-    two = [s for s in prev if s["period"] == 2]
+def _continuation_seed(sol, omega):
+    """Seed at omega from a solution of the neighbouring point: a secant predictor along the
+    branch when the solution itself came from continuation, else its start point."""
+    x0 = sol["x0"]
+    if "x0_prev" in sol and sol["omega"] != sol["omega_prev"]:
+        step = (omega - sol["omega"]) / (sol["omega"] - sol["omega_prev"])
+        dx = x0 - sol["x0_prev"]
+        if 0.0 < step <= 2.0 and np.all(np.abs(dx) < 0.5 * (1.0 + np.abs(x0))):
+            return tuple(x0 + step * dx)
+    return tuple(x0)
+
+
+def _continue(omega, sigma, zeta, period, parents, options, max_iter):
+    """Shoot from continuation seeds of ``parents``; results remember their parent."""
+    sols = _solve(omega, sigma, zeta, period, [_continuation_seed(p, omega) for p in parents],
+                  dict(options, max_iter=max_iter))
+    for s, parent in zip(sols, parents):
+        s["omega"] = omega
+        s["continued"] = True
+        if s["period"] == parent["period"]:
+            s["x0_prev"] = parent["x0"]
+            s["omega_prev"] = parent["omega"]
+    return sols
+
+
+def _point(omega, sigma, zeta, periods, prev, options, first_visit):
+    """Solutions at one point from continuation of the previous point's solutions ``prev``
+    and, on the first visit of the point, from the linear, multiple-scales and flip seeds."""
     found, tries_1t = [], []
     if 1 in periods:
-        seeds = [linear_response_seed(omega, sigma, zeta)] + [tuple(s["x0"]) for s in one]
-        tries_1t = _solve(omega, sigma, zeta, 1, seeds, options)
+        parents = [s for s in prev if s["period"] == 1]
+        tries_1t = _continue(omega, sigma, zeta, 1, parents, options, MAX_ITER_1T)
+        if first_visit:
+            lin = _solve(omega, sigma, zeta, 1, [linear_response_seed(omega, sigma, zeta)],
+                         dict(options, max_iter=MAX_ITER_1T))
+            tries_1t = lin + tries_1t
         _merge(found, tries_1t)
     if 2 in periods:
-        seeds = [tuple(s["x0"]) for s in two] + _mms_seeds(omega, sigma, zeta)
-        for s in found:
-            seeds += _flip_seeds(s)
-        sols = _solve(omega, sigma, zeta, 2, seeds, options)
+        parents = [s for s in prev if s["period"] == 2]
+        sols = _continue(omega, sigma, zeta, 2, parents, options, MAX_ITER_2T)
+        if first_visit:
+            seeds = _mms_seeds(omega, sigma, zeta)
+            for s in found:
+                seeds += _flip_seeds(s)
+            sols += _solve(omega, sigma, zeta, 2, seeds, dict(options, max_iter=MAX_ITER_2T))
         _merge(found, [s for s in sols if s["period"] == 2])
         # A 2T solve with minimal period 1 landed on a 1T orbit. Its monodromy is that of two
         # periods (multipliers squared), so the orbit is re-solved as 1T from its start point
@@ -159,6 +207,8 @@ def _point(omega, sigma, zeta, periods, prev, options):
                   if s["period"] == 1 and s["status"] == st.CONVERGED]
         if landed and 1 in periods:
             _merge(found, _solve(omega, sigma, zeta, 1, landed, options))
+    for s in found:
+        s.setdefault("omega", omega)
     return found, tries_1t
 
 
@@ -199,17 +249,28 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
         for k in range(zeta.size):
             per_point = [[] for _ in range(omega.size)]
             best_1t = [None] * omega.size
-            for sweep in (order, order[::-1]):
+            # Up the omega axis, then down. Going down, only the orbits that the way up did not
+            # reach by continuation are continued (the others would lead back to orbits already
+            # known): this finds the branches that end in a fold towards higher omega.
+            for first_visit, sweep in ((True, order), (False, order[::-1])):
                 prev = []
                 for i in sweep:
-                    found, tries = _point(omega[i], sigma[j], zeta[k], periods, prev, options)
+                    found, tries = _point(omega[i], sigma[j], zeta[k], periods, prev, options,
+                                          first_visit)
                     _merge(per_point[i], found)
                     if tries and best_1t[i] is None:
                         best_1t[i] = min(tries, key=lambda s: (s["status"] != st.CONVERGED,
                                                                s["residual"]
                                                                if np.isfinite(s["residual"])
                                                                else np.inf))
-                    prev = found
+                    if first_visit:
+                        prev = per_point[i]
+                    else:
+                        prev = [s for s in per_point[i] if not s.get("continued_up")]
+                if first_visit:
+                    for sols in per_point:
+                        for s in sols:
+                            s["continued_up"] = bool(s.get("continued"))
             if discover:
                 from study.discovery import discover_line
                 per_point = discover_line(omega, sigma[j], zeta[k], periods=periods,
