@@ -415,9 +415,12 @@ class _DeferInterrupt:
             raise KeyboardInterrupt
 
 
-def _scheduler_lost(client) -> bool:
+def _scheduler_lost(client, exc: BaseException | None = None) -> bool:
+    """True when the client lost its scheduler (futures cancelled for that reason)."""
+    if exc is not None and "connection-lost" in str(getattr(exc, "reason", "") or exc):
+        return True
     try:
-        return client.status not in ("running", "connecting", "newly-created")
+        return client.status not in ("running", "newly-created")
     except Exception:
         return True
 
@@ -533,7 +536,7 @@ def _compute(study, opts, store, plan, names, todo, n_done0, summary, client, ow
             try:
                 res = fut.result()
             except Exception as exc:  # a task failed for good (after Dask's retries)
-                if _scheduler_lost(client):
+                if _scheduler_lost(client, exc):
                     lost = exc
                     break
                 summary["failed"].append((fut.key, f"{type(exc).__name__}: {exc}"))
