@@ -20,7 +20,8 @@ from numba import float64, int64, njit
 
 from kernels import status as st
 from kernels.integrate import (N_HARMONICS, N_STATS, S_ACCEPTED, S_EVENTS, S_FLIGHT_TIME,
-                               S_H_FIRST, S_MAX_IMPACT, S_MAX_Q, S_MIN_Q, S_REJECTED, BIG,
+                               S_H_FIRST, S_H_RECONTACT, S_MAX_IMPACT, S_MAX_Q, S_MIN_Q,
+                               S_REJECTED, BIG,
                                integrate)
 from kernels.model import HERTZ
 
@@ -40,6 +41,7 @@ N_FIELDS = len(FIELDS)
 
 # Eq. 12: the Taylor force of Eq. 10 vanishes at q = -1.3479...: "loss of contact" of Eq. 11
 TAYLOR_CONTACT_LIMIT = -1.3479253168228557
+XTOL_MEASURE = 1e-3    # Newton hands over to the measure pass below this step (relative)
 
 
 @njit("void(float64[::1], float64, float64)", cache=True, nogil=True)
@@ -58,8 +60,23 @@ def _map(x0, v0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps, y, s
          t_eval, out_eval, f, y_new, f_new, K, W):
     """Phi_P(x) and its Jacobian into y (6,). Returns the status."""
     _start(y, x0, v0)
+    stats[S_ACCEPTED] = 0.0     # the integrator accumulates; the caller sums per map
+    stats[S_REJECTED] = 0.0
     return integrate(y, 0.0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
                      True, False, P, harm, t_eval, out_eval, stats, f, y_new, f_new, K, W)
+
+
+@njit(cache=True, nogil=True)
+def _measure_pass(x0, v0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps, y, stats,
+                  harm, t_eval, out_eval, f, y_new, f_new, K, W):
+    """Phi_P(x) and its Jacobian, with the orbit measures into stats and harm."""
+    _start(y, x0, v0)
+    for i in range(N_STATS):
+        if i != S_H_RECONTACT:
+            stats[i] = 0.0
+    harm[:, :] = 0.0
+    return integrate(y, 0.0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
+                     True, True, P, harm, t_eval, out_eval, stats, f, y_new, f_new, K, W)
 
 
 @njit(cache=True, nogil=True)
@@ -104,10 +121,19 @@ def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, ma
     rv = y[1] - v
     rn = hypot(rq, rv)
     m11, m12, m21, m22 = y[2], y[3], y[4], y[5]
-    xtol = min(1e-6, 1e4 * rtol)
+    # Newton stops once it contracts quadratically to within XTOL_MEASURE: the next evaluation
+    # is the measure pass itself, whose residual and monodromy give one last Newton correction
+    # of the start point (no extra integration). If that correction exceeds tight, Newton
+    # resumes from the measure pass.
+    xtol = XTOL_MEASURE
+    tight = max(10.0 * rtol, 1e-13)
     dx_prev = np.inf
     converged = False
     it = 0
+    t_eval = np.empty(m - 1 if m > 1 else 0)
+    for j in range(t_eval.shape[0]):
+        t_eval[j] = (j + 1) * T
+    out_eval = np.empty((3, t_eval.shape[0]))
     while code == st.CONVERGED and it < max_iter:
         it += 1
         a = m11 - 1.0
@@ -120,10 +146,34 @@ def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, ma
         dv = -(-m21 * rq + a * rv) / det
         ndx = hypot(dq, dv)
         scale = 1.0 + hypot(x, v)
-        if ndx <= xtol * scale and (ndx <= 0.25 * dx_prev or ndx <= 10.0 * rtol * scale):
-            x += dq
-            v += dv
-            converged = True
+        # quadratic convergence: the correction after this one is about ndx^3 / dx_prev^2
+        if ndx <= xtol * scale and ndx * (ndx / dx_prev) ** 2 <= tight * scale:
+            # the next evaluation is the measure pass; repeat it while its correction is large
+            while it < max_iter:
+                x += dq
+                v += dv
+                it += 1
+                code = _measure_pass(x, v, P, omega, sigma, zeta, n, model, rtol, atol, h,
+                                     max_steps, y, stats, harm, t_eval, out_eval, f, y_new,
+                                     f_new, K, W)
+                steps += stats[S_ACCEPTED] + stats[S_REJECTED]
+                if code != st.CONVERGED:
+                    break
+                rq = y[0] - x
+                rv = y[1] - v
+                rn = hypot(rq, rv)
+                m11, m12, m21, m22 = y[2], y[3], y[4], y[5]
+                a = m11 - 1.0
+                d = m22 - 1.0
+                det = a * d - m12 * m21
+                if abs(det) <= 1e-15 * (abs(a * d) + abs(m12 * m21) + 1e-300):
+                    code = st.SINGULAR
+                    break
+                dq = -(d * rq - m12 * rv) / det
+                dv = -(-m21 * rq + a * rv) / det
+                if hypot(dq, dv) <= tight * scale:
+                    converged = True
+                    break
             break
         lam = 1.0
         while True:
@@ -167,28 +217,14 @@ def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, ma
         res[I_RES] = rn
         return
 
-    # ---- measure pass at the converged start point: monodromy, measures, period test ----
-    t_eval = np.empty(m - 1 if m > 1 else 0)
-    for j in range(t_eval.shape[0]):
-        t_eval[j] = (j + 1) * T
-    out_eval = np.empty((3, t_eval.shape[0]))
-    for i in range(N_STATS):
-        stats[i] = 0.0
-    harm[:, :] = 0.0
-    _start(y, x, v)
-    code = integrate(y, 0.0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
-                     True, True, P, harm, t_eval, out_eval, stats, f, y_new, f_new, K, W)
-    steps += stats[S_ACCEPTED] + stats[S_REJECTED]
+    # ---- results of the measure pass at (x, v); the start point gets the last correction --
     res[I_STEPS] = steps
     res[I_REJ] = stats[S_REJECTED]
-    res[I_Q0] = x
-    res[I_V0] = v
-    if code != st.CONVERGED:
-        res[I_STATUS] = code
-        return
-    rn = hypot(y[0] - x, y[1] - v)
+    res[I_Q0] = x + dq
+    res[I_V0] = v + dv
+    # residual of the measured orbit (before the last correction, whose size bounds the
+    # distance between the measured orbit and the reported start point)
     res[I_RES] = rn
-    m11, m12, m21, m22 = y[2], y[3], y[4], y[5]
     res[I_M11] = m11
     res[I_M12] = m12
     res[I_M21] = m21

@@ -167,24 +167,27 @@ def test_extreme_cases_return_status_in_bounded_time(omega, sigma, zeta, m, n):
 
 
 def test_grazing_dip_inside_one_step_is_seen():
-    """An orbit whose minimum dips below -n for a very short time, inside one step."""
-    # bisection on sigma (with continuation) for the 1T orbit whose minimum just reaches -1.5
+    """An orbit whose minimum dips below -n by 1e-8..1e-6, for a tiny fraction of a step."""
+    # bisection on sigma (with continuation) until the 1T orbit dips just below -1.5
     lo, hi, guess = 0.9, 1.0, (0.0, 0.0)
     for sigma in np.linspace(0.1, 0.9, 9):   # continuation along the lower (in-contact) branch
         guess = shoot(0.6, sigma, 0.05, 1, guess=guess, rtol=1e-12).x0
-    for _ in range(45):
+    o = None
+    for _ in range(60):
         mid = 0.5 * (lo + hi)
         o = shoot(0.6, mid, 0.05, 1, guess=guess, rtol=1e-12)
         assert o.converged
+        assert (o.min_q < -1.5) == o.loses_contact, o    # measures agree with the events
+        if -1.5 - 1e-6 < o.min_q < -1.5 - 1e-8:
+            break
         if o.min_q < -1.5:
             hi = mid
         else:
             lo, guess = mid, o.x0
-    o = shoot(0.6, hi, 0.05, 1, guess=guess, rtol=1e-12)
-    assert o.converged and o.loses_contact and 0 < o.flight_fraction < 1e-3, o
-    assert -1.5 - 1e-6 < o.min_q < -1.5
+    assert o.loses_contact and 0 < o.flight_fraction < 1e-3, o
+    assert -1.5 - 1e-6 < o.min_q < -1.5 - 1e-8
     assert_liouville(o, 1e-8)
-    x_ref, _ = oracle.fixed_point(o.x0 + 1e-4, 0.6, hi, 0.05, 1)
+    x_ref, _ = oracle.fixed_point(o.x0 + 1e-4, 0.6, o.sigma, 0.05, 1)
     np.testing.assert_allclose(o.x0, x_ref, atol=1e-9)
 
 
