@@ -9,6 +9,7 @@ DIVERGED = 2           # state left the admissible box (|q| or |v| > 1e6) or New
 STEP_LIMIT = 3         # integrator step-count limit (max_steps per period) reached
 STEP_SIZE = 4          # integrator step size fell below its floor (h < 1e-14 * period)
 SINGULAR = 5           # I - M singular (multiplier +1 to machine precision): no Newton step
+TIME_LIMIT = 6         # not solved: the task's time budget ran out first (grid studies only)
 EMPTY = -1             # no solution in this slot (used by the store, never returned by a solve)
 
 NAMES = {
@@ -18,5 +19,6 @@ NAMES = {
     STEP_LIMIT: "step_limit",
     STEP_SIZE: "step_size",
     SINGULAR: "singular",
+    TIME_LIMIT: "time_limit",
     EMPTY: "empty",
 }

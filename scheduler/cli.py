@@ -61,6 +61,9 @@ def _run_args(p: argparse.ArgumentParser) -> None:
                    help="replace a store that holds another study")
     p.add_argument("--task-seconds", type=float, default=None, metavar="S",
                    help="target duration of one task when creating a store (default 1.0)")
+    p.add_argument("--task-timeout", type=float, default=None, metavar="S",
+                   help="wall-clock budget of one task (default 600): grid points a task has "
+                   "not reached by then are stored with status time_limit and the study goes on")
     p.add_argument("--error-sample", type=int, default=None, metavar="N",
                    help="converged orbits re-solved at rtol/1000 for the error estimate "
                    "(default 8; 0 to skip)")
@@ -78,7 +81,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         return _error(f"{args.study}: {exc}")
 
     from scheduler.cluster import ClusterError, ClusterSpec, parse_cluster_options
-    from scheduler.plan import DEFAULT_TASK_SECONDS
+    from scheduler.plan import DEFAULT_TASK_SECONDS, DEFAULT_TASK_TIMEOUT
     from scheduler.run import (RunError, RunOptions, default_store_path, describe, run_study)
     from scheduler.store import StoreError
     from scheduler.worker import DEFAULT_SOLVER
@@ -96,6 +99,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         return _error(str(exc))
     if args.task_seconds is not None and not 0 < args.task_seconds < float("inf"):
         return _error(f"--task-seconds must be > 0 and finite, got {args.task_seconds}")
+    if args.task_timeout is not None and not 0 < args.task_timeout < float("inf"):
+        return _error(f"--task-timeout must be > 0 and finite, got {args.task_timeout}")
     if args.error_sample is not None and args.error_sample < 0:
         return _error(f"--error-sample must be >= 0, got {args.error_sample}")
     if spec.kind == "local" and spec.workers is None:
@@ -108,6 +113,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         overwrite=args.overwrite,
         solver=args.solver or DEFAULT_SOLVER,
         task_seconds=args.task_seconds or DEFAULT_TASK_SECONDS,
+        task_timeout=args.task_timeout or DEFAULT_TASK_TIMEOUT,
         error_sample=8 if args.error_sample is None else args.error_sample,
         command=f"hertzmap run {args.study}",
     )

@@ -25,7 +25,9 @@ from typing import Any, TextIO
 import numpy as np
 
 from scheduler.cluster import ClusterError, ClusterSpec, make_client, worker_count
-from scheduler.plan import DEFAULT_TASK_SECONDS, Plan, Task, choose_chunks, make_plan
+from kernels.status import TIME_LIMIT
+from scheduler.plan import (DEFAULT_TASK_SECONDS, DEFAULT_TASK_TIMEOUT, Plan, Task, choose_chunks,
+                            make_plan)
 from scheduler.store import Lock, Store, StoreError, open_or_create, read_attrs
 from scheduler.worker import DEFAULT_SOLVER, Warmup, run_task, solve_points
 from study.dataset import bytes_per_point, code_fingerprint, stored_variables
@@ -49,6 +51,7 @@ class RunOptions:
     overwrite: bool = False
     solver: str = DEFAULT_SOLVER
     task_seconds: float = DEFAULT_TASK_SECONDS
+    task_timeout: float = DEFAULT_TASK_TIMEOUT
     error_sample: int = ERROR_SAMPLE
     command: str = "hertzmap run"
 
@@ -518,7 +521,8 @@ def _compute(study, opts, store, plan, names, todo, n_done0, summary, client, ow
         for t in todo:
             so, ss, sz = t.slices
             specs.append({"index": t.index, "omega": om[so], "sigma": sg[ss], "zeta": zt[sz],
-                          "kwargs": kwargs, "names": names, "solver": opts.solver})
+                          "kwargs": kwargs, "names": names, "solver": opts.solver,
+                          "time_budget": opts.task_timeout})
         by_index = {t.index: t for t in todo}
         keys = [t.key(study.hash) for t in todo]
 
@@ -528,6 +532,7 @@ def _compute(study, opts, store, plan, names, todo, n_done0, summary, client, ow
         sampler = Sampler(study, opts.error_sample)
         compute = 0.0
         per_pid: dict[int, float] = {}
+        n_cut = 0
         n_conv = n_fail = n_points_with = n_points_run = 0
         t0 = time.perf_counter()
         futures.extend(client.map(run_task, specs, key=keys, pure=False))
@@ -552,7 +557,8 @@ def _compute(study, opts, store, plan, names, todo, n_done0, summary, client, ow
             per_pid[res["pid"]] = per_pid.get(res["pid"], 0.0) + res["seconds"]
             st = arrays["status"]
             n_conv += int((st == 0).sum())
-            n_fail += int((st > 0).sum())
+            n_fail += int(((st > 0) & (st != TIME_LIMIT)).sum())
+            n_cut += int((st == TIME_LIMIT).sum())
             n_points_with += int((st == 0).any(axis=-1).sum())
             sampler.add(task, arrays)
             summary["tasks_run"] += 1
@@ -579,6 +585,7 @@ def _compute(study, opts, store, plan, names, todo, n_done0, summary, client, ow
             overhead=overhead, per_task=compute / max(1, n_run),
             points=n_points_run, points_per_second=n_points_run / wall if wall > 0 else math.nan,
             orbits=n_conv, failed_slots=n_fail, points_with_orbit=n_points_with,
+            time_limited=n_cut,
             converged_fraction=n_conv / (n_conv + n_fail) if n_conv + n_fail else math.nan,
             orbits_per_second=n_conv / wall if wall > 0 else math.nan,
             worker_processes_seen=len(per_pid),
@@ -616,6 +623,10 @@ def print_summary(s: dict[str, Any], out: TextIO) -> None:
         f"dask overhead: {100 * s['overhead']:.1f} % (task compute {s['compute']:.2f} s over "
         f"{s['workers']} workers x {s['wall']:.2f} s wall; {1000 * s['per_task']:.0f} ms per task)",
     ]
+    if s.get("time_limited"):
+        lines.append(f"time limit: {s['time_limited']} grid points not solved within "
+                     f"--task-timeout (status time_limit); rerun with --overwrite and a larger "
+                     f"--task-timeout to compute them")
     e = s.get("error") or {}
     if e.get("failed"):
         lines.append(f"error estimate: failed ({e['failed']})")

@@ -24,6 +24,7 @@ This module is physics and numpy only: the scheduler ships ``solve_block`` witho
 """
 from __future__ import annotations
 
+import time
 import warnings
 
 import numpy as np
@@ -223,13 +224,18 @@ def _record(arrays, idx, slot, sol):
 
 
 def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hertz", rtol=1e-10,
-                max_solutions=4, discover=False, transients=16) -> dict[str, np.ndarray]:
+                max_solutions=4, discover=False, transients=16,
+                time_budget=None) -> dict[str, np.ndarray]:
     """Every periodic response at each point of the block omega x sigma x zeta.
 
     ``discover=True`` adds, per omega line, the discovery stage of study.discovery (transients
     from ``transients`` initial states at up to 12 points of the line, continuation of every
     branch found, branch switching at flips): isolas and the unstable halves of branches are
     found without hand-given seeds. Off by default (it costs about 0.5-2 s per line).
+
+    ``time_budget`` (seconds, optional): once spent, the points not yet reached get status
+    ``time_limit`` in slot 0 (period 0) and the block returns: a runaway block is cut and
+    recorded instead of holding up a study. Every kernel call is itself bounded in work.
 
     Returns {variable: array} with shape (len(omega), len(sigma), len(zeta), max_solutions)
     (+ (2,) for multipliers, + (4,) for force_harmonics); see VARIABLES for dtypes and the
@@ -245,18 +251,26 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
     arrays = {name: np.full(shape + trail, empty, dtype=dtype)
               for name, (dtype, empty, trail) in VARIABLES.items()}
     order = np.argsort(omega, kind="stable")
+    deadline = None if time_budget is None else time.monotonic() + float(time_budget)
     for j in range(sigma.size):
         for k in range(zeta.size):
+            if deadline is not None and time.monotonic() > deadline:
+                arrays["status"][:, j, k, 0] = st.TIME_LIMIT
+                continue
             per_point = [[] for _ in range(omega.size)]
             best_1t = [None] * omega.size
+            visited = np.zeros(omega.size, bool)
             # Up the omega axis, then down. Going down, only the orbits that the way up did not
             # reach by continuation are continued (the others would lead back to orbits already
             # known): this finds the branches that end in a fold towards higher omega.
             for first_visit, sweep in ((True, order), (False, order[::-1])):
                 prev = []
                 for i in sweep:
+                    if deadline is not None and time.monotonic() > deadline:
+                        break
                     found, tries = _point(omega[i], sigma[j], zeta[k], periods, prev, options,
                                           first_visit)
+                    visited[i] = True
                     _merge(per_point[i], found)
                     if tries and best_1t[i] is None:
                         best_1t[i] = min(tries, key=lambda s: (s["status"] != st.CONVERGED,
@@ -271,7 +285,7 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
                     for sols in per_point:
                         for s in sols:
                             s["continued_up"] = bool(s.get("continued"))
-            if discover:
+            if discover and (deadline is None or time.monotonic() <= deadline):
                 from study.discovery import discover_line
                 per_point = discover_line(omega, sigma[j], zeta[k], periods=periods,
                                           exponent=exponent, model=model, rtol=rtol,
@@ -286,4 +300,6 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
                     ordered = [best_1t[i]] + two     # record why the 1T solve failed
                 for slot, sol in enumerate(ordered[:max_solutions]):
                     _record(arrays, (i, j, k), slot, sol)
+                if not visited[i]:
+                    arrays["status"][i, j, k, 0] = st.TIME_LIMIT
     return arrays
