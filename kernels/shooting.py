@@ -235,7 +235,8 @@ def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, ma
     res[I_DET] = dt
     liou = exp(-2.0 * zeta * P)
     # relative to what a 2x2 determinant can resolve (det M ~ 1e-55 under heavy damping)
-    res[I_LIOU] = abs(dt - liou) / max(liou, abs(m11 * m22) + abs(m12 * m21))
+    # (both can underflow to 0 under extreme damping: then det M = 0 = exp(-2 zeta P) exactly)
+    res[I_LIOU] = abs(dt - liou) / max(liou, abs(m11 * m22) + abs(m12 * m21), 1e-300)
     disc = 0.25 * tr * tr - dt
     if disc >= 0.0:
         r = sqrt(disc)

@@ -62,7 +62,10 @@ VARIABLES = {
 def linear_response_seed(omega, sigma, zeta):
     """(q, q') at tau = 0 of the linearised 1T response: q = Re[X e^{i omega tau}],
     X = sigma / (1 - omega^2 + 2 i zeta omega)."""
-    X = sigma / (1.0 - omega**2 + 2j * zeta * omega)
+    den = 1.0 - omega**2 + 2j * zeta * omega
+    if den == 0:            # undamped exact resonance: no linear response; start at rest
+        return 0.0, 0.0
+    X = sigma / den
     return X.real, (1j * omega * X).real
 
 
