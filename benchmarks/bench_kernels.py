@@ -21,7 +21,6 @@ import time
 from math import pi
 
 import numpy as np
-from numba import njit
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "tests"))
@@ -30,7 +29,7 @@ import oracle  # noqa: E402  (scipy reference, shares no code with kernels/)
 
 from kernels import shoot  # noqa: E402
 from kernels.shooting import N_FIELDS, shoot_batch_into  # noqa: E402
-from kernels._dop853 import step_var  # noqa: E402
+from study.benchmark import bare_step_seconds  # noqa: E402
 from kernels.central_difference import cd_shoot  # noqa: E402
 
 CASES = [
@@ -59,27 +58,6 @@ def per_call(fn, budget=0.3):
             fn()
         times.append((time.perf_counter() - t0) / max(1, reps // 5))
     return float(np.median(times))
-
-
-@njit(cache=False)
-def _bare_steps(n):
-    y = np.array([0.1, 0.2, 1.0, 0.0, 0.0, 1.0])
-    f = np.array([0.2, 0.3, 0.0, 1.0, -1.0, -0.02])
-    y_new = np.empty(6)
-    f_new = np.empty(6)
-    K = np.empty((16, 2))
-    acc = 0.0
-    for i in range(n):
-        acc += step_var(0.001 * i, 0.1, y, f, y_new, f_new, K, 1.0, 0.3, 0.01, 1.5, 0, 1e-10, 1e-10)
-    return acc
-
-
-def bare_step_seconds():
-    _bare_steps(10)
-    n = 2_000_000
-    t0 = time.perf_counter()
-    _bare_steps(n)
-    return (time.perf_counter() - t0) / n
 
 
 def cold_start_seconds():

@@ -67,6 +67,18 @@ def _map(x0, v0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps, y, s
 
 
 @njit(cache=True, nogil=True)
+def _newton_step(m11, m12, m21, m22, rq, rv):
+    """Solve (M - I) dx = -r for the 2x2 monodromy M; ok is False when M - I is singular to
+    round-off (a multiplier +1: a fold)."""
+    a = m11 - 1.0
+    d = m22 - 1.0
+    det = a * d - m12 * m21
+    if abs(det) <= 1e-15 * (abs(a * d) + abs(m12 * m21) + 1e-300):
+        return False, 0.0, 0.0
+    return True, -(d * rq - m12 * rv) / det, -(-m21 * rq + a * rv) / det
+
+
+@njit(cache=True, nogil=True)
 def _measure_pass(x0, v0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps, y, stats,
                   harm, t_eval, out_eval, f, y_new, f_new, K, W):
     """Phi_P(x) and its Jacobian, with the orbit measures into stats and harm."""
@@ -136,14 +148,10 @@ def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, ma
     out_eval = np.empty((3, t_eval.shape[0]))
     while code == st.CONVERGED and it < max_iter:
         it += 1
-        a = m11 - 1.0
-        d = m22 - 1.0
-        det = a * d - m12 * m21
-        if abs(det) <= 1e-15 * (abs(a * d) + abs(m12 * m21) + 1e-300):
+        ok, dq, dv = _newton_step(m11, m12, m21, m22, rq, rv)
+        if not ok:
             code = st.SINGULAR
             break
-        dq = -(d * rq - m12 * rv) / det
-        dv = -(-m21 * rq + a * rv) / det
         ndx = hypot(dq, dv)
         scale = 1.0 + hypot(x, v)
         # quadratic convergence: the correction after this one is about ndx^3 / dx_prev^2
@@ -163,14 +171,10 @@ def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, ma
                 rv = y[1] - v
                 rn = hypot(rq, rv)
                 m11, m12, m21, m22 = y[2], y[3], y[4], y[5]
-                a = m11 - 1.0
-                d = m22 - 1.0
-                det = a * d - m12 * m21
-                if abs(det) <= 1e-15 * (abs(a * d) + abs(m12 * m21) + 1e-300):
+                ok, dq, dv = _newton_step(m11, m12, m21, m22, rq, rv)
+                if not ok:
                     code = st.SINGULAR
                     break
-                dq = -(d * rq - m12 * rv) / det
-                dv = -(-m21 * rq + a * rv) / det
                 if hypot(dq, dv) <= tight * scale:
                     converged = True
                     break
