@@ -189,9 +189,14 @@ class Store:
     # -- data -----------------------------------------------------------------------------
     def write_block(self, slices: tuple[slice, slice, slice], arrays: dict[str, np.ndarray],
                     names: tuple[str, ...]) -> None:
-        """Region write of one block (whole chunks), coordinates dropped."""
+        """Region write of one block (whole chunks), coordinates dropped. Per-block variables
+        (dim ``omega_block``: the located bifurcation points) go to the block's own
+        omega_block entry, in the same write: one writer per chunk."""
         ds = block_dataset(arrays, names)
         region = {"omega": slices[0], "sigma": slices[1], "zeta": slices[2]}
+        if "omega_block" in ds.dims:
+            ib = slices[0].start // self.chunks[0]
+            region["omega_block"] = slice(ib, ib + 1)
         ds.to_zarr(zarr.storage.LocalStore(self.path), region=region, consolidated=False,
                    zarr_format=3, write_empty_chunks=bool(self.attrs.get(ALL_CHUNKS_ATTR)))
 

@@ -58,6 +58,23 @@ VARIABLES = {
     "status": (np.int8, st.EMPTY, ()),
 }
 
+#: Located bifurcation points kept per omega line of a block (``locate=True``); more are
+#: dropped (``bifurcation_count`` says how many were found).
+BIFURCATION_SLOTS = 16
+#: Codes of ``bifurcation_kind`` (0: empty slot).
+BIFURCATION_KINDS = {"fold": 1, "flip": 2, "grazing": 3}
+
+BLOCK_VARIABLES = {
+    # name: (dtype, empty value, trailing dims); leading dims (1, len(sigma), len(zeta)):
+    # one omega block (the whole block's omega range) per (sigma, zeta) line
+    "bifurcation_omega": (np.float64, np.nan, (BIFURCATION_SLOTS,)),
+    "bifurcation_kind": (np.int8, 0, (BIFURCATION_SLOTS,)),
+    "bifurcation_period": (np.int8, 0, (BIFURCATION_SLOTS,)),
+    "bifurcation_q0": (np.float64, np.nan, (BIFURCATION_SLOTS,)),
+    "bifurcation_v0": (np.float64, np.nan, (BIFURCATION_SLOTS,)),
+    "bifurcation_count": (np.int16, -1, ()),
+}
+
 
 def linear_response_seed(omega, sigma, zeta):
     """(q, q') at tau = 0 of the linearised 1T response: q = Re[X e^{i omega tau}],
@@ -226,8 +243,29 @@ def _record(arrays, idx, slot, sol):
             arrays[name][idx + (slot,)] = sol[name]
 
 
+def line_bifurcations(special, omega_lo, omega_hi) -> list[dict]:
+    """The fold, flip and grazing points of a line (``LineResult.special`` of
+    study.discovery.discover_line) with omega_lo <= omega <= omega_hi, ordered by
+    (omega, kind, period). Branch points (a 2T branch ending on the 1T orbit: the 1T flip
+    seen from the 2T side, located to ~1e-4 only) are left out: the flip is the 1T entry."""
+    out = [d for d in special if d["kind"] in BIFURCATION_KINDS
+           and np.isfinite(d["omega"]) and omega_lo <= d["omega"] <= omega_hi]
+    out.sort(key=lambda d: (d["omega"], BIFURCATION_KINDS[d["kind"]], d["period"], d["q0"]))
+    return out
+
+
+def _record_bifurcations(arrays, j, k, points):
+    arrays["bifurcation_count"][0, j, k] = len(points)
+    for slot, d in enumerate(points[:BIFURCATION_SLOTS]):
+        arrays["bifurcation_omega"][0, j, k, slot] = d["omega"]
+        arrays["bifurcation_kind"][0, j, k, slot] = BIFURCATION_KINDS[d["kind"]]
+        arrays["bifurcation_period"][0, j, k, slot] = d["period"]
+        arrays["bifurcation_q0"][0, j, k, slot] = d["q0"]
+        arrays["bifurcation_v0"][0, j, k, slot] = d["v0"]
+
+
 def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hertz", rtol=1e-10,
-                max_solutions=4, discover=False, transients=16,
+                max_solutions=4, discover=False, transients=16, locate=False,
                 time_budget=None) -> dict[str, np.ndarray]:
     """Every periodic response at each point of the block omega x sigma x zeta.
 
@@ -235,6 +273,17 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
     from ``transients`` initial states at up to 12 points of the line, continuation of every
     branch found, branch switching at flips): isolas and the unstable halves of branches are
     found without hand-given seeds. Off by default (it costs about 0.5-2 s per line).
+
+    ``locate=True`` also locates, along each omega line, the fold points (1T and 2T), the
+    flip points and the grazing points (onset of contact loss, min q = -n) inside the
+    block's omega range, and returns them in BLOCK_VARIABLES (shape (1, len(sigma),
+    len(zeta), BIFURCATION_SLOTS); ``bifurcation_count`` (1, len(sigma), len(zeta)): how many
+    were found, -1 where the time budget ran out first). They come from the continuation stage
+    of study.discovery (every grid solution continued in omega across the line, sign changes
+    of 1 - tr M + det M, 1 + tr M + det M and min q + n between consecutive continuation
+    points, at most half a grid step apart, refined on the branch by
+    kernels.continuation: |test function| ~ 1e-14). Off by default: the grid results are the
+    same with or without it.
 
     ``time_budget`` (seconds, optional): once spent, the points not yet reached get status
     ``time_limit`` in slot 0 (period 0) and the block returns: a runaway block is cut and
@@ -253,6 +302,10 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
     shape = (omega.size, sigma.size, zeta.size, int(max_solutions))
     arrays = {name: np.full(shape + trail, empty, dtype=dtype)
               for name, (dtype, empty, trail) in VARIABLES.items()}
+    if locate:
+        lead = (1, sigma.size, zeta.size)
+        arrays.update({name: np.full(lead + trail, empty, dtype=dtype)
+                       for name, (dtype, empty, trail) in BLOCK_VARIABLES.items()})
     order = np.argsort(omega, kind="stable")
     deadline = None if time_budget is None else time.monotonic() + float(time_budget)
     for j in range(sigma.size):
@@ -288,12 +341,22 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
                     for sols in per_point:
                         for s in sols:
                             s["continued_up"] = bool(s.get("continued"))
+            line = None
             if discover and (deadline is None or time.monotonic() <= deadline):
                 from study.discovery import discover_line
-                per_point = discover_line(omega, sigma[j], zeta[k], periods=periods,
-                                          exponent=exponent, model=model, rtol=rtol,
-                                          transients=int(transients),
-                                          initial=per_point).solutions
+                line = discover_line(omega, sigma[j], zeta[k], periods=periods,
+                                     exponent=exponent, model=model, rtol=rtol,
+                                     transients=int(transients), initial=per_point)
+                per_point = line.solutions
+            if locate and omega.size and (deadline is None or time.monotonic() <= deadline):
+                if line is None:
+                    # continuation only (no transients): the grid solutions are unchanged
+                    from study.discovery import discover_line
+                    line = discover_line(omega, sigma[j], zeta[k], periods=periods,
+                                         exponent=exponent, model=model, rtol=rtol,
+                                         transients=0, initial=per_point)
+                _record_bifurcations(arrays, j, k, line_bifurcations(
+                    line.special, float(omega.min()), float(omega.max())))
             for i in range(omega.size):
                 sols = per_point[i]
                 one = sorted([s for s in sols if s["period"] == 1], key=lambda s: s["ptp"])

@@ -51,6 +51,11 @@ __all__ = [
 STORE_FORMAT = 1
 
 GRID_DIMS = ("omega", "sigma", "zeta", "solution")
+#: Dims of the per-block variables (located bifurcation points): one entry per omega chunk of
+#: the store and (sigma, zeta) line, so that each task writes exactly its own chunk.
+BLOCK_DIMS = ("omega_block", "sigma", "zeta")
+BIFURCATION_SLOTS = 16
+BIFURCATION_FLAGS = ((0, "empty"), (1, "fold"), (2, "flip"), (3, "grazing"))
 CHUNK_DIMS = ("omega_chunk", "sigma_chunk", "zeta_chunk")
 
 
@@ -64,10 +69,12 @@ class VarSpec:
     description: str
     extra_dim: tuple[str, int] | None = None    # trailing dim (name, length)
     flags: tuple[tuple[int, str], ...] | None = None
+    per_block: bool = False    # dims BLOCK_DIMS (+ extra) instead of GRID_DIMS (+ extra)
 
     @property
     def dims(self) -> tuple[str, ...]:
-        return GRID_DIMS + ((self.extra_dim[0],) if self.extra_dim else ())
+        lead = BLOCK_DIMS if self.per_block else GRID_DIMS
+        return lead + ((self.extra_dim[0],) if self.extra_dim else ())
 
     def attrs(self) -> dict[str, Any]:
         a: dict[str, Any] = {"long_name": self.long_name, "units": self.units,
@@ -122,6 +129,31 @@ VARIABLES: dict[str, VarSpec] = {v.name: v for v in [
             "number of Newton (shooting) iterations used for this slot"),
     VarSpec("residual", "float64", math.nan, "final shooting residual", "1",
             "|Phi_P(x0) - x0| at the returned start point"),
+    # -- bifurcations (per omega block and (sigma, zeta) line) ---------------------------------
+    VarSpec("bifurcation_omega", "float64", math.nan, "omega of a located bifurcation point", "1",
+            "excitation frequency of a fold, flip or grazing point located on a branch along the "
+            "omega line (sigma, zeta), within the omega range of the block; refined to a zero of "
+            "the test function (|g| ~ 1e-14) by kernels.continuation; ordered by omega; NaN: "
+            "empty slot", extra_dim=("bifurcation", BIFURCATION_SLOTS), per_block=True),
+    VarSpec("bifurcation_kind", "int8", 0, "kind of the located bifurcation point", "1",
+            "1 fold (a multiplier +1: zero of 1 - tr M + det M), 2 flip (a multiplier -1: zero "
+            "of 1 + tr M + det M), 3 grazing (onset of contact loss: zero of min q + n), "
+            "0 empty slot", extra_dim=("bifurcation", BIFURCATION_SLOTS),
+            flags=BIFURCATION_FLAGS, per_block=True),
+    VarSpec("bifurcation_period", "int8", 0, "period of the orbit at the point", "1",
+            "period of the branch the point lies on, in forcing periods (1: 1T, 2: 2T; 0 empty)",
+            extra_dim=("bifurcation", BIFURCATION_SLOTS),
+            flags=((0, "empty"), (1, "period_1T"), (2, "period_2T")), per_block=True),
+    VarSpec("bifurcation_q0", "float64", math.nan, "displacement at tau = 0 at the point", "1",
+            "start point q(0) of the periodic orbit at the located point",
+            extra_dim=("bifurcation", BIFURCATION_SLOTS), per_block=True),
+    VarSpec("bifurcation_v0", "float64", math.nan, "velocity at tau = 0 at the point", "1",
+            "start point dq/dtau(0) of the periodic orbit at the located point",
+            extra_dim=("bifurcation", BIFURCATION_SLOTS), per_block=True),
+    VarSpec("bifurcation_count", "int16", -1, "number of located bifurcation points", "1",
+            "points located along the line in the block's omega range; more than the "
+            f"{BIFURCATION_SLOTS} slots means the extra ones (highest omega) were dropped; "
+            "-1: not located (block not computed, or its time budget ran out)", per_block=True),
 ]}
 
 PRODUCT_VARIABLES: dict[str, tuple[str, ...]] = {
@@ -129,6 +161,8 @@ PRODUCT_VARIABLES: dict[str, tuple[str, ...]] = {
     "measures": ("min_q", "max_q", "ptp", "loses_contact", "flight_fraction", "max_impact_velocity"),
     "force_harmonics": ("force_harmonics",),
     "diagnostics": ("newton_iterations", "residual"),
+    "bifurcations": ("bifurcation_omega", "bifurcation_kind", "bifurcation_period",
+                     "bifurcation_q0", "bifurcation_v0", "bifurcation_count"),
 }
 
 _COORD_ATTRS = {
@@ -146,6 +180,9 @@ _COORD_ATTRS = {
                    "description": "index of the multiplier (order as returned by the block solver)"},
     "harmonic": {"long_name": "harmonic order", "units": "1",
                  "description": "k: the component at frequency k omega / period"},
+    "bifurcation": {"long_name": "bifurcation point slot", "units": "1",
+                    "description": "index of a located bifurcation point along the line "
+                                   "(ordered by omega); empty slots have bifurcation_kind 0"},
 }
 
 _TASK_DONE_ATTRS = {
@@ -164,12 +201,14 @@ def stored_variables(study: Study) -> tuple[str, ...]:
 
 def bytes_per_point(study: Study) -> int:
     """Uncompressed bytes stored per grid point (all solution slots)."""
-    total = 0
+    total = 0.0
     for name in stored_variables(study):
         v = VARIABLES[name]
-        n = study.max_solutions * (v.extra_dim[1] if v.extra_dim else 1)
+        # a per-block variable: one line per (sigma, zeta), spread over the line's omega points
+        n = (1.0 / len(study.omega) if v.per_block else study.max_solutions) \
+            * (v.extra_dim[1] if v.extra_dim else 1)
         total += n * np.dtype(v.dtype).itemsize
-    return total
+    return int(math.ceil(total))
 
 
 def chunk_counts(shape: tuple[int, ...], chunks: tuple[int, ...]) -> tuple[int, ...]:
@@ -245,10 +284,15 @@ def template(study: Study, chunks: tuple[int, int, int], *, history: str) -> xr.
     }
     data_vars: dict[str, xr.Variable] = {}
     encoding: dict[str, dict[str, Any]] = {}
+    counts = chunk_counts(study.shape, chunks)
     for name in stored_variables(study):
         v = VARIABLES[name]
-        shape = study.shape + (ns,)
-        vchunks = chunks + (ns,)
+        if v.per_block:
+            shape = (counts[0],) + study.shape[1:]
+            vchunks = (1,) + chunks[1:]
+        else:
+            shape = study.shape + (ns,)
+            vchunks = chunks + (ns,)
         if v.extra_dim:
             dim, n = v.extra_dim
             shape += (n,)
@@ -259,7 +303,6 @@ def template(study: Study, chunks: tuple[int, int, int], *, history: str) -> xr.
         fill = np.array(v.fill, dtype=v.dtype)
         data_vars[name] = xr.Variable(v.dims, np.broadcast_to(fill, shape), v.attrs())
         encoding[name] = {"chunks": vchunks, "fill_value": fill.item()}
-    counts = chunk_counts(study.shape, chunks)
     data_vars["task_done"] = xr.Variable(CHUNK_DIMS, np.zeros(counts, dtype=bool), {
         **_TASK_DONE_ATTRS, "chunk_shape": list(chunks)})
     encoding["task_done"] = {"chunks": (1, 1, 1), "fill_value": False}
@@ -297,7 +340,8 @@ def check_block(arrays: Mapping[str, np.ndarray], names: tuple[str, ...],
             raise ValueError(f"solve_block result lacks variable {name!r}")
         v = VARIABLES[name]
         a = np.asarray(arrays[name])
-        want = tuple(shape) + (max_solutions,) + ((v.extra_dim[1],) if v.extra_dim else ())
+        lead = (1,) + tuple(shape)[1:] if v.per_block else tuple(shape) + (max_solutions,)
+        want = lead + ((v.extra_dim[1],) if v.extra_dim else ())
         if a.shape != want:
             raise ValueError(f"solve_block variable {name!r} has shape {a.shape}, expected {want}")
         if not np.can_cast(a.dtype, np.dtype(v.dtype), casting="same_kind"):

@@ -196,10 +196,22 @@ def plot_map_measures(lcm, path, *, zeta=None, curves=None) -> Path:
     return _save(fig, path)
 
 
+def _located_segments(located, zeta, kind, period):
+    if located is None or not located.sizes.get("vertex", 0):
+        return []
+    sel = ((located["kind"].values == kind) & (located["period"].values == period)
+           & np.isclose(located["zeta"].values, zeta))
+    segs = located["segment"].values[sel]
+    om, sg = located["omega"].values[sel], located["sigma"].values[sel]
+    return [np.column_stack([om[segs == s], sg[segs == s]]) for s in np.unique(segs)]
+
+
 def plot_bifurcation_set(curves, mms, path, *, zeta=None, lcm=None, omega_range=None,
-                         sigma_range=None, title=None) -> Path:
+                         sigma_range=None, title=None, located=None) -> Path:
     """Bifurcation set in (omega, sigma) (paper Fig. 3, 7, 9): MMS sigma1/sigma2 against the
-    numerical flip curve (squares), 2T existence boundary (folds) and isolas."""
+    numerical flip curve (squares), 2T existence boundary (folds) and isolas. With
+    ``located`` (the ``located_bifurcations`` product) the flip curve and the 2T folds are the
+    located points (solver accuracy); else the contours of grid indicators."""
     if zeta is None:
         zs = np.unique(curves["zeta"].values) if curves.sizes["vertex"] else mms["zeta"].values
         zeta = float(zs[0])
@@ -211,11 +223,25 @@ def plot_bifurcation_set(curves, mms, path, *, zeta=None, lcm=None, omega_range=
             ax.pcolormesh(m["omega"], m["sigma"], np.where(iso, 1.0, np.nan), cmap="RdPu",
                           vmin=0, vmax=2, shading="nearest", rasterized=True)
     _draw_mms(ax, mms, zeta)
-    for seg in P.curve_segments(curves, "flip_1T", zeta):
-        step = max(1, len(seg) // 40)
-        ax.plot(seg[::step, 0], seg[::step, 1], "s", mfc="none", mec="k", ms=4)
-    ax.plot([], [], "s", mfc="none", mec="k", ms=4, label="flip of 1T (shooting, contoured)")
-    _draw_curves(ax, curves, zeta, ("boundary_2T", "isola"))
+    flips = _located_segments(located, zeta, 2, 1)
+    folds = _located_segments(located, zeta, 1, 2)
+    if flips or folds:
+        for seg in flips:
+            ax.plot(seg[:, 0], seg[:, 1], "s-", mfc="none", mec="k", color="k", lw=0.6, ms=4)
+        ax.plot([], [], "s-", mfc="none", mec="k", color="k", lw=0.6, ms=4,
+                label="flip of 1T (located)")
+        for seg in folds:
+            ax.plot(seg[:, 0], seg[:, 1], "o-", mfc="none", mec="C3", color="C3", lw=0.6, ms=3)
+        if folds:
+            ax.plot([], [], "o-", mfc="none", mec="C3", color="C3", lw=0.6, ms=3,
+                    label="fold of 2T (located)")
+        _draw_curves(ax, curves, zeta, ("isola",))
+    else:
+        for seg in P.curve_segments(curves, "flip_1T", zeta):
+            step = max(1, len(seg) // 40)
+            ax.plot(seg[::step, 0], seg[::step, 1], "s", mfc="none", mec="k", ms=4)
+        ax.plot([], [], "s", mfc="none", mec="k", ms=4, label="flip of 1T (shooting, contoured)")
+        _draw_curves(ax, curves, zeta, ("boundary_2T", "isola"))
     if omega_range:
         ax.set_xlim(*omega_range)
     if sigma_range:
@@ -500,7 +526,8 @@ def plot_store(store: str | Path, out: str | Path = "results", which: Sequence[s
                                               zeta=z, lcm=lcm,
                                               omega_range=(float(om.min()), float(om.max())),
                                               sigma_range=(float(ds["sigma"].min()),
-                                                           float(ds["sigma"].max()))))
+                                                           float(ds["sigma"].max())),
+                                              located=prods.get("located_bifurcations")))
     few = ds.sizes["omega"] <= 8        # a scene of named frequencies: time histories only
     if "frequency_response" in prods and (auto and nlines <= 8 and not few or "response" in which):
         fr = prods["frequency_response"]

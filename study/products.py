@@ -19,6 +19,10 @@ Products (docs/products.md has the reference):
 * :func:`bifurcation_curves` - flip curve of the 1T response, grazing curves, boundaries of the
   2T existence region (folds), of 1T coexistence, and isola boundaries, contoured with
   contourpy (the library behind matplotlib's contour) from grid indicators.
+* :func:`located_curves` - the fold, flip and grazing points located along each omega line
+  by the block solver (``[products] outputs`` with ``"bifurcations"``), linked across the sigma
+  lines into curves in (omega, sigma) per zeta, kind and period (solver accuracy, ~1e-8 in
+  omega, instead of the grid's interpolation error).
 * :func:`mms_curves`, :func:`mms_response` - the multiple-scales sigma1 / sigma2 curves
   (Fig. 3, 7, 9) and A(omega), min q (Fig. 4, 5) from ``study.multiple_scales``.
 * :func:`frequency_response` - ptp (and min/max q) against omega with stability and class
@@ -53,6 +57,7 @@ __all__ = [
     "PRODUCT_GROUP",
     "open_store",
     "completed",
+    "located_curves",
     "exponent_of",
     "contact_threshold",
     "rig_of",
@@ -173,6 +178,18 @@ def open_store(store: str | Path | xr.Dataset, *, load: bool = True) -> xr.Datas
                             "description": "True where the point's block is flagged in task_done"}
     if "status" in ds:
         ds["status"] = ds["status"].where(done, -1).astype("int8").assign_attrs(ds["status"].attrs)
+    if "bifurcation_kind" in ds and "task_done" in ds:
+        # per-block variables (omega_block, sigma, zeta, ...): undone blocks emptied as well
+        c = ds.attrs.get("hertzmap_chunk_shape") or ds["task_done"].attrs.get("chunk_shape")
+        td = np.asarray(ds["task_done"].values, bool)
+        bd = xr.DataArray(td.repeat(c[1], 1).repeat(c[2], 2)[:, : ds.sizes["sigma"],
+                                                              : ds.sizes["zeta"]],
+                          dims=("omega_block", "sigma", "zeta"))
+        ds["bifurcation_kind"] = (ds["bifurcation_kind"].where(bd, 0).astype("int8")
+                                  .assign_attrs(ds["bifurcation_kind"].attrs))
+        if "bifurcation_count" in ds:
+            ds["bifurcation_count"] = (ds["bifurcation_count"].where(bd, -1).astype("int16")
+                                       .assign_attrs(ds["bifurcation_count"].attrs))
     return ds.sortby(["omega", "sigma", "zeta"])
 
 
@@ -550,6 +567,102 @@ def bifurcation_curves(lcm: xr.Dataset) -> xr.Dataset:
     return out
 
 
+#: Codes of ``bifurcation_kind`` (study/dataset.py), by name.
+LOCATED_KINDS = {1: "fold", 2: "flip", 3: "grazing"}
+
+
+def located_curves(ds: xr.Dataset, max_jump: float | None = None) -> xr.Dataset:
+    """The located bifurcation points of a store (``bifurcation_*`` variables, from
+    ``open_store``) assembled into curves in (omega, sigma), per zeta, kind and period.
+
+    Points of the same kind and period on consecutive sigma lines are linked greedily, closest
+    omega first, when they are at most ``max_jump`` apart in omega (default: 10 % of the grid's
+    omega range); a point left unlinked starts a new curve. Long table over dim ``vertex``
+    (``omega``, ``sigma``, ``zeta``, ``kind``, ``period``, ``q0``, ``v0``, ``segment``),
+    ordered by segment then sigma. Empty (0 vertices) when the store has no located points.
+    """
+    cols = {k: [] for k in ("omega", "sigma", "zeta", "kind", "period", "q0", "v0", "segment")}
+    if "bifurcation_kind" in ds:
+        om = ds["omega"].values
+        if max_jump is None:
+            max_jump = 0.1 * float(om.max() - om.min()) if om.size > 1 else np.inf
+        kind = ds["bifurcation_kind"].transpose("omega_block", "sigma", "zeta", ...).values
+        get = {n: ds[f"bifurcation_{n}"].transpose("omega_block", "sigma", "zeta", ...).values
+               for n in ("omega", "period", "q0", "v0")}
+        sg, zt = ds["sigma"].values, ds["zeta"].values
+        seg = 0
+        for k in range(zt.size):
+            for code in sorted(LOCATED_KINDS):
+                for per in (1, 2):
+                    # per sigma line: the points (omega order) of this kind and period
+                    lines = []
+                    for j in range(sg.size):
+                        sel = (kind[:, j, k] == code) & (get["period"][:, j, k] == per)
+                        idx = np.argwhere(sel)
+                        pts = sorted((get["omega"][b, j, k, s], get["q0"][b, j, k, s],
+                                      get["v0"][b, j, k, s]) for b, s in idx)
+                        lines.append(pts)
+                    curves: list[list[tuple]] = []     # (sigma index, point)
+                    open_ends: dict[int, int] = {}      # point index on previous line -> curve
+                    for j, pts in enumerate(lines):
+                        prev = lines[j - 1] if j else []
+                        pairs = sorted((abs(p[0] - q[0]), a, b) for a, p in enumerate(pts)
+                                       for b, q in enumerate(prev))
+                        taken_a, taken_b, link = set(), set(), {}
+                        for d, a, b in pairs:
+                            if d <= max_jump and a not in taken_a and b not in taken_b \
+                                    and b in open_ends:
+                                taken_a.add(a)
+                                taken_b.add(b)
+                                link[a] = open_ends[b]
+                        new_ends = {}
+                        for a, p in enumerate(pts):
+                            c = link.get(a)
+                            if c is None:
+                                curves.append([])
+                                c = len(curves) - 1
+                            curves[c].append((j, p))
+                            new_ends[a] = c
+                        open_ends = new_ends
+                    for cv in curves:
+                        for j, (w, q0, v0) in cv:
+                            cols["omega"].append(w)
+                            cols["sigma"].append(sg[j])
+                            cols["zeta"].append(zt[k])
+                            cols["kind"].append(code)
+                            cols["period"].append(per)
+                            cols["q0"].append(q0)
+                            cols["v0"].append(v0)
+                            cols["segment"].append(seg)
+                        seg += 1
+    dt = {"kind": np.int8, "period": np.int8, "segment": np.int32}
+    arr = {k: np.asarray(v, dtype=dt.get(k, np.float64)) for k, v in cols.items()}
+    out = xr.Dataset({
+        "omega": ("vertex", arr["omega"], _attrs(
+            "excitation frequency", "1", "omega of the located point (solver accuracy)")),
+        "sigma": ("vertex", arr["sigma"], _attrs(
+            "excitation amplitude", "1", "sigma of the grid line the point was located on")),
+        "zeta": ("vertex", arr["zeta"], _attrs("damping ratio", "1", "zeta of the grid line")),
+        "kind": ("vertex", arr["kind"], _attrs(
+            "kind of bifurcation point", "1", "1 fold, 2 flip, 3 grazing (as bifurcation_kind)",
+            flag_values=np.array(sorted(LOCATED_KINDS), np.int8),
+            flag_meanings=" ".join(LOCATED_KINDS[c] for c in sorted(LOCATED_KINDS)))),
+        "period": ("vertex", arr["period"], _attrs(
+            "period of the branch", "1", "1: 1T orbit, 2: 2T orbit")),
+        "q0": ("vertex", arr["q0"], _attrs("displacement at tau = 0", "1",
+                                           "start point of the orbit at the located point")),
+        "v0": ("vertex", arr["v0"], _attrs("velocity at tau = 0", "1",
+                                           "start point of the orbit at the located point")),
+        "segment": ("vertex", arr["segment"], _attrs(
+            "curve id", "1", "id of the curve the vertex belongs to (vertices ordered by sigma)")),
+    })
+    out.attrs = _source_attrs(ds, "bifurcation curves assembled from located points")
+    out.attrs["method"] = ("fold/flip/grazing points located on each omega line (study.block "
+                           "locate=True), linked across sigma lines, closest omega first, "
+                           f"within max_jump = {max_jump} in omega")
+    return out
+
+
 def curve_segments(curves: xr.Dataset, name: str, zeta: float | None = None
                    ) -> list[np.ndarray]:
     """The lines (k, 2) of (omega, sigma) of one curve kind (by name), optionally at one zeta."""
@@ -893,7 +1006,7 @@ def compute_products(store: str | Path | xr.Dataset, *, write: bool = True,
     Always: ``orbit_classes``, ``loss_of_contact_map``, ``bifurcation_curves`` (empty for line
     studies), ``mms_curves``. When the study has at most ``max_lines`` (sigma, zeta) lines:
     ``frequency_response`` and, per line, ``mms_response``. With ``force_harmonics`` stored:
-    ``force_harmonics``. Physical units where the study has a ``[rig]`` table.
+    ``force_harmonics``. With ``bifurcations`` stored: ``located_bifurcations``. Physical units where the study has a ``[rig]`` table.
     """
     ds = open_store(store)
     rig = rig_of(ds)
@@ -903,6 +1016,8 @@ def compute_products(store: str | Path | xr.Dataset, *, write: bool = True,
     lcm = loss_of_contact_map(ds)
     out["loss_of_contact_map"] = lcm
     out["bifurcation_curves"] = bifurcation_curves(lcm)
+    if "bifurcation_kind" in ds:
+        out["located_bifurcations"] = located_curves(ds)
     om = ds["omega"].values
     lo, hi = float(om.min()), float(om.max())
     # the MMS expansion is about omega = 2: its curves are drawn on |omega - 2| <= 0.25

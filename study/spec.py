@@ -41,7 +41,7 @@ MAX_GRID_POINTS = 20_000_000
 AXES = ("omega", "sigma", "zeta")
 
 #: Output groups a study can ask for; the variables of each group are defined in study/dataset.py.
-PRODUCTS = ("orbits", "measures", "force_harmonics", "diagnostics")
+PRODUCTS = ("orbits", "measures", "force_harmonics", "diagnostics", "bifurcations")
 #: "orbits" is always stored (period, q0, v0, status, multipliers, stable).
 CORE_PRODUCT = "orbits"
 DEFAULT_PRODUCTS = ("orbits", "measures")
@@ -125,13 +125,16 @@ class Study:
 
     def solver_kwargs(self) -> dict[str, Any]:
         """Keyword arguments for ``study.block.solve_block`` (everything but the coordinates)."""
-        return {
+        kw = {
             "periods": tuple(self.periods),
             "exponent": 1.5 if self.exponent is None else float(self.exponent),
             "model": self.model,
             "rtol": float(self.rtol),
             "max_solutions": int(self.max_solutions),
         }
+        if "bifurcations" in self.products:
+            kw["locate"] = True     # only then: other studies call the solver as before
+        return kw
 
     def to_dict(self) -> dict[str, Any]:
         """The canonical, fully defaulted content of the study (JSON-compatible)."""

@@ -90,6 +90,8 @@ def test_placeholder_honours_the_contract():
     out = placeholder_solve_block(s.axis("omega"), s.axis("sigma")[:2], s.axis("zeta")[:1],
                                   **s.solver_kwargs())
     for name, v in VARIABLES.items():
+        if v.per_block:       # "bifurcations": the placeholder does not locate points
+            continue
         a = out[name]
         extra = (v.extra_dim[1],) if v.extra_dim else ()
         assert a.shape == (17, 2, 1, 4) + extra and a.dtype == np.dtype(v.dtype), name
