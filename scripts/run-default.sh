@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
-# The main command of README.md: install, run the default study end to end, plot its maps.
+# The main command of README.md: install, run the default study end to end (or resume it),
+# then compute its products and plot its maps into results/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install.sh
 .venv/bin/hertzmap run studies/default.toml "$@"
+.venv/bin/hertzmap plot results/default.zarr
