@@ -87,21 +87,26 @@ def linear_response_seed(omega, sigma, zeta):
 
 
 def _mms_seeds(omega, sigma, zeta):
+    """Multiple-scales 2T seeds (both branches of Eq. 23, where real) at every omega of a line:
+    a list, per omega, of (q0, v0) pairs. Evaluated once per line (the functions broadcast)."""
     # Far from omega = 2 the multiple-scales response is no theory, but it is a cheap seed that
     # lands on unstable halves of 2T branches the sweeps miss (measured on sigma 0.2/0.5/0.8
     # lines: restricting it to |omega - 2| < 0.3 lost 17 unstable orbits of 1330).
+    omega = np.atleast_1d(np.asarray(omega, float))
+    seeds = [[] for _ in range(omega.size)]
     try:
         from study.multiple_scales import mms_2t_seed
     except ImportError:     # analytic layer absent: the other seeds still work
-        return []
-    seeds = []
+        return seeds
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore")
         for branch in ("upper", "lower"):
             q, v = mms_2t_seed(omega, sigma, zeta, branch)
-            q, v = float(np.asarray(q)), float(np.asarray(v))
-            if np.isfinite(q) and np.isfinite(v):
-                seeds.append((q, v))
+            q = np.broadcast_to(np.asarray(q, float), omega.shape)
+            v = np.broadcast_to(np.asarray(v, float), omega.shape)
+            for i in range(omega.size):
+                if np.isfinite(q[i]) and np.isfinite(v[i]):
+                    seeds[i].append((float(q[i]), float(v[i])))
     return seeds
 
 
@@ -200,7 +205,7 @@ def _continue(omega, sigma, zeta, period, parents, options, max_iter):
     return sols
 
 
-def _point(omega, sigma, zeta, periods, prev, options, first_visit):
+def _point(omega, sigma, zeta, periods, prev, options, first_visit, mms_seeds=()):
     """Solutions at one point from continuation of the previous point's solutions ``prev``
     and, on the first visit of the point, from the linear, multiple-scales and flip seeds."""
     found, tries_1t = [], []
@@ -216,7 +221,7 @@ def _point(omega, sigma, zeta, periods, prev, options, first_visit):
         parents = [s for s in prev if s["period"] == 2]
         sols = _continue(omega, sigma, zeta, 2, parents, options, MAX_ITER_2T)
         if first_visit:
-            seeds = _mms_seeds(omega, sigma, zeta)
+            seeds = list(mms_seeds)
             for s in found:
                 seeds += _flip_seeds(s)
             sols += _solve(omega, sigma, zeta, 2, seeds, dict(options, max_iter=MAX_ITER_2T))
@@ -316,6 +321,7 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
             per_point = [[] for _ in range(omega.size)]
             best_1t = [None] * omega.size
             visited = np.zeros(omega.size, bool)
+            mms = _mms_seeds(omega, sigma[j], zeta[k]) if 2 in periods else None
             # Up the omega axis, then down. Going down, only the orbits that the way up did not
             # reach by continuation are continued (the others would lead back to orbits already
             # known): this finds the branches that end in a fold towards higher omega.
@@ -325,7 +331,7 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
                     if deadline is not None and time.monotonic() > deadline:
                         break
                     found, tries = _point(omega[i], sigma[j], zeta[k], periods, prev, options,
-                                          first_visit)
+                                          first_visit, mms[i] if mms is not None else ())
                     visited[i] = True
                     _merge(per_point[i], found)
                     if tries and best_1t[i] is None:
