@@ -20,7 +20,7 @@ from study.spec import Study
 #: Estimated seconds of solver work per grid point, per period searched (a 1T search, a 2T
 #: search). Calibrated on the block solver (see docs/running.md); used only to size tasks
 #: and for --dry-run estimates.
-SECONDS_PER_POINT = {1: 6e-4, 2: 1.8e-3}   # study.block, measured 2026-11 on 2 cores
+SECONDS_PER_POINT = {1: 5e-4, 2: 1.6e-3}   # study.block, measured 2026-11 on 2 cores
 #: Target duration of one task (seconds). Dask costs a few ms per task: 1 s keeps it < 1 %.
 DEFAULT_TASK_SECONDS = 1.0
 DEFAULT_TASK_TIMEOUT = 600.0   # wall-clock budget of one task (s): see study.block time_budget
