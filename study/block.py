@@ -141,8 +141,9 @@ def _solve(omega, sigma, zeta, period, seeds, options):
     rows = np.empty((n, N_FIELDS))
     shoot_batch_into(np.full(n, float(omega)), np.full(n, float(sigma)), np.full(n, float(zeta)),
                      np.full(n, int(period), np.int64), np.ascontiguousarray(seeds[:, 0]),
-                     np.ascontiguousarray(seeds[:, 1]), options["exponent"],
-                     MODELS[options["model"]], options["rtol"], options["rtol"],
+                     np.ascontiguousarray(seeds[:, 1]), float(options.get("exponent", 1.5)),
+                     MODELS[options.get("model", "hertz")], float(options.get("rtol", 1e-10)),
+                     float(options.get("rtol", 1e-10)),
                      int(options.get("max_iter", DEFAULT_MAX_ITER)), DEFAULT_MAX_STEPS, rows)
     out = []
     for row in rows:

@@ -190,10 +190,12 @@ def discover_line(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="he
     order = np.argsort(omega, kind="stable")
     # 1. sweep seeds, both ways
     if sweep:
+        mms = block._mms_seeds(omega, sigma, zeta) if 2 in periods else [()] * omega.size
         for sw in (order, order[::-1]):
             prev = []
             for i in sw:
-                found, _ = block._point(omega[i], sigma, zeta, periods, prev, options)
+                found, _ = block._point(omega[i], sigma, zeta, periods, prev, options, True,
+                                        mms[i])
                 block._merge(sols[i], found)
                 prev = found
     seconds["sweep"] = time.perf_counter() - t0

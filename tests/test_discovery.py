@@ -94,3 +94,20 @@ def test_block_discover_option_keeps_contract():
     assert np.all(two.sum(axis=-1)[:, 0, 0] == 2)
     assert np.all(out["loses_contact"][two])
     assert (ref["status"] == 0).sum() <= (out["status"] == 0).sum()
+
+
+def test_default_sweep_path_finds_what_the_block_solver_finds():
+    """discover_line's own sweep (no initial solutions given) runs the block solver's seeding:
+    it must find at least every converged orbit solve_block finds on the same line."""
+    from study.block import solve_block
+    omega = np.linspace(1.85, 2.1, 6)
+    d = discovery.discover_line(omega, 0.5, 0.01, transients=0)
+    b = solve_block(omega, np.array([0.5]), np.array([0.01]))
+    for i in range(omega.size):
+        got = d.solutions[i]
+        for slot in range(b["period"].shape[-1]):
+            if b["status"][i, 0, 0, slot] != 0:
+                continue
+            assert any(s["period"] == b["period"][i, 0, 0, slot]
+                       and abs(s["min_q"] - b["min_q"][i, 0, 0, slot]) < 1e-6 for s in got), \
+                (omega[i], slot)
