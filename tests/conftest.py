@@ -115,3 +115,20 @@ def study_file(tmp_path):
         p.write_text(text)
         return p
     return write
+
+
+def done_count(store) -> int:
+    """Tasks marked done in a store (0 while it does not exist or cannot be read yet)."""
+    from scheduler.store import Store
+    try:
+        return int(Store(store).done_mask().sum())
+    except Exception:
+        return 0
+
+
+def wait_until(pred, timeout: float, what: str) -> None:
+    t0 = time.monotonic()
+    while not pred():
+        if time.monotonic() - t0 > timeout:
+            raise AssertionError(f"timed out waiting for {what}")
+        time.sleep(0.02)

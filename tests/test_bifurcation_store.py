@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from conftest import hertzmap_cmd, needs_block, subprocess_env
+from conftest import done_count, hertzmap_cmd, needs_block, subprocess_env, wait_until
 from kernels import shoot
 from kernels.continuation import flip_function
 from scheduler.cli import main
@@ -21,7 +21,7 @@ from scheduler.store import Store, lock_path, store_status
 from study import products as P
 from study.dataset import PRODUCT_VARIABLES, stored_variables
 from study.spec import parse_study
-from test_scheduler import assert_same_store, done_count, wait_until
+from test_scheduler import assert_same_store
 
 pytestmark = [pytest.mark.slow, needs_block]
 

@@ -16,15 +16,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
-import zarr
 
-from conftest import PLACEHOLDER, free_port, hertzmap_cmd, placeholder_solve_block, subprocess_env
+from conftest import PLACEHOLDER, done_count, free_port, hertzmap_cmd, subprocess_env, wait_until
 from scheduler.cli import main
 from scheduler.cluster import ClusterSpec
 from scheduler.plan import make_plan
 from scheduler.run import RunOptions, run_study
 from scheduler.store import Store, lock_path
-from study.dataset import stored_variables
 from study.spec import parse_study
 
 pytestmark = pytest.mark.slow
@@ -57,21 +55,6 @@ def data(path: Path) -> xr.Dataset:
     ds = xr.open_zarr(path).load()
     ds.attrs = {}
     return ds
-
-
-def done_count(store: Path) -> int:
-    try:
-        return int(Store(store).done_mask().sum())
-    except Exception:
-        return 0
-
-
-def wait_until(pred, timeout: float, what: str) -> None:
-    t0 = time.monotonic()
-    while not pred():
-        if time.monotonic() - t0 > timeout:
-            raise AssertionError(f"timed out waiting for {what}")
-        time.sleep(0.02)
 
 
 @pytest.fixture(scope="module")

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from conftest import free_port, hertzmap_cmd, needs_block, subprocess_env
+from conftest import done_count, free_port, hertzmap_cmd, needs_block, subprocess_env, wait_until
 from scheduler.cli import main
 from scheduler.cluster import ClusterSpec
 from scheduler.run import RunOptions, run_study
@@ -71,21 +71,6 @@ def reference(study_path, tmp_path_factory) -> Path:
     # numba caches (each new worker process compiles the kernels when their sources changed)
     assert time.perf_counter() - t0 < 180
     return store
-
-
-def done_count(store: Path) -> int:
-    try:
-        return int(Store(store).done_mask().sum())
-    except Exception:
-        return 0
-
-
-def wait_until(pred, timeout: float, what: str) -> None:
-    t0 = time.monotonic()
-    while not pred():
-        if time.monotonic() - t0 > timeout:
-            raise AssertionError(f"timed out waiting for {what}")
-        time.sleep(0.02)
 
 
 @needs_block
