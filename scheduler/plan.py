@@ -22,6 +22,9 @@ from study.spec import Study
 #: and for --dry-run estimates.
 SECONDS_PER_POINT = {1: 5e-4, 2: 1.6e-3}   # study.block, measured 2026-11 on 2 cores
 #: Target duration of one task (seconds). Dask costs a few ms per task: 1 s keeps it < 1 %.
+#: extra per point with [search] discover = true (transients + continuation, ~1.5 s per
+#: 161-point line, docs/discovery.md)
+SECONDS_PER_POINT_DISCOVER = 1e-2
 DEFAULT_TASK_SECONDS = 1.0
 DEFAULT_TASK_TIMEOUT = 600.0   # wall-clock budget of one task (s): see study.block time_budget
 #: Longest omega block in one chunk.
@@ -65,7 +68,10 @@ class Plan:
 
 def seconds_per_point(study: Study) -> float:
     """Estimated solver seconds per grid point for this study."""
-    return sum(SECONDS_PER_POINT[p] for p in study.periods)
+    seconds = sum(SECONDS_PER_POINT[p] for p in study.periods)
+    if getattr(study, "discover", False):
+        seconds += SECONDS_PER_POINT_DISCOVER
+    return seconds
 
 
 def choose_chunks(study: Study, task_seconds: float = DEFAULT_TASK_SECONDS) -> tuple[int, int, int]:

@@ -98,6 +98,8 @@ class Study:
     rtol: float = 1e-10
     max_solutions: int = 4
     periods: tuple[int, ...] = (1, 2)
+    discover: bool = False
+    transients: int = 16
     products: tuple[str, ...] = DEFAULT_PRODUCTS
     rig: tuple[tuple[str, Any], ...] | None = None
     source_text: str = field(default="", compare=False, repr=False)
@@ -134,6 +136,9 @@ class Study:
         }
         if "bifurcations" in self.products:
             kw["locate"] = True     # only then: other studies call the solver as before
+        if self.discover:
+            kw["discover"] = True   # transients + continuation per line (study.discovery)
+            kw["transients"] = int(self.transients)
         return kw
 
     def to_dict(self) -> dict[str, Any]:
@@ -144,7 +149,11 @@ class Study:
             "grid": {ax: [float(x) for x in getattr(self, ax)] for ax in AXES},
             "model": {"kind": self.model, "exponent": self.exponent},
             "solver": {"rtol": self.rtol, "max_solutions": self.max_solutions},
-            "search": {"periods": list(self.periods)},
+            # discovery enters the canonical form only when asked for: studies without it keep
+            # the hash they had before the option existed
+            "search": ({"periods": list(self.periods)} if not self.discover else
+                       {"periods": list(self.periods), "discover": True,
+                        "transients": int(self.transients)}),
             "products": {"outputs": list(self.products)},
             "rig": self.rig_dict,
         }
@@ -365,7 +374,16 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
 
     # [search]
     se = _table(doc, "search")
-    _refuse_unknown(se, "search", ("periods",))
+    _refuse_unknown(se, "search", ("periods", "discover", "transients"))
+    discover = se.get("discover", False)
+    if not isinstance(discover, bool):
+        raise StudyError("search.discover", f"expected true or false, got {_r(discover)}")
+    transients = se.get("transients", 16)
+    if isinstance(transients, bool) or not isinstance(transients, int) or not 1 <= transients <= 256:
+        raise StudyError("search.transients", f"expected an integer 1..256 (initial states of the "
+                         f"transients per line), got {_r(transients)}")
+    if "transients" in se and not discover:
+        raise StudyError("search.transients", "only meaningful with search.discover = true")
     periods = se.get("periods", [1, 2])
     if not isinstance(periods, list) or not periods:
         raise StudyError("search.periods", f"expected a non-empty list, a subset of {list(PERIODS_ALLOWED)}, "
@@ -423,6 +441,8 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
         rtol=rtol,
         max_solutions=max_solutions,
         periods=periods_t,
+        discover=discover,
+        transients=transients,
         products=products,
         rig=rig,
         source_text=text,

@@ -111,3 +111,17 @@ def test_default_sweep_path_finds_what_the_block_solver_finds():
             assert any(s["period"] == b["period"][i, 0, 0, slot]
                        and abs(s["min_q"] - b["min_q"][i, 0, 0, slot]) < 1e-6 for s in got), \
                 (omega[i], slot)
+
+
+def test_grid_block_with_discovery_finds_the_unstable_half_of_the_isola():
+    """sigma = 0.2, zeta = 0.01: the isola's stable half is reached by the sweep seeds; its
+    unstable half needs discovery (transients + continuation around the folds)."""
+    from study.block import solve_block
+    omega = np.linspace(1.2, 1.7, 6)
+    plain = solve_block(omega, np.array([0.2]), np.array([0.01]))
+    disc = solve_block(omega, np.array([0.2]), np.array([0.01]), discover=True, transients=8)
+
+    def unstable_2t(r):
+        return int(((r["period"] == 2) & ~r["stable"] & (r["status"] == 0)).sum())
+    assert unstable_2t(disc) >= omega.size          # one unstable 2T orbit at every point
+    assert unstable_2t(disc) > unstable_2t(plain)

@@ -256,3 +256,23 @@ def test_shipped_studies_are_valid():
     for path in sorted((REPO / "studies").glob("*.toml")):
         s = load_study(path)
         assert s.size >= 1, path
+
+
+def test_search_discover_option():
+    from study.spec import parse_study
+    base = '[grid]\nomega = [1.0, 1.5]\nsigma = [0.2]\nzeta = [0.01]\n'
+    plain = parse_study(base, default_name="s")
+    assert plain.discover is False and "discover" not in plain.solver_kwargs()
+    on = parse_study(base + '[search]\ndiscover = true\ntransients = 8\n', default_name="s")
+    assert on.solver_kwargs()["discover"] is True and on.solver_kwargs()["transients"] == 8
+    assert on.hash != plain.hash
+    # absent and explicitly false are the same study (and the hash of studies that predate the
+    # option is unchanged: the key is not in their canonical form)
+    assert parse_study(base + '[search]\ndiscover = false\n', default_name="s").hash == plain.hash
+    assert "discover" not in plain.to_dict()["search"]
+    for bad, field in [('discover = "yes"', "search.discover"), ("discover = 1", "search.discover"),
+                       ("discover = true\ntransients = 0", "search.transients"),
+                       ("discover = true\ntransients = 2.5", "search.transients"),
+                       ("transients = 4", "search.transients")]:
+        with pytest.raises(StudyError, match=field.replace(".", r"\.")):
+            parse_study(base + "[search]\n" + bad + "\n", default_name="s")
