@@ -235,6 +235,23 @@ def _tangent(J, t_prev):
     return t if t @ t_prev >= 0.0 else -t
 
 
+def _predict_correct(fun, u_prev, t_prev, h, ds_min):
+    """One pseudo-arclength step of size h along t_prev, halved until the Newton corrector lands
+    near the prediction with a consistent tangent. Returns ((u, M, iterations, tangent), h), or
+    (None, h) once h < ds_min."""
+    while h >= ds_min:
+        u_pred = u_prev + h * t_prev
+        r = _correct(fun, u_pred, t_prev)
+        if r is not None:
+            un, Jn, Mn, it = r
+            tn = _tangent(Jn, t_prev)
+            if (tn is not None and tn @ t_prev > 0.9
+                    and np.linalg.norm(un - u_pred) <= 0.5 * h + 1e-12):
+                return (un, Mn, it, tn), h
+        h *= 0.5
+    return None, h
+
+
 def _null_vector(J):
     """Unit null vector of a k x (k+1) matrix (SVD)."""
     _, _, vt = np.linalg.svd(J)
@@ -434,24 +451,13 @@ def continue_orbit(zeta, x0, *, omega, sigma, period=1, param="omega", direction
     gfuns = _gfuns(system, m, param, omega, sigma)
     while len(us) < max_points:
         u_prev, t_prev = us[-1], t
-        r = None
         if dp_max is not None and abs(t_prev[2]) * h > dp_max:
             h = max(ds_min, dp_max / abs(t_prev[2]))
-        while h >= ds_min:
-            u_pred = u_prev + h * t_prev
-            r = _correct(fun, u_pred, t_prev)
-            if r is not None:
-                un, Jn, Mn, it = r
-                tn = _tangent(Jn, t_prev)
-                if (tn is not None and tn @ t_prev > 0.9
-                        and np.linalg.norm(un - u_pred) <= 0.5 * h + 1e-12):
-                    break
-            r = None
-            h *= 0.5
+        r, h = _predict_correct(fun, u_prev, t_prev, h, ds_min)
         if r is None:
             status = STEP_FAIL
             break
-        t = tn
+        un, Mn, it, t = r
         rec = _point_record(system, m, un, Mn, param, omega, sigma, polish)
         s_total += np.linalg.norm(un - u_prev)
         rec["arclength"] = s_total
@@ -611,18 +617,7 @@ def continue_curve(zeta, x0, omega, sigma, *, kind="fold", period=2, direction=1
     scale = 1.0 + np.hypot(*u[:2])
     while len(us) < max_points:
         u_prev, t_prev = us[-1], t
-        r = None
-        while h >= ds_min:
-            u_pred = u_prev + h * t_prev
-            r = _correct(fun, u_pred, t_prev)
-            if r is not None:
-                un, Jn, Mn, it = r
-                tn = _tangent(Jn, t_prev)
-                if (tn is not None and tn @ t_prev > 0.9
-                        and np.linalg.norm(un - u_pred) <= 0.5 * h + 1e-12):
-                    break
-            r = None
-            h *= 0.5
+        r, h = _predict_correct(fun, u_prev, t_prev, h, ds_min)
         if r is None:
             status = STEP_FAIL
             asym = pts.get("asym", [])
@@ -637,7 +632,7 @@ def continue_curve(zeta, x0, omega, sigma, *, kind="fold", period=2, direction=1
                                                    len(us) - 1))
                 status = BRANCH_POINT
             break
-        t = tn
+        un, Mn, it, t = r
         rec = record(un, Mn)
         s_total += np.linalg.norm(un - u_prev)
         rec["arclength"] = s_total
