@@ -235,6 +235,16 @@ def _tangent(J, t_prev):
     return t if t @ t_prev >= 0.0 else -t
 
 
+def _adapt_step(h, iterations, ds_min, ds_max):
+    """Next arclength step from the corrector's effort: grow after an easy step, shrink after a
+    hard one."""
+    if iterations <= 2:
+        return min(ds_max, 1.5 * h)
+    if iterations >= 5:
+        return max(ds_min, 0.6 * h)
+    return h
+
+
 def _predict_correct(fun, u_prev, t_prev, h, ds_min):
     """One pseudo-arclength step of size h along t_prev, halved until the Newton corrector lands
     near the prediction with a consistent tangent. Returns ((u, M, iterations, tangent), h), or
@@ -501,10 +511,7 @@ def continue_orbit(zeta, x0, *, omega, sigma, period=1, param="omega", direction
                     break
             if status == CLOSED:
                 break
-        if it <= 2:
-            h = min(ds_max, 1.5 * h)
-        elif it >= 5:
-            h = max(ds_min, 0.6 * h)
+        h = _adapt_step(h, it, ds_min, ds_max)
     branch.status = status
     branch.points = {k: np.asarray(v, float) for k, v in pts.items()}
     return branch
@@ -660,10 +667,7 @@ def continue_curve(zeta, x0, omega, sigma, *, kind="fold", period=2, direction=1
                     status = CLOSED
             if status == CLOSED:
                 break
-        if it <= 2:
-            h = min(ds_max, 1.5 * h)
-        elif it >= 5:
-            h = max(ds_min, 0.6 * h)
+        h = _adapt_step(h, it, ds_min, ds_max)
     branch.status = status
     branch.points = {k: np.asarray(v, float) for k, v in pts.items()}
     return branch

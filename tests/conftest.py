@@ -132,3 +132,21 @@ def wait_until(pred, timeout: float, what: str) -> None:
         if time.monotonic() - t0 > timeout:
             raise AssertionError(f"timed out waiting for {what}")
         time.sleep(0.02)
+
+
+def kill_client_mid_study(cmd, env, store, tasks: int) -> int:
+    """Start `hertzmap run` (cmd) in its own process group, SIGKILL the whole group (client,
+    scheduler, workers) once ``tasks`` tasks are done, and return how many were done."""
+    import signal
+    import subprocess
+    p = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                         start_new_session=True)
+    try:
+        wait_until(lambda: done_count(store) >= tasks or p.poll() is not None, 90,
+                   f"{tasks} tasks")
+        os.killpg(p.pid, signal.SIGKILL)
+        p.wait(timeout=30)
+    finally:
+        if p.poll() is None:
+            os.killpg(p.pid, signal.SIGKILL)
+    return done_count(store)

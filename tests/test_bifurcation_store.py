@@ -4,16 +4,14 @@ orbit near omega = 2 at zeta = 0.01."""
 
 from __future__ import annotations
 
-import os
 import shutil
-import signal
 import subprocess
 
 import numpy as np
 import pytest
 import xarray as xr
 
-from conftest import done_count, hertzmap_cmd, needs_block, subprocess_env, wait_until
+from conftest import hertzmap_cmd, kill_client_mid_study, needs_block, subprocess_env
 from kernels import shoot
 from kernels.continuation import flip_function
 from scheduler.cli import main
@@ -144,16 +142,7 @@ def test_client_killed_then_rerun_identical(paths, tmp_path):
     cmd = hertzmap_cmd("run", str(d / "bifstore.toml"), "--store", str(store), "--workers", "2",
                        "--task-seconds", TASK_SECONDS, "--error-sample", "0")
     env = subprocess_env()
-    p = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                         start_new_session=True)
-    try:
-        wait_until(lambda: done_count(store) >= 1 or p.poll() is not None, 90, "one task")
-        os.killpg(p.pid, signal.SIGKILL)
-        p.wait(timeout=30)
-    finally:
-        if p.poll() is None:
-            os.killpg(p.pid, signal.SIGKILL)
-    done = done_count(store)
+    done = kill_client_mid_study(cmd, env, store, 1)
     assert lock_path(store).exists()
     r = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr

@@ -5,7 +5,6 @@ killed mid-study and rerun. Every run must give a store identical to the undistu
 from __future__ import annotations
 
 import os
-import signal
 import subprocess
 import sys
 import threading
@@ -16,7 +15,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from conftest import done_count, free_port, hertzmap_cmd, needs_block, subprocess_env, wait_until
+from conftest import (done_count, free_port, hertzmap_cmd, kill_client_mid_study, needs_block,
+                      subprocess_env, wait_until)
 from scheduler.cli import main
 from scheduler.cluster import ClusterSpec
 from scheduler.run import RunOptions, run_study
@@ -160,17 +160,7 @@ def test_client_killed_mid_study_then_rerun(study_path, reference, tmp_path):
     cmd = hertzmap_cmd("run", str(study_path), "--store", str(store), "--workers", "2",
                        "--task-seconds", TASK_SECONDS, "--error-sample", "0")
     env = subprocess_env()
-    # own process group: SIGKILL takes the client, its scheduler and its worker processes
-    p = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                         start_new_session=True)
-    try:
-        wait_until(lambda: done_count(store) >= 2 or p.poll() is not None, 90, "two tasks")
-        os.killpg(p.pid, signal.SIGKILL)
-        p.wait(timeout=30)
-    finally:
-        if p.poll() is None:
-            os.killpg(p.pid, signal.SIGKILL)
-    done = done_count(store)
+    done = kill_client_mid_study(cmd, env, store, 2)
     assert 2 <= done < 8, f"kill landed after the end ({done} tasks done)"
     assert lock_path(store).exists()            # stale lock of the dead client
     r = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=120)
