@@ -4,9 +4,12 @@
 
 For each case: a reference start point at rtol = 1e-13; every method starts Newton from the same
 guess (reference + (1e-2, 1e-2)). Times are of the numba entry points (hertzmap's
-shoot_batch_into over 64 identical solves, per orbit; the paper's cd_shoot). Printed per case: the paper's scheme (central differences,
-N = 10000 steps per period, forward-difference Jacobian, in numba), hertzmap at the loosest
-tolerance whose start-point error is <= min(paper's error, 1e-8), scipy solve_ivp (DOP853,
+shoot_batch_into over 64 identical solves, per orbit; the paper's cd_shoot). Printed per case:
+the paper's scheme (central differences, N = 10000 steps per period, forward-difference
+Jacobian, in numba), hertzmap at the loosest tolerance whose start-point error is
+<= min(paper's error, 1e-8), timed with what the paper's scheme gives (start point and
+multipliers; hertzmap adds min/max q, flight fraction, impact velocity) and, column "+harm",
+with the contact-force harmonics as well; scipy solve_ivp (DOP853,
 event restarts) + scipy.optimize.root at a tolerance reaching the same error, and the arithmetic
 floor: hertzmap's number of DOP853 steps times the cost of one bare step. Ratios are of times
 measured in this run on this machine. Also: numba cold start with and without the disk cache.
@@ -78,7 +81,7 @@ def main():
     step = bare_step_seconds()
     print(f"bare DOP853 step (state + variational, 6-D): {step * 1e6:.3f} us")
     header = (f"{'case':24s} {'paper err':>9s} {'paper ms':>9s} | {'rtol':>6s} {'err':>8s} "
-              f"{'us':>8s} {'steps':>6s} | {'scipy err':>9s} {'scipy ms':>9s} | "
+              f"{'us':>8s} {'+harm':>7s} {'steps':>6s} | {'scipy err':>9s} {'scipy ms':>9s} | "
               f"{'x paper':>8s} {'x scipy':>8s} {'/floor':>7s}")
     print(header)
     print("-" * len(header))
@@ -111,8 +114,12 @@ def main():
         args = [np.full(nb, v) for v in (w, s, z)] + [np.full(nb, m, np.int64)] + \
             [np.full(nb, guess[0]), np.full(nb, guess[1])]
         res = np.empty((nb, N_FIELDS))
-        batch = lambda: shoot_batch_into(*args, n_exp, 0, rtol, rtol, 40, 200_000, res)
+        # like for like: start point and multipliers (+ the contact measures), as the paper's
+        # scheme gives; then with the force harmonics too (a quadrature on every step)
+        batch = lambda: shoot_batch_into(*args, n_exp, 0, rtol, rtol, 40, 200_000, False, res)
         t_hm = per_call(batch, 0.5) / nb
+        batch_h = lambda: shoot_batch_into(*args, n_exp, 0, rtol, rtol, 40, 200_000, True, res)
+        t_hm_h = per_call(batch_h, 0.3) / nb
         # scipy: tolerance reaching the same accuracy
         for srtol in (1e-9, 1e-10, 1e-11, 1e-12):
             t0 = time.perf_counter()
@@ -126,7 +133,7 @@ def main():
         ratios_scipy.append(t_sp / t_hm)
         floors.append(t_hm / floor)
         print(f"{name:24s} {err_cd:9.1e} {t_cd * 1e3:9.2f} | {rtol:6.0e} {err:8.1e} "
-              f"{t_hm * 1e6:8.1f} {steps:6d} | {err_sp:9.1e} {t_sp * 1e3:9.1f} | "
+              f"{t_hm * 1e6:8.1f} {t_hm_h * 1e6:7.1f} {steps:6d} | {err_sp:9.1e} {t_sp * 1e3:9.1f} | "
               f"{t_cd / t_hm:8.0f} {t_sp / t_hm:8.0f} {t_hm / floor:7.2f}")
     print("-" * len(header))
     print(f"speed-up over the paper's scheme at equal or better accuracy: min {min(ratios_paper):.0f}x,"

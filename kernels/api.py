@@ -97,24 +97,27 @@ class Orbit:
 def shoot(omega: float, sigma: float, zeta: float, period: int = 1, guess=(0.0, 0.0), *,
           exponent: float = 1.5, model: str = "hertz", rtol: float = DEFAULT_RTOL,
           atol: float | None = None, max_iter: int = DEFAULT_MAX_ITER,
-          max_steps: int = DEFAULT_MAX_STEPS) -> Orbit:
+          max_steps: int = DEFAULT_MAX_STEPS, harmonics: bool = True) -> Orbit:
     """Find the period-``period`` orbit of paper Eq. 7 (or Eq. 11 with model="taylor") by Newton
     shooting from ``guess`` = (q0, q'0) at tau = 0. Never raises for a failed solve: look at
     ``orbit.status`` (kernels.status). ``rtol``/``atol``: local error tolerances of the integrator.
+    ``harmonics=False`` skips the contact-force harmonics and mean force (NaN then): a
+    quadrature on every step of the last integration, about a quarter of a 1T solve's time.
     """
     if int(period) < 1:
         raise ValueError(f"period must be an integer >= 1, got {period!r}")
     row = np.empty(N_FIELDS)
     shoot_into(float(omega), float(sigma), float(zeta), int(period), float(guess[0]),
                float(guess[1]), _check_exponent(exponent), _model_code(model), float(rtol),
-               float(rtol if atol is None else atol), int(max_iter), int(max_steps), row)
+               float(rtol if atol is None else atol), int(max_iter), int(max_steps),
+               bool(harmonics), row)
     return Orbit.from_row(omega, sigma, zeta, period, row)
 
 
 def shoot_batch(omega, sigma, zeta, period, q_guess, v_guess, *, exponent: float = 1.5,
                 model: str = "hertz", rtol: float = DEFAULT_RTOL, atol: float | None = None,
-                max_iter: int = DEFAULT_MAX_ITER,
-                max_steps: int = DEFAULT_MAX_STEPS) -> dict[str, np.ndarray]:
+                max_iter: int = DEFAULT_MAX_ITER, max_steps: int = DEFAULT_MAX_STEPS,
+                harmonics: bool = True) -> dict[str, np.ndarray]:
     """Vectorised ``shoot`` over broadcast 1-D arrays; returns {field: array} (kernels.shooting.FIELDS)."""
     omega, sigma, zeta, period, q_guess, v_guess = np.broadcast_arrays(
         np.asarray(omega, float), np.asarray(sigma, float), np.asarray(zeta, float),
@@ -123,7 +126,8 @@ def shoot_batch(omega, sigma, zeta, period, q_guess, v_guess, *, exponent: float
     args = [np.array(a.ravel(), copy=True) for a in (omega, sigma, zeta, period, q_guess, v_guess)]
     out = np.empty((args[0].size, N_FIELDS))
     shoot_batch_into(*args, _check_exponent(exponent), _model_code(model), float(rtol),
-                     float(rtol if atol is None else atol), int(max_iter), int(max_steps), out)
+                     float(rtol if atol is None else atol), int(max_iter), int(max_steps),
+                     bool(harmonics), out)
     return {name: out[:, i].reshape(shape) for i, name in enumerate(FIELDS)}
 
 
@@ -153,7 +157,7 @@ def simulate(omega: float, sigma: float, zeta: float, x0=(0.0, 0.0), *, t_end: f
     stats = np.zeros(N_STATS)
     code = integrate(y, 0.0, float(t_end), float(omega), float(sigma), float(zeta), n, code_model,
                      float(rtol), float(rtol if atol is None else atol), 0.1, int(max_steps),
-                     False, False, T, np.zeros((2, N_HARMONICS + 1)), t_eval, out, stats,
+                     False, False, False, T, np.zeros((2, N_HARMONICS + 1)), t_eval, out, stats,
                      np.empty(2), np.empty(2), np.empty(2), np.empty((16, 2)), np.empty((7, 2)))
     if t_eval.size and t_eval[0] == 0.0:
         out[:, 0] = (x0[0], x0[1], rhs_force(float(x0[0]), n, code_model))

@@ -188,15 +188,17 @@ def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta,
 
 @njit(cache=True, nogil=True)
 def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
-              variational, measure, period_harm, harm, t_eval, out_eval, stats,
+              variational, measure, harmonics, period_harm, harm, t_eval, out_eval, stats,
               f, y_new, f_new, K, P):
     """Advance y (length 6 with the variational matrix, else 2) from t0 to t1 in place.
 
     Parameters (all dimensionless): omega, sigma, zeta, n (contact exponent), model (HERTZ or
     TAYLOR); rtol, atol tolerances of the local error on (q, q') and Phi; h initial step;
     max_steps bound on steps + rejections + events. With ``measure``, fills stats (min/max q,
-    flight time, largest impact velocity) and accumulates into harm[0, k], harm[1, k] the
-    integrals of F(q) cos(k w t) and F(q) sin(k w t), w = 2 pi / period_harm, k = 0..N_HARMONICS.
+    flight time, largest impact velocity); with ``harmonics`` too, accumulates into harm[0, k],
+    harm[1, k] the integrals of F(q) cos(k w t) and F(q) sin(k w t), w = 2 pi / period_harm,
+    k = 0..N_HARMONICS (8-point Gauss-Legendre on the continuous extension of every step: about
+    as costly as the step itself, so only when asked for).
     With ``t_eval`` (sorted, inside [t0, t1]) writes q, q', F at those times into out_eval (3, m).
     Work arrays: f, y_new, f_new (len(y)), K (16, 2), P (7, 2).
 
@@ -338,11 +340,17 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
         lands = mode == MODE_LOSS and (at_target or y_new[0] < -n)
         # ---- accepted step ------------------------------------------------------------------
         if n_eval > 0 or measure:
-            if not have_dense:
+            # the continuous extension costs 3 more stages: only on steps that need it (an
+            # output time inside, an extremum of q inside, or the harmonics' quadrature)
+            emit = i_eval < n_eval and t_eval[i_eval] <= _time(mode, x + h, t_ref)
+            extremum = measure and (y[1] < 0.0) != (y_new[1] < 0.0)
+            if not have_dense and (emit or extremum or (measure and harmonics)):
                 _dense(mode, x, h, y, y_new, K, omega, sigma, zeta, n, model, P, t_ref)
-            i_eval = _emit(P, y, mode, x, h, t_ref, t_eval, out_eval, i_eval, n, model)
+            if emit:
+                i_eval = _emit(P, y, mode, x, h, t_ref, t_eval, out_eval, i_eval, n, model)
             if measure:
-                _measure_step(P, y, y_new, mode, x, h, t_ref, n, model, w_h, harm, stats)
+                _measure_step(P, y, y_new, mode, x, h, t_ref, n, model, extremum, harmonics,
+                              w_h, harm, stats)
         stats[S_ACCEPTED] += 1
         if mode == MODE_T and stats[S_H_FIRST] == 0.0:
             stats[S_H_FIRST] = h
@@ -408,21 +416,26 @@ def _emit(P, y, mode, x, h, t_ref, t_eval, out_eval, i_eval, n, model):
 
 
 @njit(cache=True, nogil=True)
-def _measure_step(P, y, y_new, mode, x, h, t_ref, n, model, w_h, harm, stats):
-    """Orbit measures over one contact step: extrema of q and the contact-force harmonics."""
+def _measure_step(P, y, y_new, mode, x, h, t_ref, n, model, extremum, harmonics, w_h, harm,
+                  stats):
+    """Orbit measures over one contact step: extrema of q (``extremum``: q' changes sign
+    inside, P holds the continuous extension) and, with ``harmonics``, the contact-force
+    harmonics."""
     q0, q1 = y[0], y_new[0]
     for qq in (q0, q1):
         if qq < stats[S_MIN_Q]:
             stats[S_MIN_Q] = qq
         if qq > stats[S_MAX_Q]:
             stats[S_MAX_Q] = qq
-    if (y[1] < 0.0) != (y_new[1] < 0.0):
+    if extremum:
         xm = _dense_root(P, y, 0.0, 1.0, 0.0, 1)
         qm = dense_eval(P, 0, y[0], xm)
         if qm < stats[S_MIN_Q]:
             stats[S_MIN_Q] = qm
         if qm > stats[S_MAX_Q]:
             stats[S_MAX_Q] = qm
+    if not harmonics:
+        return
     for j in range(8):
         xi = _GL_X[j]
         qe = dense_eval(P, 0, y[0], xi)

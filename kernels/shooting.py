@@ -63,7 +63,7 @@ def _map(x0, v0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps, y, s
     stats[S_ACCEPTED] = 0.0     # the integrator accumulates; the caller sums per map
     stats[S_REJECTED] = 0.0
     return integrate(y, 0.0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
-                     True, False, P, harm, t_eval, out_eval, stats, f, y_new, f_new, K, W)
+                     True, False, False, P, harm, t_eval, out_eval, stats, f, y_new, f_new, K, W)
 
 
 @njit(cache=True, nogil=True)
@@ -80,24 +80,28 @@ def _newton_step(m11, m12, m21, m22, rq, rv):
 
 @njit(cache=True, nogil=True)
 def _measure_pass(x0, v0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps, y, stats,
-                  harm, t_eval, out_eval, f, y_new, f_new, K, W):
-    """Phi_P(x) and its Jacobian, with the orbit measures into stats and harm."""
+                  harmonics, harm, t_eval, out_eval, f, y_new, f_new, K, W):
+    """Phi_P(x) and its Jacobian, with the orbit measures into stats (and, with
+    ``harmonics``, the force harmonics into harm)."""
     _start(y, x0, v0)
     for i in range(N_STATS):
         if i != S_H_RECONTACT:
             stats[i] = 0.0
     harm[:, :] = 0.0
     return integrate(y, 0.0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
-                     True, True, P, harm, t_eval, out_eval, stats, f, y_new, f_new, K, W)
+                     True, True, harmonics, P, harm, t_eval, out_eval, stats, f, y_new, f_new,
+                     K, W)
 
 
 @njit(cache=True, nogil=True)
 def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, max_iter,
-               max_steps, res):
+               max_steps, harmonics, res):
     """Find the period-m orbit near (q_guess, v_guess); write FIELDS into res (float64[N_FIELDS]).
 
     Dimensionless inputs (paper Eq. 7): omega > 0, sigma >= 0, zeta >= 0, n > 0 the contact
     exponent, model HERTZ or TAYLOR; rtol/atol the integrator's local tolerances on (q, q').
+    ``harmonics``: also the contact-force harmonics and mean force (a quadrature on every step
+    of the measure pass, which it makes about twice as costly); else those fields are NaN.
     """
     for i in range(res.shape[0]):
         res[i] = np.nan
@@ -162,8 +166,8 @@ def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, ma
                 v += dv
                 it += 1
                 code = _measure_pass(x, v, P, omega, sigma, zeta, n, model, rtol, atol, h,
-                                     max_steps, y, stats, harm, t_eval, out_eval, f, y_new,
-                                     f_new, K, W)
+                                     max_steps, y, stats, harmonics, harm, t_eval, out_eval,
+                                     f, y_new, f_new, K, W)
                 steps += stats[S_ACCEPTED] + stats[S_REJECTED]
                 if code != st.CONVERGED:
                     break
@@ -270,9 +274,10 @@ def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, ma
         res[I_LOSES] = 1.0 if stats[S_EVENTS] > 0 or stats[S_FLIGHT_TIME] > 0.0 else 0.0
     else:
         res[I_LOSES] = 1.0 if stats[S_MIN_Q] < TAYLOR_CONTACT_LIMIT else 0.0
-    for k in range(1, N_HARMONICS + 1):
-        res[I_H1 + k - 1] = 2.0 / P * hypot(harm[0, k], harm[1, k])
-    res[I_MEANF] = harm[0, 0] / P
+    if harmonics:
+        for k in range(1, N_HARMONICS + 1):
+            res[I_H1 + k - 1] = 2.0 / P * hypot(harm[0, k], harm[1, k])
+        res[I_MEANF] = harm[0, 0] / P
     # smallest j dividing m with Phi_{jT}(x0) = x0: a 2T solve that landed on the 1T orbit
     minimal = m
     scale = 1.0 + hypot(x, v)
@@ -290,8 +295,8 @@ def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, ma
 
 @njit(cache=True, nogil=True)
 def shoot_batch_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, max_iter,
-                     max_steps, out):
+                     max_steps, harmonics, out):
     """shoot_into for each i over 1-D arrays of equal length; out has shape (len, N_FIELDS)."""
     for i in range(omega.shape[0]):
         shoot_into(omega[i], sigma[i], zeta[i], m[i], q_guess[i], v_guess[i], n, model, rtol,
-                   atol, max_iter, max_steps, out[i])
+                   atol, max_iter, max_steps, harmonics, out[i])

@@ -144,7 +144,8 @@ def _solve(omega, sigma, zeta, period, seeds, options):
                      np.ascontiguousarray(seeds[:, 1]), float(options.get("exponent", 1.5)),
                      MODELS[options.get("model", "hertz")], float(options.get("rtol", 1e-10)),
                      float(options.get("rtol", 1e-10)),
-                     int(options.get("max_iter", DEFAULT_MAX_ITER)), DEFAULT_MAX_STEPS, rows)
+                     int(options.get("max_iter", DEFAULT_MAX_ITER)), DEFAULT_MAX_STEPS,
+                     bool(options.get("harmonics", True)), rows)
     out = []
     for row in rows:
         minimal = row[F["minimal_period"]]
@@ -282,7 +283,7 @@ def _record_bifurcations(arrays, j, k, points):
 
 def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hertz", rtol=1e-10,
                 max_solutions=4, discover=False, transients=16, locate=False,
-                time_budget=None) -> dict[str, np.ndarray]:
+                harmonics=True, time_budget=None) -> dict[str, np.ndarray]:
     """Every periodic response at each point of the block omega x sigma x zeta.
 
     ``discover=True`` adds, per omega line, the discovery stage of study.discovery (transients
@@ -301,6 +302,10 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
     kernels.continuation: |test function| ~ 1e-14). Off by default: the grid results are the
     same with or without it.
 
+    ``harmonics=False`` leaves ``force_harmonics`` NaN: their quadrature costs about a quarter
+    of the solver's time, and a study that does not store them (product ``force_harmonics``)
+    need not pay for it. Every other variable is bit-for-bit the same either way.
+
     ``time_budget`` (seconds, optional): once spent, the points not yet reached get status
     ``time_limit`` in slot 0 (period 0) and the block returns: a runaway block is cut and
     recorded instead of holding up a study. Every kernel call is itself bounded in work.
@@ -318,7 +323,8 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
         raise ValueError(f"model must be one of {sorted(MODELS)}, got {model!r}")
     if not (np.isfinite(exponent) and exponent > 0):
         raise ValueError(f"exponent must be a finite number > 0, got {exponent!r}")
-    options = dict(exponent=float(exponent), model=model, rtol=float(rtol))
+    options = dict(exponent=float(exponent), model=model, rtol=float(rtol),
+                   harmonics=bool(harmonics))
     shape = (omega.size, sigma.size, zeta.size, int(max_solutions))
     arrays = {name: np.full(shape + trail, empty, dtype=dtype)
               for name, (dtype, empty, trail) in VARIABLES.items()}

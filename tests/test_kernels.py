@@ -215,3 +215,20 @@ def test_block_keeps_1t_multipliers_when_a_2t_solve_lands_on_the_1t_orbit():
     for i in range(omega.size):
         q = r["min_q"][i, 0, 0][r["period"][i, 0, 0] == 1]
         assert np.unique(np.round(q, 8)).size == q.size
+
+
+@pytest.mark.parametrize("omega, sigma, zeta, m, guess", [
+    (1.5, 0.2, 0.01, 1, (-0.16, 0.006)),     # in contact
+    (0.8, 1.5, 0.01, 1, (-7.7, 0.17)),       # long flights
+    (1.9, 0.5, 0.01, 2, (-0.09, 1.5)),       # 2T with contact loss (minimal-period check)
+])
+def test_harmonics_off_changes_nothing_else(omega, sigma, zeta, m, guess):
+    """harmonics=False only skips the force quadrature: every other field is bit-identical."""
+    on = shoot_batch(omega, sigma, zeta, m, guess[0], guess[1], rtol=1e-10)
+    off = shoot_batch(omega, sigma, zeta, m, guess[0], guess[1], rtol=1e-10, harmonics=False)
+    assert on["status"] == 0
+    for name, value in on.items():
+        if name.startswith("force_h") or name == "mean_force":
+            assert np.isfinite(value).all() and np.isnan(off[name]).all(), name
+        else:
+            np.testing.assert_array_equal(off[name], value, err_msg=name)

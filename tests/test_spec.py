@@ -45,8 +45,9 @@ def test_minimal_study_defaults():
     assert s.periods == (1, 2)
     assert s.products == DEFAULT_PRODUCTS
     assert s.rig is None
+    # force_harmonics is not among the default products: the solver skips their quadrature
     assert s.solver_kwargs() == {"periods": (1, 2), "exponent": 1.5, "model": "hertz",
-                                 "rtol": 1e-10, "max_solutions": 4}
+                                 "rtol": 1e-10, "max_solutions": 4, "harmonics": False}
 
 
 def test_full_study():
