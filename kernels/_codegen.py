@@ -30,11 +30,12 @@ solution is smooth in w but not in t). All take the FSAL derivative at the step 
 write the new state, its derivative and the stages of (q, v) into ``K`` (for dense output).
 The error norm is Hairer's combined 5th/3rd order estimate (as in scipy) on all components.
 """
-from math import cos
+from math import cos, sin, sqrt
 
 from numba import float64, int64, njit
 
 from kernels.model import contact_side_force as rhs_force
+from kernels.model import cos_shifted
 from kernels.model import contact_side_force_and_stiffness as rhs_force_and_stiffness
 
 '''
@@ -53,6 +54,14 @@ def _lin(coefs, terms):
     return " + ".join(parts) if parts else "0.0"
 
 
+def _theta(ch: str, timemap: bool) -> str:
+    """omega (t_stage - t0) for a stage at variable offset ch: in w-mode t = t_ref + sgn w^2,
+    so t_stage - t0 = sgn ch (2 w0 + ch), written without cancellation."""
+    if timemap:
+        return f"omega * sgn * ({ch}) * (2.0 * t + {ch})"
+    return f"omega * ({ch})"
+
+
 def _step(name: str, variational: bool, timemap: bool = False) -> str:
     """One DOP853 step. With ``timemap`` the independent variable is w, t = t_ref + sgn w^2,
     and every stage derivative is multiplied by dt/dw = 2 sgn w (stages at w + c h)."""
@@ -67,6 +76,10 @@ def _step(name: str, variational: bool, timemap: bool = False) -> str:
     L.append(f"@njit({sig}, cache=True, nogil=True)")
     L.append(f"def {name}(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol{extra}):")
     L.append("    tz = 2.0 * zeta")
+    # the excitation at the stages: cos(omega t0 + theta) from one cos/sin at the step start
+    L.append("    phi0 = omega * (t_ref + sgn * t * t)" if timemap else "    phi0 = omega * t")
+    L.append("    cphi = cos(phi0)")
+    L.append("    sphi = sin(phi0)")
     for i, c in enumerate(comps):
         L.append(f"    {c}0 = y[{i}]")
     for i, c in enumerate(comps):
@@ -76,20 +89,20 @@ def _step(name: str, variational: bool, timemap: bool = False) -> str:
         for c in comps:
             terms = [f"k{j}{c}" for j in range(s)]
             L.append(f"    y{c} = {c}0 + h * ({_lin(row[:s], terms)})")
-        tt = "t + h" if s == 12 else f"t + {float(C[s])!r} * h"
+        ch = "h" if s == 12 else f"{float(C[s])!r} * h"
         if timemap:
-            L.append(f"    w = {tt}")
+            L.append(f"    w = t + {ch}")
             L.append("    m = 2.0 * sgn * w")
-            tt = "t_ref + sgn * w * w"
             mul = "m * "
         else:
             mul = ""
+        L.append(f"    g = cos_shifted(cphi, sphi, phi0, {_theta(ch, timemap)})")
         if variational:
             L.append(f"    F, dF = rhs_force_and_stiffness(yq, n, model)")
         else:
             L.append(f"    F = rhs_force(yq, n, model)")
         L.append(f"    k{s}q = {mul}yv")
-        L.append(f"    k{s}v = {mul}(1.0 + sigma * cos(omega * ({tt})) - tz * yv - F)")
+        L.append(f"    k{s}v = {mul}(1.0 + sigma * g - tz * yv - F)")
         if variational:
             L.append(f"    k{s}a = {mul}yc")
             L.append(f"    k{s}b = {mul}yd")
@@ -115,7 +128,8 @@ def _step(name: str, variational: bool, timemap: bool = False) -> str:
     L.append("    e3 = " + " + ".join(f"e3{c} * e3{c}" for c in comps))
     L.append("    if e5 == 0.0 and e3 == 0.0:")
     L.append("        return 0.0")
-    L.append(f"    return abs(h) * e5 / ({float(len(comps))!r} * (e5 + 0.01 * e3)) ** 0.5")
+    # sqrt, not ** 0.5: numba calls libm's pow for the latter (no fastmath)
+    L.append(f"    return abs(h) * e5 / sqrt({float(len(comps))!r} * (e5 + 0.01 * e3))")
     return "\n".join(L) + "\n"
 
 
@@ -131,6 +145,9 @@ def _dense(name: str = "dense_coefficients", timemap: bool = False) -> str:
     L.append(f"def {name}(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P{extra}):")
     L.append("    \"\"\"Fill P (7, 2) so that dense_eval(P, y_old, x) is (q, v) at t + x h, 0 <= x <= 1.\"\"\"")
     L.append("    tz = 2.0 * zeta")
+    L.append("    phi0 = omega * (t_ref + sgn * t * t)" if timemap else "    phi0 = omega * t")
+    L.append("    cphi = cos(phi0)")
+    L.append("    sphi = sin(phi0)")
     for s in range(13):
         L.append(f"    k{s}q = K[{s}, 0]")
         L.append(f"    k{s}v = K[{s}, 1]")
@@ -139,14 +156,16 @@ def _dense(name: str = "dense_coefficients", timemap: bool = False) -> str:
             terms = [f"k{j}{c}" for j in range(s)]
             L.append(f"    y{c} = y_old[{ci}] + h * ({_lin(A[s][:s], terms)})")
         L.append("    F = rhs_force(yq, n, model)")
+        ch = f"{float(C[s])!r} * h"
+        L.append(f"    g = cos_shifted(cphi, sphi, phi0, {_theta(ch, timemap)})")
         if timemap:
-            L.append(f"    w = t + {float(C[s])!r} * h")
+            L.append(f"    w = t + {ch}")
             L.append("    m = 2.0 * sgn * w")
             L.append(f"    k{s}q = m * yv")
-            L.append(f"    k{s}v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)")
+            L.append(f"    k{s}v = m * (1.0 + sigma * g - tz * yv - F)")
         else:
             L.append(f"    k{s}q = yv")
-            L.append(f"    k{s}v = 1.0 + sigma * cos(omega * (t + {float(C[s])!r} * h)) - tz * yv - F")
+            L.append(f"    k{s}v = 1.0 + sigma * g - tz * yv - F")
     for ci, c in enumerate(("q", "v")):
         L.append(f"    dy = y_new[{ci}] - y_old[{ci}]")
         L.append(f"    P[0, {ci}] = dy")

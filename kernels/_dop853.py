@@ -10,17 +10,21 @@ solution is smooth in w but not in t). All take the FSAL derivative at the step 
 write the new state, its derivative and the stages of (q, v) into ``K`` (for dense output).
 The error norm is Hairer's combined 5th/3rd order estimate (as in scipy) on all components.
 """
-from math import cos
+from math import cos, sin, sqrt
 
 from numba import float64, int64, njit
 
 from kernels.model import contact_side_force as rhs_force
+from kernels.model import cos_shifted
 from kernels.model import contact_side_force_and_stiffness as rhs_force_and_stiffness
 
 
 @njit(float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64), cache=True, nogil=True)
 def step_var(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol):
     tz = 2.0 * zeta
+    phi0 = omega * t
+    cphi = cos(phi0)
+    sphi = sin(phi0)
     q0 = y[0]
     v0 = y[1]
     a0 = y[2]
@@ -39,9 +43,10 @@ def step_var(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, at
     yb = b0 + h * (0.05260015195876773 * k0b)
     yc = c0 + h * (0.05260015195876773 * k0c)
     yd = d0 + h * (0.05260015195876773 * k0d)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.05260015195876773 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k1q = yv
-    k1v = (1.0 + sigma * cos(omega * (t + 0.05260015195876773 * h)) - tz * yv - F)
+    k1v = (1.0 + sigma * g - tz * yv - F)
     k1a = yc
     k1b = yd
     k1c = (-dF * ya - tz * yc)
@@ -52,9 +57,10 @@ def step_var(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, at
     yb = b0 + h * (0.0197250569845379 * k0b + 0.0591751709536137 * k1b)
     yc = c0 + h * (0.0197250569845379 * k0c + 0.0591751709536137 * k1c)
     yd = d0 + h * (0.0197250569845379 * k0d + 0.0591751709536137 * k1d)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.0789002279381516 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k2q = yv
-    k2v = (1.0 + sigma * cos(omega * (t + 0.0789002279381516 * h)) - tz * yv - F)
+    k2v = (1.0 + sigma * g - tz * yv - F)
     k2a = yc
     k2b = yd
     k2c = (-dF * ya - tz * yc)
@@ -65,9 +71,10 @@ def step_var(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, at
     yb = b0 + h * (0.02958758547680685 * k0b + 0.08876275643042054 * k2b)
     yc = c0 + h * (0.02958758547680685 * k0c + 0.08876275643042054 * k2c)
     yd = d0 + h * (0.02958758547680685 * k0d + 0.08876275643042054 * k2d)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.1183503419072274 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k3q = yv
-    k3v = (1.0 + sigma * cos(omega * (t + 0.1183503419072274 * h)) - tz * yv - F)
+    k3v = (1.0 + sigma * g - tz * yv - F)
     k3a = yc
     k3b = yd
     k3c = (-dF * ya - tz * yc)
@@ -78,9 +85,10 @@ def step_var(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, at
     yb = b0 + h * (0.2413651341592667 * k0b + -0.8845494793282861 * k2b + 0.924834003261792 * k3b)
     yc = c0 + h * (0.2413651341592667 * k0c + -0.8845494793282861 * k2c + 0.924834003261792 * k3c)
     yd = d0 + h * (0.2413651341592667 * k0d + -0.8845494793282861 * k2d + 0.924834003261792 * k3d)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.2816496580927726 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k4q = yv
-    k4v = (1.0 + sigma * cos(omega * (t + 0.2816496580927726 * h)) - tz * yv - F)
+    k4v = (1.0 + sigma * g - tz * yv - F)
     k4a = yc
     k4b = yd
     k4c = (-dF * ya - tz * yc)
@@ -91,9 +99,10 @@ def step_var(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, at
     yb = b0 + h * (0.037037037037037035 * k0b + 0.17082860872947386 * k3b + 0.12546768756682242 * k4b)
     yc = c0 + h * (0.037037037037037035 * k0c + 0.17082860872947386 * k3c + 0.12546768756682242 * k4c)
     yd = d0 + h * (0.037037037037037035 * k0d + 0.17082860872947386 * k3d + 0.12546768756682242 * k4d)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.3333333333333333 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k5q = yv
-    k5v = (1.0 + sigma * cos(omega * (t + 0.3333333333333333 * h)) - tz * yv - F)
+    k5v = (1.0 + sigma * g - tz * yv - F)
     k5a = yc
     k5b = yd
     k5c = (-dF * ya - tz * yc)
@@ -104,9 +113,10 @@ def step_var(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, at
     yb = b0 + h * (0.037109375 * k0b + 0.17025221101954405 * k3b + 0.06021653898045596 * k4b + -0.017578125 * k5b)
     yc = c0 + h * (0.037109375 * k0c + 0.17025221101954405 * k3c + 0.06021653898045596 * k4c + -0.017578125 * k5c)
     yd = d0 + h * (0.037109375 * k0d + 0.17025221101954405 * k3d + 0.06021653898045596 * k4d + -0.017578125 * k5d)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.25 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k6q = yv
-    k6v = (1.0 + sigma * cos(omega * (t + 0.25 * h)) - tz * yv - F)
+    k6v = (1.0 + sigma * g - tz * yv - F)
     k6a = yc
     k6b = yd
     k6c = (-dF * ya - tz * yc)
@@ -117,9 +127,10 @@ def step_var(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, at
     yb = b0 + h * (0.03709200011850479 * k0b + 0.17038392571223998 * k3b + 0.10726203044637328 * k4b + -0.015319437748624402 * k5b + 0.008273789163814023 * k6b)
     yc = c0 + h * (0.03709200011850479 * k0c + 0.17038392571223998 * k3c + 0.10726203044637328 * k4c + -0.015319437748624402 * k5c + 0.008273789163814023 * k6c)
     yd = d0 + h * (0.03709200011850479 * k0d + 0.17038392571223998 * k3d + 0.10726203044637328 * k4d + -0.015319437748624402 * k5d + 0.008273789163814023 * k6d)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.3076923076923077 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k7q = yv
-    k7v = (1.0 + sigma * cos(omega * (t + 0.3076923076923077 * h)) - tz * yv - F)
+    k7v = (1.0 + sigma * g - tz * yv - F)
     k7a = yc
     k7b = yd
     k7c = (-dF * ya - tz * yc)
@@ -130,9 +141,10 @@ def step_var(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, at
     yb = b0 + h * (0.6241109587160757 * k0b + -3.3608926294469414 * k3b + -0.868219346841726 * k4b + 27.59209969944671 * k5b + 20.154067550477894 * k6b + -43.48988418106996 * k7b)
     yc = c0 + h * (0.6241109587160757 * k0c + -3.3608926294469414 * k3c + -0.868219346841726 * k4c + 27.59209969944671 * k5c + 20.154067550477894 * k6c + -43.48988418106996 * k7c)
     yd = d0 + h * (0.6241109587160757 * k0d + -3.3608926294469414 * k3d + -0.868219346841726 * k4d + 27.59209969944671 * k5d + 20.154067550477894 * k6d + -43.48988418106996 * k7d)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.6512820512820513 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k8q = yv
-    k8v = (1.0 + sigma * cos(omega * (t + 0.6512820512820513 * h)) - tz * yv - F)
+    k8v = (1.0 + sigma * g - tz * yv - F)
     k8a = yc
     k8b = yd
     k8c = (-dF * ya - tz * yc)
@@ -143,9 +155,10 @@ def step_var(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, at
     yb = b0 + h * (0.47766253643826434 * k0b + -2.4881146199716677 * k3b + -0.590290826836843 * k4b + 21.230051448181193 * k5b + 15.279233632882423 * k6b + -33.28821096898486 * k7b + -0.020331201708508627 * k8b)
     yc = c0 + h * (0.47766253643826434 * k0c + -2.4881146199716677 * k3c + -0.590290826836843 * k4c + 21.230051448181193 * k5c + 15.279233632882423 * k6c + -33.28821096898486 * k7c + -0.020331201708508627 * k8c)
     yd = d0 + h * (0.47766253643826434 * k0d + -2.4881146199716677 * k3d + -0.590290826836843 * k4d + 21.230051448181193 * k5d + 15.279233632882423 * k6d + -33.28821096898486 * k7d + -0.020331201708508627 * k8d)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.6 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k9q = yv
-    k9v = (1.0 + sigma * cos(omega * (t + 0.6 * h)) - tz * yv - F)
+    k9v = (1.0 + sigma * g - tz * yv - F)
     k9a = yc
     k9b = yd
     k9c = (-dF * ya - tz * yc)
@@ -156,9 +169,10 @@ def step_var(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, at
     yb = b0 + h * (-0.9371424300859873 * k0b + 5.186372428844064 * k3b + 1.0914373489967295 * k4b + -8.149787010746927 * k5b + -18.52006565999696 * k6b + 22.739487099350505 * k7b + 2.4936055526796523 * k8b + -3.0467644718982196 * k9b)
     yc = c0 + h * (-0.9371424300859873 * k0c + 5.186372428844064 * k3c + 1.0914373489967295 * k4c + -8.149787010746927 * k5c + -18.52006565999696 * k6c + 22.739487099350505 * k7c + 2.4936055526796523 * k8c + -3.0467644718982196 * k9c)
     yd = d0 + h * (-0.9371424300859873 * k0d + 5.186372428844064 * k3d + 1.0914373489967295 * k4d + -8.149787010746927 * k5d + -18.52006565999696 * k6d + 22.739487099350505 * k7d + 2.4936055526796523 * k8d + -3.0467644718982196 * k9d)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.8571428571428571 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k10q = yv
-    k10v = (1.0 + sigma * cos(omega * (t + 0.8571428571428571 * h)) - tz * yv - F)
+    k10v = (1.0 + sigma * g - tz * yv - F)
     k10a = yc
     k10b = yd
     k10c = (-dF * ya - tz * yc)
@@ -169,9 +183,10 @@ def step_var(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, at
     yb = b0 + h * (2.273310147516538 * k0b + -10.53449546673725 * k3b + -2.0008720582248625 * k4b + -17.9589318631188 * k5b + 27.94888452941996 * k6b + -2.8589982771350235 * k7b + -8.87285693353063 * k8b + 12.360567175794303 * k9b + 0.6433927460157636 * k10b)
     yc = c0 + h * (2.273310147516538 * k0c + -10.53449546673725 * k3c + -2.0008720582248625 * k4c + -17.9589318631188 * k5c + 27.94888452941996 * k6c + -2.8589982771350235 * k7c + -8.87285693353063 * k8c + 12.360567175794303 * k9c + 0.6433927460157636 * k10c)
     yd = d0 + h * (2.273310147516538 * k0d + -10.53449546673725 * k3d + -2.0008720582248625 * k4d + -17.9589318631188 * k5d + 27.94888452941996 * k6d + -2.8589982771350235 * k7d + -8.87285693353063 * k8d + 12.360567175794303 * k9d + 0.6433927460157636 * k10d)
+    g = cos_shifted(cphi, sphi, phi0, omega * (1.0 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k11q = yv
-    k11v = (1.0 + sigma * cos(omega * (t + 1.0 * h)) - tz * yv - F)
+    k11v = (1.0 + sigma * g - tz * yv - F)
     k11a = yc
     k11b = yd
     k11c = (-dF * ya - tz * yc)
@@ -182,9 +197,10 @@ def step_var(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, at
     yb = b0 + h * (0.054293734116568765 * k0b + 4.450312892752409 * k5b + 1.8915178993145003 * k6b + -5.801203960010585 * k7b + 0.3111643669578199 * k8b + -0.1521609496625161 * k9b + 0.20136540080403034 * k10b + 0.04471061572777259 * k11b)
     yc = c0 + h * (0.054293734116568765 * k0c + 4.450312892752409 * k5c + 1.8915178993145003 * k6c + -5.801203960010585 * k7c + 0.3111643669578199 * k8c + -0.1521609496625161 * k9c + 0.20136540080403034 * k10c + 0.04471061572777259 * k11c)
     yd = d0 + h * (0.054293734116568765 * k0d + 4.450312892752409 * k5d + 1.8915178993145003 * k6d + -5.801203960010585 * k7d + 0.3111643669578199 * k8d + -0.1521609496625161 * k9d + 0.20136540080403034 * k10d + 0.04471061572777259 * k11d)
+    g = cos_shifted(cphi, sphi, phi0, omega * (h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k12q = yv
-    k12v = (1.0 + sigma * cos(omega * (t + h)) - tz * yv - F)
+    k12v = (1.0 + sigma * g - tz * yv - F)
     k12a = yc
     k12b = yd
     k12c = (-dF * ya - tz * yc)
@@ -261,76 +277,91 @@ def step_var(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, at
     e3 = e3q * e3q + e3v * e3v + e3a * e3a + e3b * e3b + e3c * e3c + e3d * e3d
     if e5 == 0.0 and e3 == 0.0:
         return 0.0
-    return abs(h) * e5 / (6.0 * (e5 + 0.01 * e3)) ** 0.5
+    return abs(h) * e5 / sqrt(6.0 * (e5 + 0.01 * e3))
 
 
 @njit(float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64), cache=True, nogil=True)
 def step_state(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol):
     tz = 2.0 * zeta
+    phi0 = omega * t
+    cphi = cos(phi0)
+    sphi = sin(phi0)
     q0 = y[0]
     v0 = y[1]
     k0q = f[0]
     k0v = f[1]
     yq = q0 + h * (0.05260015195876773 * k0q)
     yv = v0 + h * (0.05260015195876773 * k0v)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.05260015195876773 * h))
     F = rhs_force(yq, n, model)
     k1q = yv
-    k1v = (1.0 + sigma * cos(omega * (t + 0.05260015195876773 * h)) - tz * yv - F)
+    k1v = (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (0.0197250569845379 * k0q + 0.0591751709536137 * k1q)
     yv = v0 + h * (0.0197250569845379 * k0v + 0.0591751709536137 * k1v)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.0789002279381516 * h))
     F = rhs_force(yq, n, model)
     k2q = yv
-    k2v = (1.0 + sigma * cos(omega * (t + 0.0789002279381516 * h)) - tz * yv - F)
+    k2v = (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (0.02958758547680685 * k0q + 0.08876275643042054 * k2q)
     yv = v0 + h * (0.02958758547680685 * k0v + 0.08876275643042054 * k2v)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.1183503419072274 * h))
     F = rhs_force(yq, n, model)
     k3q = yv
-    k3v = (1.0 + sigma * cos(omega * (t + 0.1183503419072274 * h)) - tz * yv - F)
+    k3v = (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (0.2413651341592667 * k0q + -0.8845494793282861 * k2q + 0.924834003261792 * k3q)
     yv = v0 + h * (0.2413651341592667 * k0v + -0.8845494793282861 * k2v + 0.924834003261792 * k3v)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.2816496580927726 * h))
     F = rhs_force(yq, n, model)
     k4q = yv
-    k4v = (1.0 + sigma * cos(omega * (t + 0.2816496580927726 * h)) - tz * yv - F)
+    k4v = (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (0.037037037037037035 * k0q + 0.17082860872947386 * k3q + 0.12546768756682242 * k4q)
     yv = v0 + h * (0.037037037037037035 * k0v + 0.17082860872947386 * k3v + 0.12546768756682242 * k4v)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.3333333333333333 * h))
     F = rhs_force(yq, n, model)
     k5q = yv
-    k5v = (1.0 + sigma * cos(omega * (t + 0.3333333333333333 * h)) - tz * yv - F)
+    k5v = (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (0.037109375 * k0q + 0.17025221101954405 * k3q + 0.06021653898045596 * k4q + -0.017578125 * k5q)
     yv = v0 + h * (0.037109375 * k0v + 0.17025221101954405 * k3v + 0.06021653898045596 * k4v + -0.017578125 * k5v)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.25 * h))
     F = rhs_force(yq, n, model)
     k6q = yv
-    k6v = (1.0 + sigma * cos(omega * (t + 0.25 * h)) - tz * yv - F)
+    k6v = (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (0.03709200011850479 * k0q + 0.17038392571223998 * k3q + 0.10726203044637328 * k4q + -0.015319437748624402 * k5q + 0.008273789163814023 * k6q)
     yv = v0 + h * (0.03709200011850479 * k0v + 0.17038392571223998 * k3v + 0.10726203044637328 * k4v + -0.015319437748624402 * k5v + 0.008273789163814023 * k6v)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.3076923076923077 * h))
     F = rhs_force(yq, n, model)
     k7q = yv
-    k7v = (1.0 + sigma * cos(omega * (t + 0.3076923076923077 * h)) - tz * yv - F)
+    k7v = (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (0.6241109587160757 * k0q + -3.3608926294469414 * k3q + -0.868219346841726 * k4q + 27.59209969944671 * k5q + 20.154067550477894 * k6q + -43.48988418106996 * k7q)
     yv = v0 + h * (0.6241109587160757 * k0v + -3.3608926294469414 * k3v + -0.868219346841726 * k4v + 27.59209969944671 * k5v + 20.154067550477894 * k6v + -43.48988418106996 * k7v)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.6512820512820513 * h))
     F = rhs_force(yq, n, model)
     k8q = yv
-    k8v = (1.0 + sigma * cos(omega * (t + 0.6512820512820513 * h)) - tz * yv - F)
+    k8v = (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (0.47766253643826434 * k0q + -2.4881146199716677 * k3q + -0.590290826836843 * k4q + 21.230051448181193 * k5q + 15.279233632882423 * k6q + -33.28821096898486 * k7q + -0.020331201708508627 * k8q)
     yv = v0 + h * (0.47766253643826434 * k0v + -2.4881146199716677 * k3v + -0.590290826836843 * k4v + 21.230051448181193 * k5v + 15.279233632882423 * k6v + -33.28821096898486 * k7v + -0.020331201708508627 * k8v)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.6 * h))
     F = rhs_force(yq, n, model)
     k9q = yv
-    k9v = (1.0 + sigma * cos(omega * (t + 0.6 * h)) - tz * yv - F)
+    k9v = (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (-0.9371424300859873 * k0q + 5.186372428844064 * k3q + 1.0914373489967295 * k4q + -8.149787010746927 * k5q + -18.52006565999696 * k6q + 22.739487099350505 * k7q + 2.4936055526796523 * k8q + -3.0467644718982196 * k9q)
     yv = v0 + h * (-0.9371424300859873 * k0v + 5.186372428844064 * k3v + 1.0914373489967295 * k4v + -8.149787010746927 * k5v + -18.52006565999696 * k6v + 22.739487099350505 * k7v + 2.4936055526796523 * k8v + -3.0467644718982196 * k9v)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.8571428571428571 * h))
     F = rhs_force(yq, n, model)
     k10q = yv
-    k10v = (1.0 + sigma * cos(omega * (t + 0.8571428571428571 * h)) - tz * yv - F)
+    k10v = (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (2.273310147516538 * k0q + -10.53449546673725 * k3q + -2.0008720582248625 * k4q + -17.9589318631188 * k5q + 27.94888452941996 * k6q + -2.8589982771350235 * k7q + -8.87285693353063 * k8q + 12.360567175794303 * k9q + 0.6433927460157636 * k10q)
     yv = v0 + h * (2.273310147516538 * k0v + -10.53449546673725 * k3v + -2.0008720582248625 * k4v + -17.9589318631188 * k5v + 27.94888452941996 * k6v + -2.8589982771350235 * k7v + -8.87285693353063 * k8v + 12.360567175794303 * k9v + 0.6433927460157636 * k10v)
+    g = cos_shifted(cphi, sphi, phi0, omega * (1.0 * h))
     F = rhs_force(yq, n, model)
     k11q = yv
-    k11v = (1.0 + sigma * cos(omega * (t + 1.0 * h)) - tz * yv - F)
+    k11v = (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (0.054293734116568765 * k0q + 4.450312892752409 * k5q + 1.8915178993145003 * k6q + -5.801203960010585 * k7q + 0.3111643669578199 * k8q + -0.1521609496625161 * k9q + 0.20136540080403034 * k10q + 0.04471061572777259 * k11q)
     yv = v0 + h * (0.054293734116568765 * k0v + 4.450312892752409 * k5v + 1.8915178993145003 * k6v + -5.801203960010585 * k7v + 0.3111643669578199 * k8v + -0.1521609496625161 * k9v + 0.20136540080403034 * k10v + 0.04471061572777259 * k11v)
+    g = cos_shifted(cphi, sphi, phi0, omega * (h))
     F = rhs_force(yq, n, model)
     k12q = yv
-    k12v = (1.0 + sigma * cos(omega * (t + h)) - tz * yv - F)
+    k12v = (1.0 + sigma * g - tz * yv - F)
     y_new[0] = yq
     f_new[0] = k12q
     y_new[1] = yv
@@ -375,13 +406,16 @@ def step_state(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     e3 = e3q * e3q + e3v * e3v
     if e5 == 0.0 and e3 == 0.0:
         return 0.0
-    return abs(h) * e5 / (2.0 * (e5 + 0.01 * e3)) ** 0.5
+    return abs(h) * e5 / sqrt(2.0 * (e5 + 0.01 * e3))
 
 
 @njit("void(float64, float64, float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64[:, ::1])", cache=True, nogil=True)
 def dense_coefficients(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P):
     """Fill P (7, 2) so that dense_eval(P, y_old, x) is (q, v) at t + x h, 0 <= x <= 1."""
     tz = 2.0 * zeta
+    phi0 = omega * t
+    cphi = cos(phi0)
+    sphi = sin(phi0)
     k0q = K[0, 0]
     k0v = K[0, 1]
     k1q = K[1, 0]
@@ -411,18 +445,21 @@ def dense_coefficients(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P):
     yq = y_old[0] + h * (0.056167502283047954 * k0q + 0.25350021021662483 * k6q + -0.2462390374708025 * k7q + -0.12419142326381637 * k8q + 0.15329179827876568 * k9q + 0.00820105229563469 * k10q + 0.007567897660545699 * k11q + -0.008298 * k12q)
     yv = y_old[1] + h * (0.056167502283047954 * k0v + 0.25350021021662483 * k6v + -0.2462390374708025 * k7v + -0.12419142326381637 * k8v + 0.15329179827876568 * k9v + 0.00820105229563469 * k10v + 0.007567897660545699 * k11v + -0.008298 * k12v)
     F = rhs_force(yq, n, model)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.1 * h))
     k13q = yv
-    k13v = 1.0 + sigma * cos(omega * (t + 0.1 * h)) - tz * yv - F
+    k13v = 1.0 + sigma * g - tz * yv - F
     yq = y_old[0] + h * (0.03183464816350214 * k0q + 0.028300909672366776 * k5q + 0.053541988307438566 * k6q + -0.05492374857139099 * k7q + -0.00010834732869724932 * k10q + 0.0003825710908356584 * k11q + -0.00034046500868740456 * k12q + 0.1413124436746325 * k13q)
     yv = y_old[1] + h * (0.03183464816350214 * k0v + 0.028300909672366776 * k5v + 0.053541988307438566 * k6v + -0.05492374857139099 * k7v + -0.00010834732869724932 * k10v + 0.0003825710908356584 * k11v + -0.00034046500868740456 * k12v + 0.1413124436746325 * k13v)
     F = rhs_force(yq, n, model)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.2 * h))
     k14q = yv
-    k14v = 1.0 + sigma * cos(omega * (t + 0.2 * h)) - tz * yv - F
+    k14v = 1.0 + sigma * g - tz * yv - F
     yq = y_old[0] + h * (-0.42889630158379194 * k0q + -4.697621415361164 * k5q + 7.683421196062599 * k6q + 4.06898981839711 * k7q + 0.3567271874552811 * k8q + -0.0013990241651590145 * k12q + 2.9475147891527724 * k13q + -9.15095847217987 * k14q)
     yv = y_old[1] + h * (-0.42889630158379194 * k0v + -4.697621415361164 * k5v + 7.683421196062599 * k6v + 4.06898981839711 * k7v + 0.3567271874552811 * k8v + -0.0013990241651590145 * k12v + 2.9475147891527724 * k13v + -9.15095847217987 * k14v)
     F = rhs_force(yq, n, model)
+    g = cos_shifted(cphi, sphi, phi0, omega * (0.7777777777777778 * h))
     k15q = yv
-    k15v = 1.0 + sigma * cos(omega * (t + 0.7777777777777778 * h)) - tz * yv - F
+    k15v = 1.0 + sigma * g - tz * yv - F
     dy = y_new[0] - y_old[0]
     P[0, 0] = dy
     P[1, 0] = h * k0q - dy
@@ -444,6 +481,9 @@ def dense_coefficients(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P):
 @njit(float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64), cache=True, nogil=True)
 def step_var_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol, t_ref, sgn):
     tz = 2.0 * zeta
+    phi0 = omega * (t_ref + sgn * t * t)
+    cphi = cos(phi0)
+    sphi = sin(phi0)
     q0 = y[0]
     v0 = y[1]
     a0 = y[2]
@@ -464,9 +504,10 @@ def step_var_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     yd = d0 + h * (0.05260015195876773 * k0d)
     w = t + 0.05260015195876773 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.05260015195876773 * h) * (2.0 * t + 0.05260015195876773 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k1q = m * yv
-    k1v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k1v = m * (1.0 + sigma * g - tz * yv - F)
     k1a = m * yc
     k1b = m * yd
     k1c = m * (-dF * ya - tz * yc)
@@ -479,9 +520,10 @@ def step_var_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     yd = d0 + h * (0.0197250569845379 * k0d + 0.0591751709536137 * k1d)
     w = t + 0.0789002279381516 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.0789002279381516 * h) * (2.0 * t + 0.0789002279381516 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k2q = m * yv
-    k2v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k2v = m * (1.0 + sigma * g - tz * yv - F)
     k2a = m * yc
     k2b = m * yd
     k2c = m * (-dF * ya - tz * yc)
@@ -494,9 +536,10 @@ def step_var_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     yd = d0 + h * (0.02958758547680685 * k0d + 0.08876275643042054 * k2d)
     w = t + 0.1183503419072274 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.1183503419072274 * h) * (2.0 * t + 0.1183503419072274 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k3q = m * yv
-    k3v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k3v = m * (1.0 + sigma * g - tz * yv - F)
     k3a = m * yc
     k3b = m * yd
     k3c = m * (-dF * ya - tz * yc)
@@ -509,9 +552,10 @@ def step_var_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     yd = d0 + h * (0.2413651341592667 * k0d + -0.8845494793282861 * k2d + 0.924834003261792 * k3d)
     w = t + 0.2816496580927726 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.2816496580927726 * h) * (2.0 * t + 0.2816496580927726 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k4q = m * yv
-    k4v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k4v = m * (1.0 + sigma * g - tz * yv - F)
     k4a = m * yc
     k4b = m * yd
     k4c = m * (-dF * ya - tz * yc)
@@ -524,9 +568,10 @@ def step_var_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     yd = d0 + h * (0.037037037037037035 * k0d + 0.17082860872947386 * k3d + 0.12546768756682242 * k4d)
     w = t + 0.3333333333333333 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.3333333333333333 * h) * (2.0 * t + 0.3333333333333333 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k5q = m * yv
-    k5v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k5v = m * (1.0 + sigma * g - tz * yv - F)
     k5a = m * yc
     k5b = m * yd
     k5c = m * (-dF * ya - tz * yc)
@@ -539,9 +584,10 @@ def step_var_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     yd = d0 + h * (0.037109375 * k0d + 0.17025221101954405 * k3d + 0.06021653898045596 * k4d + -0.017578125 * k5d)
     w = t + 0.25 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.25 * h) * (2.0 * t + 0.25 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k6q = m * yv
-    k6v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k6v = m * (1.0 + sigma * g - tz * yv - F)
     k6a = m * yc
     k6b = m * yd
     k6c = m * (-dF * ya - tz * yc)
@@ -554,9 +600,10 @@ def step_var_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     yd = d0 + h * (0.03709200011850479 * k0d + 0.17038392571223998 * k3d + 0.10726203044637328 * k4d + -0.015319437748624402 * k5d + 0.008273789163814023 * k6d)
     w = t + 0.3076923076923077 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.3076923076923077 * h) * (2.0 * t + 0.3076923076923077 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k7q = m * yv
-    k7v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k7v = m * (1.0 + sigma * g - tz * yv - F)
     k7a = m * yc
     k7b = m * yd
     k7c = m * (-dF * ya - tz * yc)
@@ -569,9 +616,10 @@ def step_var_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     yd = d0 + h * (0.6241109587160757 * k0d + -3.3608926294469414 * k3d + -0.868219346841726 * k4d + 27.59209969944671 * k5d + 20.154067550477894 * k6d + -43.48988418106996 * k7d)
     w = t + 0.6512820512820513 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.6512820512820513 * h) * (2.0 * t + 0.6512820512820513 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k8q = m * yv
-    k8v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k8v = m * (1.0 + sigma * g - tz * yv - F)
     k8a = m * yc
     k8b = m * yd
     k8c = m * (-dF * ya - tz * yc)
@@ -584,9 +632,10 @@ def step_var_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     yd = d0 + h * (0.47766253643826434 * k0d + -2.4881146199716677 * k3d + -0.590290826836843 * k4d + 21.230051448181193 * k5d + 15.279233632882423 * k6d + -33.28821096898486 * k7d + -0.020331201708508627 * k8d)
     w = t + 0.6 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.6 * h) * (2.0 * t + 0.6 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k9q = m * yv
-    k9v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k9v = m * (1.0 + sigma * g - tz * yv - F)
     k9a = m * yc
     k9b = m * yd
     k9c = m * (-dF * ya - tz * yc)
@@ -599,9 +648,10 @@ def step_var_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     yd = d0 + h * (-0.9371424300859873 * k0d + 5.186372428844064 * k3d + 1.0914373489967295 * k4d + -8.149787010746927 * k5d + -18.52006565999696 * k6d + 22.739487099350505 * k7d + 2.4936055526796523 * k8d + -3.0467644718982196 * k9d)
     w = t + 0.8571428571428571 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.8571428571428571 * h) * (2.0 * t + 0.8571428571428571 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k10q = m * yv
-    k10v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k10v = m * (1.0 + sigma * g - tz * yv - F)
     k10a = m * yc
     k10b = m * yd
     k10c = m * (-dF * ya - tz * yc)
@@ -614,9 +664,10 @@ def step_var_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     yd = d0 + h * (2.273310147516538 * k0d + -10.53449546673725 * k3d + -2.0008720582248625 * k4d + -17.9589318631188 * k5d + 27.94888452941996 * k6d + -2.8589982771350235 * k7d + -8.87285693353063 * k8d + 12.360567175794303 * k9d + 0.6433927460157636 * k10d)
     w = t + 1.0 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (1.0 * h) * (2.0 * t + 1.0 * h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k11q = m * yv
-    k11v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k11v = m * (1.0 + sigma * g - tz * yv - F)
     k11a = m * yc
     k11b = m * yd
     k11c = m * (-dF * ya - tz * yc)
@@ -629,9 +680,10 @@ def step_var_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     yd = d0 + h * (0.054293734116568765 * k0d + 4.450312892752409 * k5d + 1.8915178993145003 * k6d + -5.801203960010585 * k7d + 0.3111643669578199 * k8d + -0.1521609496625161 * k9d + 0.20136540080403034 * k10d + 0.04471061572777259 * k11d)
     w = t + h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (h) * (2.0 * t + h))
     F, dF = rhs_force_and_stiffness(yq, n, model)
     k12q = m * yv
-    k12v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k12v = m * (1.0 + sigma * g - tz * yv - F)
     k12a = m * yc
     k12b = m * yd
     k12c = m * (-dF * ya - tz * yc)
@@ -708,12 +760,15 @@ def step_var_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     e3 = e3q * e3q + e3v * e3v + e3a * e3a + e3b * e3b + e3c * e3c + e3d * e3d
     if e5 == 0.0 and e3 == 0.0:
         return 0.0
-    return abs(h) * e5 / (6.0 * (e5 + 0.01 * e3)) ** 0.5
+    return abs(h) * e5 / sqrt(6.0 * (e5 + 0.01 * e3))
 
 
 @njit(float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64), cache=True, nogil=True)
 def step_state_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol, t_ref, sgn):
     tz = 2.0 * zeta
+    phi0 = omega * (t_ref + sgn * t * t)
+    cphi = cos(phi0)
+    sphi = sin(phi0)
     q0 = y[0]
     v0 = y[1]
     k0q = f[0]
@@ -722,86 +777,98 @@ def step_state_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol
     yv = v0 + h * (0.05260015195876773 * k0v)
     w = t + 0.05260015195876773 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.05260015195876773 * h) * (2.0 * t + 0.05260015195876773 * h))
     F = rhs_force(yq, n, model)
     k1q = m * yv
-    k1v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k1v = m * (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (0.0197250569845379 * k0q + 0.0591751709536137 * k1q)
     yv = v0 + h * (0.0197250569845379 * k0v + 0.0591751709536137 * k1v)
     w = t + 0.0789002279381516 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.0789002279381516 * h) * (2.0 * t + 0.0789002279381516 * h))
     F = rhs_force(yq, n, model)
     k2q = m * yv
-    k2v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k2v = m * (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (0.02958758547680685 * k0q + 0.08876275643042054 * k2q)
     yv = v0 + h * (0.02958758547680685 * k0v + 0.08876275643042054 * k2v)
     w = t + 0.1183503419072274 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.1183503419072274 * h) * (2.0 * t + 0.1183503419072274 * h))
     F = rhs_force(yq, n, model)
     k3q = m * yv
-    k3v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k3v = m * (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (0.2413651341592667 * k0q + -0.8845494793282861 * k2q + 0.924834003261792 * k3q)
     yv = v0 + h * (0.2413651341592667 * k0v + -0.8845494793282861 * k2v + 0.924834003261792 * k3v)
     w = t + 0.2816496580927726 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.2816496580927726 * h) * (2.0 * t + 0.2816496580927726 * h))
     F = rhs_force(yq, n, model)
     k4q = m * yv
-    k4v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k4v = m * (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (0.037037037037037035 * k0q + 0.17082860872947386 * k3q + 0.12546768756682242 * k4q)
     yv = v0 + h * (0.037037037037037035 * k0v + 0.17082860872947386 * k3v + 0.12546768756682242 * k4v)
     w = t + 0.3333333333333333 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.3333333333333333 * h) * (2.0 * t + 0.3333333333333333 * h))
     F = rhs_force(yq, n, model)
     k5q = m * yv
-    k5v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k5v = m * (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (0.037109375 * k0q + 0.17025221101954405 * k3q + 0.06021653898045596 * k4q + -0.017578125 * k5q)
     yv = v0 + h * (0.037109375 * k0v + 0.17025221101954405 * k3v + 0.06021653898045596 * k4v + -0.017578125 * k5v)
     w = t + 0.25 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.25 * h) * (2.0 * t + 0.25 * h))
     F = rhs_force(yq, n, model)
     k6q = m * yv
-    k6v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k6v = m * (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (0.03709200011850479 * k0q + 0.17038392571223998 * k3q + 0.10726203044637328 * k4q + -0.015319437748624402 * k5q + 0.008273789163814023 * k6q)
     yv = v0 + h * (0.03709200011850479 * k0v + 0.17038392571223998 * k3v + 0.10726203044637328 * k4v + -0.015319437748624402 * k5v + 0.008273789163814023 * k6v)
     w = t + 0.3076923076923077 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.3076923076923077 * h) * (2.0 * t + 0.3076923076923077 * h))
     F = rhs_force(yq, n, model)
     k7q = m * yv
-    k7v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k7v = m * (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (0.6241109587160757 * k0q + -3.3608926294469414 * k3q + -0.868219346841726 * k4q + 27.59209969944671 * k5q + 20.154067550477894 * k6q + -43.48988418106996 * k7q)
     yv = v0 + h * (0.6241109587160757 * k0v + -3.3608926294469414 * k3v + -0.868219346841726 * k4v + 27.59209969944671 * k5v + 20.154067550477894 * k6v + -43.48988418106996 * k7v)
     w = t + 0.6512820512820513 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.6512820512820513 * h) * (2.0 * t + 0.6512820512820513 * h))
     F = rhs_force(yq, n, model)
     k8q = m * yv
-    k8v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k8v = m * (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (0.47766253643826434 * k0q + -2.4881146199716677 * k3q + -0.590290826836843 * k4q + 21.230051448181193 * k5q + 15.279233632882423 * k6q + -33.28821096898486 * k7q + -0.020331201708508627 * k8q)
     yv = v0 + h * (0.47766253643826434 * k0v + -2.4881146199716677 * k3v + -0.590290826836843 * k4v + 21.230051448181193 * k5v + 15.279233632882423 * k6v + -33.28821096898486 * k7v + -0.020331201708508627 * k8v)
     w = t + 0.6 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.6 * h) * (2.0 * t + 0.6 * h))
     F = rhs_force(yq, n, model)
     k9q = m * yv
-    k9v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k9v = m * (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (-0.9371424300859873 * k0q + 5.186372428844064 * k3q + 1.0914373489967295 * k4q + -8.149787010746927 * k5q + -18.52006565999696 * k6q + 22.739487099350505 * k7q + 2.4936055526796523 * k8q + -3.0467644718982196 * k9q)
     yv = v0 + h * (-0.9371424300859873 * k0v + 5.186372428844064 * k3v + 1.0914373489967295 * k4v + -8.149787010746927 * k5v + -18.52006565999696 * k6v + 22.739487099350505 * k7v + 2.4936055526796523 * k8v + -3.0467644718982196 * k9v)
     w = t + 0.8571428571428571 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.8571428571428571 * h) * (2.0 * t + 0.8571428571428571 * h))
     F = rhs_force(yq, n, model)
     k10q = m * yv
-    k10v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k10v = m * (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (2.273310147516538 * k0q + -10.53449546673725 * k3q + -2.0008720582248625 * k4q + -17.9589318631188 * k5q + 27.94888452941996 * k6q + -2.8589982771350235 * k7q + -8.87285693353063 * k8q + 12.360567175794303 * k9q + 0.6433927460157636 * k10q)
     yv = v0 + h * (2.273310147516538 * k0v + -10.53449546673725 * k3v + -2.0008720582248625 * k4v + -17.9589318631188 * k5v + 27.94888452941996 * k6v + -2.8589982771350235 * k7v + -8.87285693353063 * k8v + 12.360567175794303 * k9v + 0.6433927460157636 * k10v)
     w = t + 1.0 * h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (1.0 * h) * (2.0 * t + 1.0 * h))
     F = rhs_force(yq, n, model)
     k11q = m * yv
-    k11v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k11v = m * (1.0 + sigma * g - tz * yv - F)
     yq = q0 + h * (0.054293734116568765 * k0q + 4.450312892752409 * k5q + 1.8915178993145003 * k6q + -5.801203960010585 * k7q + 0.3111643669578199 * k8q + -0.1521609496625161 * k9q + 0.20136540080403034 * k10q + 0.04471061572777259 * k11q)
     yv = v0 + h * (0.054293734116568765 * k0v + 4.450312892752409 * k5v + 1.8915178993145003 * k6v + -5.801203960010585 * k7v + 0.3111643669578199 * k8v + -0.1521609496625161 * k9v + 0.20136540080403034 * k10v + 0.04471061572777259 * k11v)
     w = t + h
     m = 2.0 * sgn * w
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (h) * (2.0 * t + h))
     F = rhs_force(yq, n, model)
     k12q = m * yv
-    k12v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k12v = m * (1.0 + sigma * g - tz * yv - F)
     y_new[0] = yq
     f_new[0] = k12q
     y_new[1] = yv
@@ -846,13 +913,16 @@ def step_state_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol
     e3 = e3q * e3q + e3v * e3v
     if e5 == 0.0 and e3 == 0.0:
         return 0.0
-    return abs(h) * e5 / (2.0 * (e5 + 0.01 * e3)) ** 0.5
+    return abs(h) * e5 / sqrt(2.0 * (e5 + 0.01 * e3))
 
 
 @njit("void(float64, float64, float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64[:, ::1], float64, float64)", cache=True, nogil=True)
 def dense_coefficients_w(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P, t_ref, sgn):
     """Fill P (7, 2) so that dense_eval(P, y_old, x) is (q, v) at t + x h, 0 <= x <= 1."""
     tz = 2.0 * zeta
+    phi0 = omega * (t_ref + sgn * t * t)
+    cphi = cos(phi0)
+    sphi = sin(phi0)
     k0q = K[0, 0]
     k0v = K[0, 1]
     k1q = K[1, 0]
@@ -882,24 +952,27 @@ def dense_coefficients_w(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P,
     yq = y_old[0] + h * (0.056167502283047954 * k0q + 0.25350021021662483 * k6q + -0.2462390374708025 * k7q + -0.12419142326381637 * k8q + 0.15329179827876568 * k9q + 0.00820105229563469 * k10q + 0.007567897660545699 * k11q + -0.008298 * k12q)
     yv = y_old[1] + h * (0.056167502283047954 * k0v + 0.25350021021662483 * k6v + -0.2462390374708025 * k7v + -0.12419142326381637 * k8v + 0.15329179827876568 * k9v + 0.00820105229563469 * k10v + 0.007567897660545699 * k11v + -0.008298 * k12v)
     F = rhs_force(yq, n, model)
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.1 * h) * (2.0 * t + 0.1 * h))
     w = t + 0.1 * h
     m = 2.0 * sgn * w
     k13q = m * yv
-    k13v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k13v = m * (1.0 + sigma * g - tz * yv - F)
     yq = y_old[0] + h * (0.03183464816350214 * k0q + 0.028300909672366776 * k5q + 0.053541988307438566 * k6q + -0.05492374857139099 * k7q + -0.00010834732869724932 * k10q + 0.0003825710908356584 * k11q + -0.00034046500868740456 * k12q + 0.1413124436746325 * k13q)
     yv = y_old[1] + h * (0.03183464816350214 * k0v + 0.028300909672366776 * k5v + 0.053541988307438566 * k6v + -0.05492374857139099 * k7v + -0.00010834732869724932 * k10v + 0.0003825710908356584 * k11v + -0.00034046500868740456 * k12v + 0.1413124436746325 * k13v)
     F = rhs_force(yq, n, model)
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.2 * h) * (2.0 * t + 0.2 * h))
     w = t + 0.2 * h
     m = 2.0 * sgn * w
     k14q = m * yv
-    k14v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k14v = m * (1.0 + sigma * g - tz * yv - F)
     yq = y_old[0] + h * (-0.42889630158379194 * k0q + -4.697621415361164 * k5q + 7.683421196062599 * k6q + 4.06898981839711 * k7q + 0.3567271874552811 * k8q + -0.0013990241651590145 * k12q + 2.9475147891527724 * k13q + -9.15095847217987 * k14q)
     yv = y_old[1] + h * (-0.42889630158379194 * k0v + -4.697621415361164 * k5v + 7.683421196062599 * k6v + 4.06898981839711 * k7v + 0.3567271874552811 * k8v + -0.0013990241651590145 * k12v + 2.9475147891527724 * k13v + -9.15095847217987 * k14v)
     F = rhs_force(yq, n, model)
+    g = cos_shifted(cphi, sphi, phi0, omega * sgn * (0.7777777777777778 * h) * (2.0 * t + 0.7777777777777778 * h))
     w = t + 0.7777777777777778 * h
     m = 2.0 * sgn * w
     k15q = m * yv
-    k15v = m * (1.0 + sigma * cos(omega * (t_ref + sgn * w * w)) - tz * yv - F)
+    k15v = m * (1.0 + sigma * g - tz * yv - F)
     dy = y_new[0] - y_old[0]
     P[0, 0] = dy
     P[1, 0] = h * k0q - dy

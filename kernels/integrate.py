@@ -66,19 +66,33 @@ def dense_eval(P, i, y_old_i, x):
 @njit(float64(float64[:, ::1], float64[::1], float64, float64, float64, int64),
       cache=True, nogil=True)
 def _dense_root(P, y_old, lo, hi, target, comp):
-    """Root of dense component comp minus target in [lo, hi] (bisection: sign change given)."""
+    """Root of dense component comp minus target in [lo, hi] (a sign change given), to a
+    bracket of 1e-15: Illinois regula falsi, about 10 evaluations where bisection took 50."""
     flo = dense_eval(P, comp, y_old[comp], lo) - target
+    fhi = dense_eval(P, comp, y_old[comp], hi) - target
+    side = 0
     for _ in range(60):
-        mid = 0.5 * (lo + hi)
+        mid = (lo * fhi - hi * flo) / (fhi - flo) if fhi != flo else 0.5 * (lo + hi)
+        if not (lo < mid < hi):
+            mid = 0.5 * (lo + hi)
         fm = dense_eval(P, comp, y_old[comp], mid) - target
+        if fm == 0.0:
+            return mid
         if (fm < 0.0) == (flo < 0.0):
             lo = mid
             flo = fm
+            if side == -1:
+                fhi *= 0.5       # the same end kept twice: halve it (Illinois)
+            side = -1
         else:
             hi = mid
+            fhi = fm
+            if side == 1:
+                flo *= 0.5
+            side = 1
         if hi - lo < 1e-15:
             break
-    return 0.5 * (lo + hi)
+    return lo if abs(flo) < abs(fhi) else hi
 
 
 @njit("void(float64, float64[::1], float64[::1], float64, float64, float64, float64, int64)",

@@ -15,7 +15,7 @@ zeta the damping ratio (Eq. 4). F is the contact force over N.
 F is continuous at q = -n (F(-n) = 0), so the vector field is continuous across the switching
 surface and the saltation matrix of a contact loss or recontact is the identity.
 """
-from math import sqrt
+from math import cos, sqrt
 
 from numba import float64, int64, njit
 from numba.types import UniTuple
@@ -93,6 +93,30 @@ def contact_side_force_and_stiffness(q, n, model):
         return (a * r if s >= 0.0 else -a * r), r
     p = a ** (n - 1.0)
     return (p * a if s >= 0.0 else -p * a), p
+
+
+@njit(float64(float64, float64, float64, float64), cache=True, nogil=True)
+def cos_shifted(c0, s0, phi0, theta):
+    """cos(phi0 + theta) from c0 = cos(phi0) and s0 = sin(phi0) (the excitation of Eq. 7 at
+    the stages of one integration step, phi0 = omega t at the step start).
+
+    For |theta| <= 1, cos(theta) and sin(theta) by their Taylor series to theta^18 and
+    theta^17 (truncation below 1e-17): a dozen independent multiply-adds instead of a libm
+    cosine, which cost about half of a DOP853 step (12 per step; measured 0.148 us of 0.32).
+    Else libm's cos(phi0 + theta).
+    """
+    if abs(theta) <= 1.0:
+        t2 = theta * theta
+        # Horner in theta^2; coefficients (-1)^j / (2j)! and (-1)^j / (2j+1)!
+        c = 1.0 + t2 * (-1.0 / 2.0 + t2 * (1.0 / 24.0 + t2 * (-1.0 / 720.0 + t2 * (
+            1.0 / 40320.0 + t2 * (-1.0 / 3628800.0 + t2 * (1.0 / 479001600.0 + t2 * (
+                -1.0 / 87178291200.0 + t2 * (1.0 / 20922789888000.0 + t2 * (
+                    -1.0 / 6402373705728000.0)))))))))
+        s = theta * (1.0 + t2 * (-1.0 / 6.0 + t2 * (1.0 / 120.0 + t2 * (-1.0 / 5040.0 + t2 * (
+            1.0 / 362880.0 + t2 * (-1.0 / 39916800.0 + t2 * (1.0 / 6227020800.0 + t2 * (
+                -1.0 / 1307674368000.0 + t2 * (1.0 / 355687428096000.0)))))))))
+        return c0 * c - s0 * s
+    return cos(phi0 + theta)
 
 
 def contact_force(q, exponent=1.5, model="hertz"):

@@ -232,3 +232,21 @@ def test_harmonics_off_changes_nothing_else(omega, sigma, zeta, m, guess):
             assert np.isfinite(value).all() and np.isnan(off[name]).all(), name
         else:
             np.testing.assert_array_equal(off[name], value, err_msg=name)
+
+
+def test_cos_shifted_against_long_double():
+    """The stages' excitation cos(phi0 + theta) from cos/sin(phi0): to round-off, against a
+    long-double cosine of the exact sum (libm on the rounded sum errs by |phi0| eps)."""
+    from math import cos, sin
+
+    from kernels.model import cos_shifted
+
+    rng = np.random.default_rng(0)
+    phi = rng.uniform(-200.0, 200.0, 20000)
+    theta = np.concatenate([rng.uniform(-1.0, 1.0, 10000), rng.uniform(-30.0, 30.0, 10000)])
+    got = np.array([cos_shifted(cos(p), sin(p), p, t) for p, t in zip(phi, theta)])
+    ref = np.cos(phi.astype(np.longdouble) + theta.astype(np.longdouble)).astype(float)
+    small = np.abs(theta) <= 1.0
+    assert np.abs(got - ref)[small].max() < 1e-15
+    # beyond |theta| = 1 it falls back to libm on the rounded sum
+    assert np.abs(got - ref)[~small].max() < 400 * np.finfo(float).eps
