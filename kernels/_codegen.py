@@ -84,11 +84,21 @@ def _step(name: str, variational: bool, timemap: bool = False) -> str:
         L.append(f"    {c}0 = y[{i}]")
     for i, c in enumerate(comps):
         L.append(f"    k0{c} = f[{i}]")
+    # The step is latency-bound (a chain of dependent stages), so the newest stage enters its
+    # combination last, as one multiply-add with h * a precomputed off the chain:
+    # y = (y0 + h * (a_0 k_0 + ... )) + (h a_j) k_j, j the last nonzero entry of the row.
+    last = {}
+    for s in range(1, 13):
+        row = A[s] if s < 12 else B
+        last[s] = max(j for j in range(s) if row[j] != 0.0)
+        L.append(f"    ha{s} = h * {float(row[last[s]])!r}")
     for s in range(1, 13):  # stages 1..11 and the FSAL stage 12 (y_new)
         row = A[s] if s < 12 else B
+        j = last[s]
         for c in comps:
-            terms = [f"k{j}{c}" for j in range(s)]
-            L.append(f"    y{c} = {c}0 + h * ({_lin(row[:s], terms)})")
+            terms = [f"k{i}{c}" for i in range(j)]
+            head = f"{c}0 + h * ({_lin(row[:j], terms)})" if any(row[:j]) else f"{c}0"
+            L.append(f"    y{c} = ({head}) + ha{s} * k{j}{c}")
         ch = "h" if s == 12 else f"{float(C[s])!r} * h"
         if timemap:
             L.append(f"    w = t + {ch}")

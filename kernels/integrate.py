@@ -163,6 +163,25 @@ def _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model):
     return x
 
 
+@njit(float64(float64, float64, float64), cache=True, nogil=True)
+def _time_to_surface(g, v, a):
+    """First s > 0 with g + v s + a s^2 / 2 = 0 (g = q + n >= 0 the height above the contact
+    surface, v and a the velocity and acceleration): when contact would be lost on the local
+    parabola; inf if never."""
+    if g <= 0.0:
+        return 0.0
+    disc = v * v - 2.0 * a * g
+    if disc < 0.0:
+        return np.inf
+    r = sqrt(disc)
+    # roots -g / (v/2 -+ ...) written without cancellation: s = 2 g / (-v +- r)
+    best = np.inf
+    for den in (-v + r, -v - r):
+        if den > 0.0:
+            best = min(best, 2.0 * g / den)
+    return best
+
+
 @njit(cache=True, nogil=True)
 def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
                      atol, t_ref, s_guess):
@@ -328,7 +347,7 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
             if err != err:
                 h *= 0.2
             else:
-                h *= max(0.2, 0.9 * err ** (-0.125))
+                h *= max(0.2, 0.9 / sqrt(sqrt(sqrt(err))))
             if h < h_min:
                 return st.STEP_SIZE
             continue
@@ -371,6 +390,18 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
         if first_w_step:
             stats[S_H_RECONTACT] = h
             first_w_step = False
+        approach = 1.0
+        d1 = np.inf
+        if hertz and mode == MODE_T and y_new[1] < 0.0:
+            # Heading for contact loss: the solution's high derivatives grow like
+            # (time to the surface)^-k, so the error of a step of given h grows as that time
+            # shrinks; scale h by its ratio over this step (without this, every step of the
+            # approach was followed by a rejected one: 5 rejections per contact loss)
+            d1 = _time_to_surface(y_new[0] + n, y_new[1], f_new[1])
+            if d1 < 4.0 * h:
+                d0 = _time_to_surface(y[0] + n, y[1], f[1])
+                if d1 < d0 < np.inf:
+                    approach = max(0.2, d1 / d0)
         x = x_target if at_target else x + h
         t = _time(mode, x, t_ref)
         if mode == MODE_T and at_target:
@@ -383,7 +414,13 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
         if err == 0.0:
             h *= 10.0
         else:
-            h *= min(10.0, max(0.2, 0.9 * err ** (-0.125)))
+            # err^(-1/8) by three square roots: the next step waits for this factor, and libm's
+            # pow takes longer on that critical path
+            h *= min(10.0, max(0.2, 0.9 / sqrt(sqrt(sqrt(err))))) * approach
+        if h >= 0.7 * d1:
+            # the surface is within about one (scaled) step: aim past it, so that the next
+            # trial crosses and the crossing is located
+            h = 1.2 * d1
         if lands:
             # contact is lost exactly at t_stop
             t = t_ref
