@@ -24,6 +24,7 @@ This module is physics and numpy only: the scheduler ships ``solve_block`` witho
 """
 from __future__ import annotations
 
+import math
 import time
 import warnings
 
@@ -116,6 +117,14 @@ def _flip_seeds(sol):
     if sol["period"] != 1 or sol["status"] != st.CONVERGED:
         return []
     M = sol["monodromy"]
+    # np.linalg.eig is most of this function's cost and gives no seed unless a multiplier is
+    # below -0.95: skip it where the kernel's multipliers (roots of mu^2 - tr M mu + det M,
+    # the same M) are both above -0.9. For |M_ij| < 1e4 the two computations differ by less
+    # than ~sqrt(eps) |M| ~ 1e-4 (the eigenvalue perturbation bound of a 2x2 matrix), well
+    # inside the 0.05 margin: the seeds are exactly those eig gives.
+    mu = sol["multipliers"]
+    if mu[0].real > -0.9 and mu[1].real > -0.9 and np.abs(M).max() < 1e4:
+        return []
     w, V = np.linalg.eig(M)
     seeds = []
     for k in range(2):
@@ -128,42 +137,61 @@ def _flip_seeds(sol):
     return seeds
 
 
+# Columns of the kernel's result rows (kernels.shooting.FIELDS) that become a solution's
+# arrays, gathered by one ``take`` per batch: the start point, the multipliers as (re, im)
+# pairs (viewed as complex), the monodromy row by row, the force harmonics.
+_ARRAY_COLUMNS = np.array([
+    F["q0"], F["v0"],
+    F["multiplier1_re"], F["multiplier1_im"], F["multiplier2_re"], F["multiplier2_im"],
+    F["m11"], F["m12"], F["m21"], F["m22"],
+    F["force_h1"], F["force_h2"], F["force_h3"], F["force_h4"]])
+_START, _MULTIPLIERS, _MONODROMY, _HARMONICS = (slice(0, 2), slice(2, 6), slice(6, 10),
+                                                slice(10, 14))
+
+
 def _solve(omega, sigma, zeta, period, seeds, options):
-    """Shoot from every seed; return a list of solution dicts (converged or not).
+    """Shoot from every seed; return a list of solution dicts (converged or not), in the
+    order of the seeds.
 
     Calls the numba batch entry point directly with preallocated arrays: the generic
     kernels.shoot_batch wrapper (broadcasting, a dict of arrays per call) cost ~15 % of a block.
+    The rows are converted a batch at a time (numpy indexing per row, for each field, was most
+    of the time spent outside the kernel) and the scalar fields read as Python floats.
     """
     if not seeds:
         return []
-    seeds = np.asarray(seeds, float)
-    n = seeds.shape[0]
+    n = len(seeds)
+    period = int(period)
+    q_guess, v_guess = zip(*seeds)
+    # (omega, sigma, zeta, q guess, q' guess) per seed, each row a contiguous array
+    inputs = np.array([(omega,) * n, (sigma,) * n, (zeta,) * n, q_guess, v_guess], float)
+    rtol = float(options.get("rtol", 1e-10))
     rows = np.empty((n, N_FIELDS))
-    shoot_batch_into(np.full(n, float(omega)), np.full(n, float(sigma)), np.full(n, float(zeta)),
-                     np.full(n, int(period), np.int64), np.ascontiguousarray(seeds[:, 0]),
-                     np.ascontiguousarray(seeds[:, 1]), float(options.get("exponent", 1.5)),
-                     MODELS[options.get("model", "hertz")], float(options.get("rtol", 1e-10)),
-                     float(options.get("rtol", 1e-10)),
+    shoot_batch_into(inputs[0], inputs[1], inputs[2], np.full(n, period, np.int64),
+                     inputs[3], inputs[4], float(options.get("exponent", 1.5)),
+                     MODELS[options.get("model", "hertz")], rtol, rtol,
                      int(options.get("max_iter", DEFAULT_MAX_ITER)), DEFAULT_MAX_STEPS,
                      bool(options.get("harmonics", True)), rows)
+    picked = rows.take(_ARRAY_COLUMNS, axis=1)
+    starts = picked[:, _START]
+    multipliers = picked[:, _MULTIPLIERS].view(np.complex128)
+    monodromies = picked[:, _MONODROMY].reshape(n, 2, 2)
+    harmonics = picked[:, _HARMONICS]
     out = []
-    for row in rows:
+    for row, x0, mu, M, h in zip(rows.tolist(), starts, multipliers, monodromies, harmonics):
         minimal = row[F["minimal_period"]]
         out.append({
             # a 2T solve whose orbit repeats after T is a 1T orbit (minimal period 1); its
             # multipliers are still those of the 2T map: callers re-solve it as 1T
-            "period": int(minimal) if np.isfinite(minimal) and minimal >= 1 else int(period),
+            "period": int(minimal) if math.isfinite(minimal) and minimal >= 1 else period,
             "status": int(row[F["status"]]),
-            "x0": row[[F["q0"], F["v0"]]],
-            "multipliers": np.array([complex(row[F["multiplier1_re"]], row[F["multiplier1_im"]]),
-                                     complex(row[F["multiplier2_re"]], row[F["multiplier2_im"]])]),
-            "monodromy": row[[F["m11"], F["m12"], F["m21"], F["m22"]]].reshape(2, 2),
-            "stable": bool(row[F["stable"]] == 1.0),
+            "x0": x0, "multipliers": mu, "monodromy": M,
+            "stable": row[F["stable"]] == 1.0,
             "min_q": row[F["min_q"]], "max_q": row[F["max_q"]], "ptp": row[F["ptp"]],
-            "loses_contact": bool(row[F["loses_contact"]] == 1.0),
+            "loses_contact": row[F["loses_contact"]] == 1.0,
             "flight_fraction": row[F["flight_fraction"]],
             "max_impact_velocity": row[F["max_impact_velocity"]],
-            "force_harmonics": row[F["force_h1"]:F["force_h4"] + 1].copy(),
+            "force_harmonics": h,
             "newton_iterations": int(row[F["iterations"]]), "residual": row[F["residual"]],
             "trace": row[F["trace_m"]],
         })
@@ -195,48 +223,54 @@ def _merge(found, candidates):
 def _continuation_seed(sol, omega):
     """Seed at omega from a solution of the neighbouring point: a secant predictor along the
     branch when the solution itself came from continuation, else its start point."""
-    x0 = sol["x0"]
+    # Python floats: the same IEEE operations as on 2-element arrays, at a fraction of the cost
+    q, v = sol["x0"].tolist()
     if "x0_prev" in sol and sol["omega"] != sol["omega_prev"]:
         step = (omega - sol["omega"]) / (sol["omega"] - sol["omega_prev"])
-        dx = x0 - sol["x0_prev"]
-        if 0.0 < step <= 2.0 and np.all(np.abs(dx) < 0.5 * (1.0 + np.abs(x0))):
-            return tuple(x0 + step * dx)
-    return tuple(x0)
+        q_prev, v_prev = sol["x0_prev"].tolist()
+        dq, dv = q - q_prev, v - v_prev
+        if (0.0 < step <= 2.0 and abs(dq) < 0.5 * (1.0 + abs(q))
+                and abs(dv) < 0.5 * (1.0 + abs(v))):
+            return q + step * dq, v + step * dv
+    return q, v
 
 
-def _continue(omega, sigma, zeta, period, parents, options, max_iter):
-    """Shoot from continuation seeds of ``parents``; results remember their parent."""
-    sols = _solve(omega, sigma, zeta, period, [_continuation_seed(p, omega) for p in parents],
-                  dict(options, max_iter=max_iter))
+def _mark_continued(sols, parents, omega):
+    """Mark the solutions shot from the continuation seeds of ``parents`` (in that order) as
+    continued; those that kept their parent's period remember it for the secant predictor."""
     for s, parent in zip(sols, parents):
         s["omega"] = omega
         s["continued"] = True
         if s["period"] == parent["period"]:
             s["x0_prev"] = parent["x0"]
             s["omega_prev"] = parent["omega"]
-    return sols
 
 
 def _point(omega, sigma, zeta, periods, prev, options, first_visit, mms_seeds=()):
     """Solutions at one point from continuation of the previous point's solutions ``prev``
-    and, on the first visit of the point, from the linear, multiple-scales and flip seeds."""
+    and, on the first visit of the point, from the linear, multiple-scales and flip seeds.
+
+    Returns (distinct converged orbits, every 1T try). The seeds of one period share a
+    Newton budget and go to the kernel in one batch (the results do not depend on batching).
+    """
     found, tries_1t = [], []
     if 1 in periods:
         parents = [s for s in prev if s["period"] == 1]
-        tries_1t = _continue(omega, sigma, zeta, 1, parents, options, MAX_ITER_1T)
-        if first_visit:
-            lin = _solve(omega, sigma, zeta, 1, [linear_response_seed(omega, sigma, zeta)],
-                         dict(options, max_iter=MAX_ITER_1T))
-            tries_1t = lin + tries_1t
+        seeds = [_continuation_seed(p, omega) for p in parents]
+        if first_visit:     # first: of two tries landing on one orbit, _merge keeps the first
+            seeds.insert(0, linear_response_seed(omega, sigma, zeta))
+        tries_1t = _solve(omega, sigma, zeta, 1, seeds, dict(options, max_iter=MAX_ITER_1T))
+        _mark_continued(tries_1t[len(seeds) - len(parents):], parents, omega)
         _merge(found, tries_1t)
     if 2 in periods:
         parents = [s for s in prev if s["period"] == 2]
-        sols = _continue(omega, sigma, zeta, 2, parents, options, MAX_ITER_2T)
+        seeds = [_continuation_seed(p, omega) for p in parents]
         if first_visit:
-            seeds = list(mms_seeds)
+            seeds += mms_seeds
             for s in found:
                 seeds += _flip_seeds(s)
-            sols += _solve(omega, sigma, zeta, 2, seeds, dict(options, max_iter=MAX_ITER_2T))
+        sols = _solve(omega, sigma, zeta, 2, seeds, dict(options, max_iter=MAX_ITER_2T))
+        _mark_continued(sols, parents, omega)
         _merge(found, [s for s in sols if s["period"] == 2])
         # A 2T solve with minimal period 1 landed on a 1T orbit. Its monodromy is that of two
         # periods (multipliers squared), so the orbit is re-solved as 1T from its start point
@@ -250,14 +284,18 @@ def _point(omega, sigma, zeta, periods, prev, options, first_visit, mms_seeds=()
     return found, tries_1t
 
 
-def _record(arrays, idx, slot, sol):
+def _record(arrays, points, j, k, slots, sols):
+    """Write the solutions ``sols`` of line (j, k) into their cells (omega index ``points``,
+    slot ``slots``), one fancy-indexed assignment per variable for the whole line."""
+    cells = (points, j, k, slots)
+    starts = np.array([s["x0"] for s in sols])
     for name in VARIABLES:
         if name == "q0":
-            arrays[name][idx + (slot,)] = sol["x0"][0]
+            arrays[name][cells] = starts[:, 0]
         elif name == "v0":
-            arrays[name][idx + (slot,)] = sol["x0"][1]
+            arrays[name][cells] = starts[:, 1]
         else:
-            arrays[name][idx + (slot,)] = sol[name]
+            arrays[name][cells] = np.array([s[name] for s in sols])
 
 
 def line_bifurcations(special, omega_lo, omega_hi) -> list[dict]:
@@ -358,8 +396,8 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
                     if tries and best_1t[i] is None:
                         best_1t[i] = min(tries, key=lambda s: (s["status"] != st.CONVERGED,
                                                                s["residual"]
-                                                               if np.isfinite(s["residual"])
-                                                               else np.inf))
+                                                               if math.isfinite(s["residual"])
+                                                               else math.inf))
                     if first_visit:
                         prev = per_point[i]
                     else:
@@ -384,6 +422,7 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
                                          transients=0, initial=per_point)
                 _record_bifurcations(arrays, j, k, line_bifurcations(
                     line.special, float(omega.min()), float(omega.max())))
+            points, slots, recorded = [], [], []
             for i in range(omega.size):
                 sols = per_point[i]
                 one = sorted([s for s in sols if s["period"] == 1], key=lambda s: s["ptp"])
@@ -392,7 +431,10 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
                 if not one and best_1t[i] is not None and 1 in periods:
                     ordered = [best_1t[i]] + two     # record why the 1T solve failed
                 for slot, sol in enumerate(ordered[:max_solutions]):
-                    _record(arrays, (i, j, k), slot, sol)
-                if not visited[i]:
-                    arrays["status"][i, j, k, 0] = st.TIME_LIMIT
+                    points.append(i)
+                    slots.append(slot)
+                    recorded.append(sol)
+            if recorded:
+                _record(arrays, points, j, k, slots, recorded)
+            arrays["status"][~visited, j, k, 0] = st.TIME_LIMIT
     return arrays
