@@ -29,7 +29,7 @@ PLACEHOLDER = "conftest:placeholder_solve_block"
 
 
 def placeholder_solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hertz",
-                            rtol=1e-10, max_solutions=4):
+                            rtol=1e-10, max_solutions=4, harmonics=True):
     """Deterministic fake with the solve_block contract (delay: $HERTZMAP_PLACEHOLDER_DELAY s/point)."""
     omega = np.asarray(omega, dtype=np.float64)
     sigma = np.asarray(sigma, dtype=np.float64)
@@ -76,7 +76,9 @@ def placeholder_solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5,
         out["max_impact_velocity"][sl] = np.where(mask, a * w, np.nan)
         out["multipliers"][sl] = np.where(mask[..., None], np.exp(-z * p * np.pi / w)[..., None]
                                           * np.array([1, 1j]), complex(np.nan, np.nan))
-        out["force_harmonics"][sl] = np.where(mask[..., None], a[..., None] / np.arange(1, 5), np.nan)
+        if harmonics:   # as solve_block: NaN unless asked for
+            out["force_harmonics"][sl] = np.where(mask[..., None], a[..., None] / np.arange(1, 5),
+                                                  np.nan)
         out["newton_iterations"][sl] = np.where(mask, 3, 0)
         out["residual"][sl] = np.where(mask, 1e-12, np.nan)
     return out
