@@ -13,7 +13,7 @@ The flow Jacobian of the flight is [[1, phi1], [0, E]] (used for the exact monod
 Recontact is the first upward crossing of q = -n, found by scanning the flight in short
 intervals, splitting each at the extremum of q (root of v) and refining with safeguarded Newton.
 """
-from math import cos, exp, expm1, pi, sin
+from math import cos, expm1, pi, sin
 
 from numba import float64, int64, njit
 from numba.types import UniTuple
@@ -35,24 +35,38 @@ def _phi12(a, s):
     return phi1, (s - phi1) / a
 
 
+@njit(UniTuple(float64, 3)(float64, float64), cache=True, nogil=True)
+def _phi12E(a, s):
+    """phi1, phi2 and E = exp(-a s) = 1 - a phi1 (one expm1, no exp)."""
+    phi1, phi2 = _phi12(a, s)
+    return phi1, phi2, 1.0 - a * phi1
+
+
+@njit(UniTuple(float64, 2)(float64, float64, float64, float64, float64, float64, float64,
+                           float64, float64, float64, float64, float64), cache=True, nogil=True)
+def _state(q0, v0, a, omega, sigma, d, c0, s0, P0, s, c1, s1):
+    """(q, v) after a flight of duration s, given the flight's constants (a = 2 zeta,
+    d = a^2 + omega^2, c0, s0 = cos, sin omega t0, P0 = P(t0)) and c1, s1 = cos, sin
+    omega (t0 + s)."""
+    phi1, phi2, E = _phi12E(a, s)
+    P1 = (a * c1 + omega * s1) / d
+    dQ = (a * (s1 - s0) - omega * (c1 - c0)) / (omega * d)
+    return (q0 + phi1 * v0 + phi2 + sigma * (dQ - P0 * phi1),
+            E * v0 + phi1 + sigma * (P1 - E * P0))
+
+
 @njit(UniTuple(float64, 4)(float64, float64, float64, float64, float64, float64, float64),
       cache=True, nogil=True)
 def flight_state(q0, v0, t0, s, omega, sigma, zeta):
     """State after a flight of duration s from (q0, v0) at time t0: (q, v, phi1, E)."""
     a = 2.0 * zeta
-    E = exp(-a * s)
-    phi1, phi2 = _phi12(a, s)
     d = a * a + omega * omega
     c0 = cos(omega * t0)
     s0 = sin(omega * t0)
-    t1 = t0 + s
-    c1 = cos(omega * t1)
-    s1 = sin(omega * t1)
     P0 = (a * c0 + omega * s0) / d
-    P1 = (a * c1 + omega * s1) / d
-    dQ = (a * (s1 - s0) - omega * (c1 - c0)) / (omega * d)
-    v = E * v0 + phi1 + sigma * (P1 - E * P0)
-    q = q0 + phi1 * v0 + phi2 + sigma * (dQ - P0 * phi1)
+    t1 = t0 + s
+    q, v = _state(q0, v0, a, omega, sigma, d, c0, s0, P0, s, cos(omega * t1), sin(omega * t1))
+    phi1, _, E = _phi12E(a, s)
     return q, v, phi1, E
 
 
@@ -65,13 +79,19 @@ def _root(q0, v0, t0, lo, hi, omega, sigma, zeta, which, negative_at_lo):
     The sign at ``lo`` is given (the surface itself counts as just below it). Safeguarded
     Newton: dq/ds = v, dv/ds = the acceleration. 60 iterations bound the work.
     """
+    a = 2.0 * zeta
+    d = a * a + omega * omega
+    c0 = cos(omega * t0)
+    s0 = sin(omega * t0)
+    P0 = (a * c0 + omega * s0) / d
     lo_negative = negative_at_lo == 1
     s = 0.5 * (lo + hi)
     for _ in range(60):
-        q, v, _, _ = flight_state(q0, v0, t0, s, omega, sigma, zeta)
+        c1 = cos(omega * (t0 + s))
+        q, v = _state(q0, v0, a, omega, sigma, d, c0, s0, P0, s, c1, sin(omega * (t0 + s)))
         if which == 1:
             g = v
-            dg = 1.0 + sigma * cos(omega * (t0 + s)) - 2.0 * zeta * v
+            dg = 1.0 + sigma * c1 - a * v
         else:
             g = q
             dg = v
@@ -100,9 +120,21 @@ def flight_until_recontact(q0, v0, t0, s_max, omega, sigma, zeta, n):
     Returns (s, min_q, found): s = duration of the flight (s_max if no recontact), min_q = lowest
     q reached in the flight (for the orbit measures), found = 1.0 if recontact happens.
     Starting exactly on q = -n with v0 < 0 (just lost contact) is the usual case.
+    The scan points are equally spaced: cos and sin of omega t there advance by one rotation
+    (no trig per point; re-anchored every 8 points, the drift stays at round-off), and only the
+    roots are refined on the exact closed form.
     """
     period = 2.0 * pi / omega
     ds = period / _SCAN_PER_PERIOD
+    a = 2.0 * zeta
+    d = a * a + omega * omega
+    c0 = cos(omega * t0)
+    s0 = sin(omega * t0)
+    P0 = (a * c0 + omega * s0) / d
+    cd = cos(omega * ds)
+    sd = sin(omega * ds)
+    ck = c0
+    sk = s0
     # q0 is shifted so that the contact surface is at 0: g = q + n
     g0 = q0 + n
     qmin = q0
@@ -111,11 +143,19 @@ def flight_until_recontact(q0, v0, t0, s_max, omega, sigma, zeta, n):
     v_lo = v0
     nseg = int(s_max / ds) + 1
     for k in range(nseg):
-        s_hi = min(s_max, (k + 1) * ds)
+        if (k + 1) % 8 == 0:
+            ck = cos(omega * (t0 + (k + 1) * ds))
+            sk = sin(omega * (t0 + (k + 1) * ds))
+        else:
+            ck, sk = ck * cd - sk * sd, sk * cd + ck * sd
+        s_hi = (k + 1) * ds
+        if s_hi >= s_max:
+            s_hi = s_max
+            ck = cos(omega * (t0 + s_max))
+            sk = sin(omega * (t0 + s_max))
         if s_hi <= s_lo:
             break
-        qh, v_hi, _, _ = flight_state(g0, v0, t0, s_hi, omega, sigma, zeta)
-        g_hi = qh
+        g_hi, v_hi = _state(g0, v0, a, omega, sigma, d, c0, s0, P0, s_hi, ck, sk)
         left = s_lo
         g_left = g_lo
         if (v_lo < 0.0) and (v_hi > 0.0):
