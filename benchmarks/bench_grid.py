@@ -88,7 +88,11 @@ def run_on(workers: int, study, tmp: Path) -> dict:
         opts = RunOptions(store=tmp / f"w{workers}.zarr", cluster=ClusterSpec(kind="local", workers=workers),
                           command=f"bench_grid {workers} workers")
         buf = io.StringIO()
+        cpu0 = time.process_time()
         s = run_study(study, opts, out=buf, err=io.StringIO(), client=client)
+        # CPU of this process (client, scheduler, single writer): on a 2-core machine it
+        # competes with the workers
+        s["client_cpu"] = time.process_time() - cpu0
         futs = client.map(_noop, range(200), pure=False)   # empty-task round trip
         t0 = time.perf_counter()
         futs = client.map(_noop, range(1000, 1200), pure=False)
@@ -129,7 +133,9 @@ def main(argv=None):
                   f"solver time per point); {s['tasks_run']} tasks of {1e3 * s['per_task']:.0f} ms; "
                   f"dask overhead {100 * s['overhead']:.1f} % = {1e3 * per_task_over:.0f} ms per task; "
                   f"empty-task round trip {1e3 * s['noop_per_task']:.2f} ms; "
-                  f"peak RSS per worker {', '.join(f'{m:.0f}' for m in s['maxrss_mb'])} MB")
+                  f"peak RSS per worker {', '.join(f'{m:.0f}' for m in s['maxrss_mb'])} MB; "
+                  f"client process (scheduler + writer) CPU {s['client_cpu']:.2f} s "
+                  f"= {100 * s['client_cpu'] / s['wall']:.0f} % of a core")
             print("    printed by the run: " + [ln for ln in s["printed"].splitlines()
                                                  if ln.startswith("error estimate")][0])
             print(f"    store attrs hertzmap_error_estimate: {s['attr']}")

@@ -20,7 +20,8 @@ from study.spec import Study
 #: Estimated seconds of solver work per grid point, per period searched (a 1T search, a 2T
 #: search). Calibrated on the block solver (see docs/running.md); used only to size tasks
 #: and for --dry-run estimates.
-SECONDS_PER_POINT = {1: 5e-4, 2: 1.6e-3}   # study.block, measured 2026-11 on 2 cores
+SECONDS_PER_POINT = {1: 1.4e-4, 2: 6.4e-4}  # study.block, default window (zeta 0.01, 5 sigma
+#: lines): 0.134 ms per point for 1T, 0.772 ms for 1T + 2T; measured 2026-11-23 on 2 cores
 #: Target duration of one task (seconds). Dask costs a few ms per task: 1 s keeps it < 1 %.
 #: extra per point with [search] discover = true (transients + continuation, ~1.5 s per
 #: 161-point line, docs/discovery.md)
