@@ -5,9 +5,10 @@ versions: a faster solver must not lose orbits.
     .venv/bin/python benchmarks/orbit_census.py --save new.npz --compare old.npz
 
 (for an older version: ``git stash`` or ``git worktree add``, run it there with --save, come
-back). Three sets of lines, about 2,000 grid points, 1T and 2T seeds, rtol 1e-10:
+back). Four sets of lines, about 3,400 grid points, 1T and 2T seeds, rtol 1e-10:
 the default study's window (zeta 0.01, 9 sigma lines), a wider window at light and stronger
-damping (zeta 0.005 and 0.05), and the linear impact oscillator (n = 1). Prints, per set, the
+damping (zeta 0.005 and 0.05), the linear impact oscillator (n = 1), and the band where the
+isola meets the 1T contact-loss region (sigma 0.2625..0.35). Prints, per set, the
 converged slots by period and the wall time; with --compare, the points whose sets of orbits
 (period, peak-to-peak q to 1e-6) differ. Where more orbits coexist than the 4 slots hold, two
 versions may keep different subsets: such points are listed with both sets.
@@ -26,6 +27,10 @@ LINES = [
      [0.005, 0.05], {}),
     ("impact oscillator n = 1", np.linspace(0.5, 2.5, 81), [0.3, 0.7], [0.02],
      {"exponent": 1.0}),
+    # where the isola meets the 1T loss region (the default map's omega 0.65-0.8, sigma ~0.3):
+    # 2T orbits found only by continuation along the isola
+    ("isola band of the default study", np.linspace(0.5, 2.5, 161),
+     list(0.05 + 0.0125 * np.arange(17, 25)), [0.01], {}),
 ]
 
 

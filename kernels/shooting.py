@@ -42,6 +42,9 @@ N_FIELDS = len(FIELDS)
 # Eq. 12: the Taylor force of Eq. 10 vanishes at q = -1.3479...: "loss of contact" of Eq. 11
 TAYLOR_CONTACT_LIMIT = -1.3479253168228557
 XTOL_MEASURE = 1e-3    # Newton hands over to the measure pass below this step (relative)
+# Newton gives up after this many consecutive steps that the line search could not make
+# decrease the residual even at its smallest damping (why 2: at the test in shoot_into)
+STALL_LIMIT = 2
 
 
 @njit("void(float64[::1], float64, float64)", cache=True, nogil=True)
@@ -146,6 +149,7 @@ def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, ma
     dx_prev = np.inf
     converged = False
     it = 0
+    stalls = 0
     t_eval = np.empty(m - 1 if m > 1 else 0)
     for j in range(t_eval.shape[0]):
         t_eval[j] = (j + 1) * T
@@ -201,13 +205,14 @@ def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, ma
             lam *= 0.5
         if code != st.CONVERGED:
             break
-        if not rnt < (1.0 - 1e-4 * lam) * rn:
-            # No decrease even at the smallest damping: this run is not converging; give up
-            # (not_converged, at the last iterate). In grid studies such hopeless runs from
-            # exploratory seeds took two thirds of the work, each iteration a line search to
-            # the bottom (7 maps). Giving up on heavily damped steps that still decrease as
-            # well would cut more, but loses orbits reached only along long damped paths
-            # (measured: 35 of 3130 on the default study's lines).
+        stalls = 0 if rnt < (1.0 - 1e-4 * lam) * rn else stalls + 1
+        if stalls >= STALL_LIMIT:
+            # No decrease even at the smallest damping, twice running: this run is not
+            # converging; give up (not_converged, at the last iterate). Each such iteration was a
+            # line search to the bottom (7 maps), and hopeless runs from exploratory seeds took
+            # two thirds of a grid block's work. Giving up at the first such step cut more, but
+            # lost 2T orbits of the isola reached by continuation (10 of 1531 on the band of
+            # benchmarks/orbit_census.py); so did giving up on heavily damped decreasing steps.
             break
         if stats[S_H_FIRST] > 0.0:
             h = stats[S_H_FIRST]
