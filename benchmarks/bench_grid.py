@@ -5,6 +5,8 @@ with and without the compile cache, peak memory per worker, and the study's own 
                                                                           (about a minute)
     .venv/bin/python benchmarks/bench_grid.py --omega 400 --sigma 250 --workers 2
                                     (the 100,000-point target, run for real: 1-2 minutes)
+    .venv/bin/python benchmarks/bench_grid.py --ceiling
+                                    (two solver processes at once vs one, no Dask: ~10 s)
 
 A small study (the default study's (omega, sigma) window at zeta 0.01, 1T and 2T seeds, rtol
 1e-10; 41 x 25 = 1025 points by default) is run with ``scheduler.run.run_study`` into stores in a
@@ -76,6 +78,36 @@ def cold_start(cache_dir: str) -> float:
     return float(r.stdout.strip().splitlines()[-1])
 
 
+def _solve_default_window(_):
+    """Seconds per block (4 sigma lines x 161 omega of the default window), best of 3."""
+    import numpy as np
+
+    from study.block import solve_block
+    omega, sigma, zeta = np.linspace(0.5, 2.5, 161), np.array([0.1, 0.3, 0.5, 0.8]), np.array([0.01])
+    solve_block(omega[:5], sigma[:1], zeta, harmonics=False)      # kernels from the cache
+    times = []
+    for _ in range(3):
+        t0 = time.perf_counter()
+        solve_block(omega, sigma, zeta, harmonics=False)
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def machine_ceiling() -> float:
+    """What this machine gives two concurrent solver processes, without Dask: the rate of two
+    processes at once over twice the rate of one alone."""
+    import multiprocessing
+
+    ctx = multiprocessing.get_context("spawn")
+    with ctx.Pool(1) as pool:
+        one = pool.map(_solve_default_window, [0])[0]
+    with ctx.Pool(2) as pool:
+        two = pool.map(_solve_default_window, [0, 1])
+    print(f"machine ceiling (no Dask): one solver process {one:.3f} s per block; two at once "
+          f"{two[0]:.3f} and {two[1]:.3f} s -> {100 * one / max(two):.0f} % of twice one process")
+    return one / max(two)
+
+
 def run_on(workers: int, study, tmp: Path) -> dict:
     from distributed import Client, LocalCluster
 
@@ -110,7 +142,12 @@ def main(argv=None):
     ap.add_argument("--sigma", type=int, default=25)
     ap.add_argument("--workers", default="1,2",
                     help="comma-separated worker counts to run on (efficiency needs 1 and 2)")
+    ap.add_argument("--ceiling", action="store_true",
+                    help="only measure what the machine gives two solver processes (no Dask)")
     a = ap.parse_args(argv)
+    if a.ceiling:
+        machine_ceiling()
+        return
     counts = [int(w) for w in a.workers.split(",")]
     import logging
     for name in ("distributed", "tornado", "asyncio"):   # shutdown chatter (closed comms)
