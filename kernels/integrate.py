@@ -188,7 +188,10 @@ def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta,
     """Increment s in (0, h] of the mode's variable from x where q = -n, the step over h ending
     below (or dipping below) the surface. Bracketed Newton on partial steps from x (each lies in
     contact up to the root, so it is as accurate as a step), to |q + n| <= 1e-14 n; dq/dx is the
-    FSAL derivative f_new[0]. y_new is left arbitrary."""
+    FSAL derivative f_new[0].
+
+    Returns (s, err): err is the error estimate of the partial step onto the root when y_new
+    holds its end state (|q + n| <= 1e-14 n), else -1 (y_new left arbitrary)."""
     lo = 0.0
     hi = h
     g_hi = y_new[0] + n
@@ -200,23 +203,23 @@ def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta,
     else:
         s = 0.5 * h
     for _ in range(30):
-        _step(dim, mode, x, s, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol,
-              t_ref)
+        err = _step(dim, mode, x, s, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
+                    atol, t_ref)
         g = y_new[0] + n
         if abs(g) <= 1e-14 * n:
-            return s
+            return s, err
         if g > 0.0:
             lo = s
         else:
             hi = s
         if hi - lo <= 1e-15 * max(1.0, abs(x)):
-            return hi
+            return hi, -1.0
         dg = f_new[0]
         s_new = s - g / dg if dg != 0.0 else 0.5 * (lo + hi)
         if not (lo < s_new < hi):
             s_new = 0.5 * (lo + hi)
         s = s_new
-    return s
+    return s, -1.0
 
 
 @njit(cache=True, nogil=True)
@@ -329,19 +332,29 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
             at_target = True
         err = _step(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
                     atol, t_ref)
+        land_on_switch = False
         if hertz and mode != MODE_LOSS and y_new[0] < -n:
             # The trial step crossed the surface. Its error estimate is meaningless (a kink
             # inside): locate the crossing now and approach it in w = -sqrt(t_stop - t).
-            s = _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n,
-                                 model, rtol, atol, t_ref, 0.0)
+            s, err_s = _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma,
+                                        zeta, n, model, rtol, atol, t_ref, 0.0)
             t_stop = _time(mode, x + s, t_ref)
             if mode == MODE_T:
                 h_t = h
-            mode = MODE_LOSS
-            t_ref = t_stop
-            x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
-            h = -x
-            continue
+            if n == 1.0 and mode == MODE_T and 0.0 <= err_s <= 1.0:
+                # n = 1: the continued law is exactly linear, the solution smooth in t up to the
+                # switch, and the partial step onto it passed the error control: it is the step
+                # that lands (the w-approach would take 2-3 more steps, for nothing)
+                h = s
+                err = err_s
+                t_ref = t_stop
+                land_on_switch = True
+            else:
+                mode = MODE_LOSS
+                t_ref = t_stop
+                x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
+                h = -x
+                continue
         if not (err <= 1.0):   # also catches NaN
             stats[S_REJECTED] += 1
             if err != err:
@@ -362,15 +375,16 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
                 xm = _dense_root(P, y, 0.0, 1.0, 0.0, 1)
                 if dense_eval(P, 0, y[0], xm) < -n:
                     x0g = _dense_root(P, y, 0.0, xm, -n, 0)
-                    s = _locate_crossing(dim, mode, x, xm * h, y, f, y_new, f_new, K, omega,
-                                         sigma, zeta, n, model, rtol, atol, t_ref, x0g * h)
+                    s, _ = _locate_crossing(dim, mode, x, xm * h, y, f, y_new, f_new, K,
+                                            omega, sigma, zeta, n, model, rtol, atol, t_ref,
+                                            x0g * h)
                     h_t = h
                     mode = MODE_LOSS
                     t_ref = t + s
                     x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
                     h = -x
                     continue
-        lands = mode == MODE_LOSS and (at_target or y_new[0] < -n)
+        lands = land_on_switch or (mode == MODE_LOSS and (at_target or y_new[0] < -n))
         # ---- accepted step ------------------------------------------------------------------
         if n_eval > 0 or measure:
             # the continuous extension costs 3 more stages: only on steps that need it (an
@@ -392,7 +406,7 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
             first_w_step = False
         approach = 1.0
         d1 = np.inf
-        if hertz and mode == MODE_T and y_new[1] < 0.0:
+        if hertz and mode == MODE_T and y_new[1] < 0.0 and not lands:
             # Heading for contact loss: the solution's high derivatives grow like
             # (time to the surface)^-k, so the error of a step of given h grows as that time
             # shrinks; scale h by its ratio over this step (without this, every step of the
