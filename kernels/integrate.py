@@ -412,7 +412,9 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
             # shrinks; scale h by its ratio over this step (without this, every step of the
             # approach was followed by a rejected one: 5 rejections per contact loss)
             d1 = _time_to_surface(y_new[0] + n, y_new[1], f_new[1])
-            if d1 < 4.0 * h:
+            if d1 <= 0.0:
+                d1 = np.inf     # ended exactly on the surface: the next trial crosses anyway
+            elif d1 < 4.0 * h:
                 d0 = _time_to_surface(y[0] + n, y[1], f[1])
                 if d1 < d0 < np.inf:
                     approach = max(0.2, d1 / d0)
