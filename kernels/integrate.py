@@ -34,8 +34,8 @@ from kernels.model import HERTZ, rhs_force, rhs_force_and_stiffness
 
 # layout of the ``stats`` array filled by ``integrate``
 (S_ACCEPTED, S_REJECTED, S_EVENTS, S_FLIGHT_TIME, S_MIN_Q, S_MAX_Q, S_MAX_IMPACT, S_H_FIRST,
- S_H_RECONTACT) = range(9)
-N_STATS = 9
+ S_H_RECONTACT, S_PARTIAL, S_WSTEPS) = range(11)
+N_STATS = 11
 N_HARMONICS = 4
 BIG = 1e6              # |q| or |v| beyond this: diverged
 W_EXIT = 0.5           # after a recontact, step in w = sqrt(t - t_r) up to t - t_r = W_EXIT^2
@@ -182,31 +182,66 @@ def _time_to_surface(g, v, a):
     return best
 
 
+@njit(float64(float64, float64, float64, float64), cache=True, nogil=True)
+def _hermite_root(g0, d0, g1, d1):
+    """Root in (0, 1) of the cubic Hermite interpolant with values g0 > 0 > g1 and slopes d0, d1
+    (per unit of the fraction) at the ends: the first guess of a crossing inside a step. Its
+    error is the step's fourth-order term, where the secant's is the second: the located
+    crossing then needs one or two partial steps fewer (each costs a full step)."""
+    lo = 0.0
+    hi = 1.0
+    x = g0 / (g0 - g1)
+    for _ in range(12):
+        # p(x) = g0 h00 + d0 h10 + g1 h01 + d1 h11 and its derivative
+        x2 = x * x
+        x3 = x2 * x
+        p = (g0 * (2.0 * x3 - 3.0 * x2 + 1.0) + d0 * (x3 - 2.0 * x2 + x)
+             + g1 * (3.0 * x2 - 2.0 * x3) + d1 * (x3 - x2))
+        dp = (g0 * (6.0 * x2 - 6.0 * x) + d0 * (3.0 * x2 - 4.0 * x + 1.0)
+              + g1 * (6.0 * x - 6.0 * x2) + d1 * (3.0 * x2 - 2.0 * x))
+        if p > 0.0:
+            lo = x
+        else:
+            hi = x
+        x_new = x - p / dp if dp != 0.0 else 0.5 * (lo + hi)
+        if not (lo < x_new < hi):
+            x_new = 0.5 * (lo + hi)
+        if abs(x_new - x) <= 1e-15:
+            return x_new
+        x = x_new
+    return x
+
+
 @njit(cache=True, nogil=True)
 def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
-                     atol, t_ref, s_guess):
+                     atol, t_ref, s_guess, stats_partial):
     """Increment s in (0, h] of the mode's variable from x where q = -n, the step over h ending
     below (or dipping below) the surface. Bracketed Newton on partial steps from x (each lies in
-    contact up to the root, so it is as accurate as a step), to |q + n| <= 1e-14 n; dq/dx is the
+    contact up to the root, so it is as accurate as a step), to |q + n| <= max(1e-2 rtol, 1e-14) n; dq/dx is the
     FSAL derivative f_new[0].
 
     Returns (s, err): err is the error estimate of the partial step onto the root when y_new
-    holds its end state (|q + n| <= 1e-14 n), else -1 (y_new left arbitrary)."""
+    holds its end state (|q + n| <= g_tol), else -1 (y_new left arbitrary)."""
     lo = 0.0
     hi = h
+    # The switch state is set to q = -n exactly, so a residual g is a local error of the step
+    # onto it: 1e-2 rtol n is far inside the step's own error budget, and saves the partial
+    # step that would take g from ~1e-11 to round-off
+    g_tol = max(1e-2 * rtol, 1e-14) * n
     g_hi = y_new[0] + n
     g_lo = y[0] + n
     if s_guess > 0.0:
         s = s_guess
     elif g_lo - g_hi > 0.0:
-        s = h * g_lo / (g_lo - g_hi)      # secant between the step ends
+        s = h * _hermite_root(g_lo, h * f[0], g_hi, h * f_new[0])
     else:
         s = 0.5 * h
     for _ in range(30):
         err = _step(dim, mode, x, s, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
                     atol, t_ref)
         g = y_new[0] + n
-        if abs(g) <= 1e-14 * n:
+        stats_partial[0] += 1
+        if abs(g) <= g_tol:
             return s, err
         if g > 0.0:
             lo = s
@@ -308,9 +343,16 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
                     stats[S_MAX_IMPACT] = v1
                 in_flight = False
                 # the contact phase starts on the singularity of F': step in w = sqrt(t - t_r)
-                mode = MODE_RECONTACT
+                # (n = 1: F is linear in contact, the contact solution analytic from the switch
+                # on: plain t-steps, 2-3 fewer steps per recontact)
+                mode = MODE_T if n == 1.0 else MODE_RECONTACT
                 t_ref = t
                 x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
+                if mode == MODE_T and dim == 6:
+                    # F'(-n) is taken as 0 (the flight side); the contact side's is 1/n = 1,
+                    # and the first stage must see it, or the step's error estimate sees a jump
+                    f[4] -= y[2]
+                    f[5] -= y[3]
                 h = stats[S_H_RECONTACT] if stats[S_H_RECONTACT] > 0.0 else 0.05
                 first_w_step = True
             else:
@@ -332,12 +374,14 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
             at_target = True
         err = _step(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
                     atol, t_ref)
+        if mode != MODE_T:
+            stats[S_WSTEPS] += 1
         land_on_switch = False
         if hertz and mode != MODE_LOSS and y_new[0] < -n:
             # The trial step crossed the surface. Its error estimate is meaningless (a kink
             # inside): locate the crossing now and approach it in w = -sqrt(t_stop - t).
             s, err_s = _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma,
-                                        zeta, n, model, rtol, atol, t_ref, 0.0)
+                                        zeta, n, model, rtol, atol, t_ref, 0.0, stats[S_PARTIAL:])
             t_stop = _time(mode, x + s, t_ref)
             if mode == MODE_T:
                 h_t = h
@@ -377,7 +421,7 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
                     x0g = _dense_root(P, y, 0.0, xm, -n, 0)
                     s, _ = _locate_crossing(dim, mode, x, xm * h, y, f, y_new, f_new, K,
                                             omega, sigma, zeta, n, model, rtol, atol, t_ref,
-                                            x0g * h)
+                                            x0g * h, stats[S_PARTIAL:])
                     h_t = h
                     mode = MODE_LOSS
                     t_ref = t + s
