@@ -182,23 +182,33 @@ def _time_to_surface(g, v, a):
     return best
 
 
-@njit(float64(float64, float64, float64, float64), cache=True, nogil=True)
-def _hermite_root(g0, d0, g1, d1):
-    """Root in (0, 1) of the cubic Hermite interpolant with values g0 > 0 > g1 and slopes d0, d1
-    (per unit of the fraction) at the ends: the first guess of a crossing inside a step. Its
-    error is the step's fourth-order term, where the secant's is the second: the located
-    crossing then needs one or two partial steps fewer (each costs a full step)."""
+@njit(float64(float64, float64, float64, float64, float64, float64), cache=True, nogil=True)
+def _hermite_root(g0, d0, a0, g1, d1, a1):
+    """Root in (0, 1) of the Hermite interpolant with values g0 > 0 > g1, slopes d0, d1 and
+    (if finite) second derivatives a0, a1 (per unit of the fraction) at the ends: the first
+    guess of a crossing inside a step. Quintic with a0, a1, else cubic: its error is the step's
+    sixth- (fourth-) order term, where the secant's is the second, and the located crossing
+    needs fewer partial steps (each costs a full step)."""
+    # monomial coefficients of p(x) = c0 + c1 x + ... + c5 x^5
+    c0 = g0
+    c1 = d0
+    if a0 == a0 and a1 == a1:
+        c2 = 0.5 * a0
+        dg = g1 - g0 - d0 - c2
+        c3 = 10.0 * dg - 4.0 * (d1 - d0 - a0) + 0.5 * (a1 - a0)
+        c4 = -15.0 * dg + 7.0 * (d1 - d0 - a0) - (a1 - a0)
+        c5 = 6.0 * dg - 3.0 * (d1 - d0 - a0) + 0.5 * (a1 - a0)
+    else:
+        c2 = 3.0 * (g1 - g0) - 2.0 * d0 - d1
+        c3 = 2.0 * (g0 - g1) + d0 + d1
+        c4 = 0.0
+        c5 = 0.0
     lo = 0.0
     hi = 1.0
     x = g0 / (g0 - g1)
     for _ in range(12):
-        # p(x) = g0 h00 + d0 h10 + g1 h01 + d1 h11 and its derivative
-        x2 = x * x
-        x3 = x2 * x
-        p = (g0 * (2.0 * x3 - 3.0 * x2 + 1.0) + d0 * (x3 - 2.0 * x2 + x)
-             + g1 * (3.0 * x2 - 2.0 * x3) + d1 * (x3 - x2))
-        dp = (g0 * (6.0 * x2 - 6.0 * x) + d0 * (3.0 * x2 - 4.0 * x + 1.0)
-              + g1 * (6.0 * x - 6.0 * x2) + d1 * (3.0 * x2 - 2.0 * x))
+        p = c0 + x * (c1 + x * (c2 + x * (c3 + x * (c4 + x * c5))))
+        dp = c1 + x * (2.0 * c2 + x * (3.0 * c3 + x * (4.0 * c4 + x * 5.0 * c5)))
         if p > 0.0:
             lo = x
         else:
@@ -233,7 +243,10 @@ def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta,
     if s_guess > 0.0:
         s = s_guess
     elif g_lo - g_hi > 0.0:
-        s = h * _hermite_root(g_lo, h * f[0], g_hi, h * f_new[0])
+        # t-steps: q'' = dv/dt = f[1] (quintic); w-steps: cubic on dq/dw alone
+        a0 = h * h * f[1] if mode == MODE_T else np.nan
+        a1 = h * h * f_new[1] if mode == MODE_T else np.nan
+        s = h * _hermite_root(g_lo, h * f[0], a0, g_hi, h * f_new[0], a1)
     else:
         s = 0.5 * h
     for _ in range(30):
@@ -448,6 +461,11 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
         if first_w_step:
             stats[S_H_RECONTACT] = h
             first_w_step = False
+        elif mode == MODE_RECONTACT and not at_target and h > stats[S_H_RECONTACT]:
+            # the next recontact starts with the largest accepted w-step of this one: the first
+            # step is cautious (the layer's scale is unknown), and a first step kept that small
+            # would cost a tiny step and a rejected one at every recontact
+            stats[S_H_RECONTACT] = h
         approach = 1.0
         d1 = np.inf
         if hertz and mode == MODE_T and y_new[1] < 0.0 and not lands:
