@@ -10,6 +10,7 @@ recomputed on resume and rewritten with identical values.
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import json
 import os
@@ -22,8 +23,9 @@ from typing import Any
 import numpy as np
 import xarray as xr
 import zarr
+from zarr.core.sync import sync as zarr_sync
 
-from study.dataset import (STORE_FORMAT, VARIABLES, block_dataset, history_line, parse_attrs,
+from study.dataset import (STORE_FORMAT, VARIABLES, history_line, parse_attrs,
                            stored_variables, template)
 from study.spec import Study
 
@@ -78,6 +80,7 @@ class Store:
         self._group = zarr.open_group(zarr.storage.LocalStore(self.path), mode="r+",
                                       zarr_format=3, use_consolidated=False)
         self._done = self._group["task_done"]
+        self._arrays: dict[str, zarr.Array] = {}
 
     # -- creation -------------------------------------------------------------------------
     @classmethod
@@ -189,16 +192,40 @@ class Store:
     # -- data -----------------------------------------------------------------------------
     def write_block(self, slices: tuple[slice, slice, slice], arrays: dict[str, np.ndarray],
                     names: tuple[str, ...]) -> None:
-        """Region write of one block (whole chunks), coordinates dropped. Per-block variables
-        (dim ``omega_block``: the located bifurcation points) go to the block's own
-        omega_block entry, in the same write: one writer per chunk."""
-        ds = block_dataset(arrays, names)
-        region = {"omega": slices[0], "sigma": slices[1], "zeta": slices[2]}
-        if "omega_block" in ds.dims:
-            ib = slices[0].start // self.chunks[0]
-            region["omega_block"] = slice(ib, ib + 1)
-        ds.to_zarr(zarr.storage.LocalStore(self.path), region=region, consolidated=False,
-                   zarr_format=3, write_empty_chunks=bool(self.attrs.get(ALL_CHUNKS_ATTR)))
+        """Region write of one block (whole chunks) of every variable in ``names``, all in one
+        call into zarr's event loop (its writes run concurrently). Per-block variables (dim
+        ``omega_block``: the located bifurcation points) go to the block's own omega_block
+        entry: one writer per chunk.
+
+        Byte-for-byte what ``block_dataset(...).to_zarr(region=...)`` writes (the stored dtypes
+        are the VARIABLES dtypes and no variable has a CF scale or offset; tested), at a third
+        of its cost: xarray's region write re-opens and re-validates every array on each call,
+        and zarr then runs one event-loop round trip per variable, all on the client that also
+        schedules the study."""
+        ib = slices[0].start // self.chunks[0]
+        jobs = []
+        for name in names:
+            v = VARIABLES[name]
+            arr = self._writable(name)
+            lead = (slice(ib, ib + 1), slices[1], slices[2]) if v.per_block else tuple(slices)
+            sel = lead + (slice(None),) * (arr.ndim - 3)
+            data = np.ascontiguousarray(np.asarray(arrays[name]).astype(v.dtype, copy=False))
+            jobs.append(arr.async_array.setitem(sel, data))
+
+        async def write_all():
+            await asyncio.gather(*jobs)
+
+        zarr_sync(write_all())
+
+    def _writable(self, name: str) -> zarr.Array:
+        """The zarr array ``name``, opened once, writing every chunk of a block in stores that
+        require it (even all-fill chunks: see verify)."""
+        arr = self._arrays.get(name)
+        if arr is None:
+            arr = self._group[name].with_config(
+                {"write_empty_chunks": bool(self.attrs.get(ALL_CHUNKS_ATTR))})
+            self._arrays[name] = arr
+        return arr
 
     def add_history(self, action: str) -> None:
         hist = self._group.attrs.get("history", "")

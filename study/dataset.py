@@ -5,8 +5,8 @@ One xarray Dataset per study, dims ``omega``, ``sigma``, ``zeta``, ``solution`` 
 ``task_done`` over the chunk grid (dims ``omega_chunk``, ``sigma_chunk``, ``zeta_chunk``).
 
 The scheduler turns :func:`template` into a lazy dataset and writes it once with
-``to_zarr(compute=False)``; each finished block is then written with :func:`block_dataset`
-as a region write. Every variable and coordinate carries ``long_name``, ``units`` and
+``to_zarr(compute=False)``; each finished block is then a region write of whole chunks
+(``scheduler.store.Store.write_block``; :func:`block_dataset` is the same block as a Dataset). Every variable and coordinate carries ``long_name``, ``units`` and
 ``description``; code variables carry ``flag_values``/``flag_meanings``.
 See docs/dataset.md for the reference.
 """
