@@ -222,28 +222,6 @@ def _hermite_root(g0, d0, a0, g1, d1, a1):
     return x
 
 
-@njit(float64(float64, float64), cache=True, nogil=True)
-def _switch_tolerance(rtol, n):
-    """|q + n| accepted at a located switch. The switch state is then set to q = -n exactly,
-    so the residual is a local error of the step onto it: 1e-2 rtol n is far inside that
-    step's own error budget, and saves the last Newton iteration (from ~1e-11 to round-off)."""
-    return max(1e-2 * rtol, 1e-14) * n
-
-
-@njit(cache=True, nogil=True)
-def _crossing_guess(mode, h, y, f, y_new, f_new, n):
-    """First guess of the increment s in (0, h) where a step from y to y_new (ending below the
-    surface) crosses q = -n: the Hermite interpolant's root (quintic on t-steps, where
-    q'' = dv/dt = f[1]; cubic on dq/dw alone on w-steps)."""
-    g_lo = y[0] + n
-    g_hi = y_new[0] + n
-    if not (g_lo - g_hi > 0.0):
-        return 0.5 * h
-    a0 = h * h * f[1] if mode == MODE_T else np.nan
-    a1 = h * h * f_new[1] if mode == MODE_T else np.nan
-    return h * _hermite_root(g_lo, h * f[0], a0, g_hi, h * f_new[0], a1)
-
-
 @njit(cache=True, nogil=True)
 def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
                      atol, t_ref, s_guess, stats_partial):
@@ -256,8 +234,21 @@ def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta,
     holds its end state (|q + n| <= g_tol), else -1 (y_new left arbitrary)."""
     lo = 0.0
     hi = h
-    g_tol = _switch_tolerance(rtol, n)
-    s = s_guess if s_guess > 0.0 else _crossing_guess(mode, h, y, f, y_new, f_new, n)
+    # The switch state is set to q = -n exactly, so a residual g is a local error of the step
+    # onto it: 1e-2 rtol n is far inside the step's own error budget, and saves the partial
+    # step that would take g from ~1e-11 to round-off
+    g_tol = max(1e-2 * rtol, 1e-14) * n
+    g_hi = y_new[0] + n
+    g_lo = y[0] + n
+    if s_guess > 0.0:
+        s = s_guess
+    elif g_lo - g_hi > 0.0:
+        # t-steps: q'' = dv/dt = f[1] (quintic); w-steps: cubic on dq/dw alone
+        a0 = h * h * f[1] if mode == MODE_T else np.nan
+        a1 = h * h * f_new[1] if mode == MODE_T else np.nan
+        s = h * _hermite_root(g_lo, h * f[0], a0, g_hi, h * f_new[0], a1)
+    else:
+        s = 0.5 * h
     for _ in range(30):
         err = _step(dim, mode, x, s, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
                     atol, t_ref)
@@ -326,9 +317,6 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
     x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
     work = 0
     first_w_step = False
-    refining = False            # approaching a loss of contact from a guessed t_stop
-    lo_t = hi_t = t0
-    g_tol = _switch_tolerance(rtol, n)
     if h <= 0.0 or h > span:
         h = min(span, 0.1)
     h_t = h                     # the t-step to resume with after a w-mode
@@ -402,21 +390,6 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
         if mode != MODE_T:
             stats[S_WSTEPS] += 1
         land_on_switch = False
-        if hertz and mode == MODE_T and n != 1.0 and y_new[0] < -n:
-            # The trial step crossed the surface (its error estimate is meaningless: a kink
-            # inside). Approach the crossing in w = -sqrt(t_stop - t) from a first guess of
-            # t_stop; the w-step onto it is smooth up to its end whatever the guess, so its end
-            # value of q + n corrects t_stop (Newton, bracketed) until the landing step lands:
-            # no partial t-steps.
-            h_t = h
-            lo_t = t
-            hi_t = t + h
-            refining = True
-            mode = MODE_LOSS
-            t_ref = t + _crossing_guess(mode, h, y, f, y_new, f_new, n)
-            x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
-            h = -x
-            continue
         if hertz and mode != MODE_LOSS and y_new[0] < -n:
             # The trial step crossed the surface. Its error estimate is meaningless (a kink
             # inside): locate the crossing now and approach it in w = -sqrt(t_stop - t).
@@ -439,28 +412,6 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
                 x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
                 h = -x
                 continue
-        if refining and err <= 1.0 and (at_target or y_new[0] < -n):
-            g = y_new[0] + n
-            if not at_target or abs(g) > g_tol:
-                # Newton on t_stop from this step's end (q' = dq/dt there), kept inside the
-                # bracket of times known above (lo_t) and below (hi_t) the surface; then the
-                # approach restarts from the same point, centred on the new t_stop
-                t_end = _time(mode, x + h, t_ref)
-                if g > 0.0:
-                    lo_t = t_end
-                else:
-                    hi_t = t_end
-                t_new = t_end - g / y_new[1] if y_new[1] != 0.0 else 0.5 * (lo_t + hi_t)
-                if not (lo_t < t_new < hi_t):
-                    t_new = 0.5 * (lo_t + hi_t)
-                stats[S_PARTIAL] += 1
-                if t_new - t > 1e-15 * max(1.0, abs(t)) and hi_t - lo_t > 1e-15 * max(1.0, abs(t)):
-                    t_ref = t_new
-                    x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
-                    # the step just taken passed the error control: the same size again
-                    h = -x if at_target else min(h, -x)
-                    continue
-                # the bracket has closed on round-off (or on the step's start): land there
         if not (err <= 1.0):   # also catches NaN
             stats[S_REJECTED] += 1
             if err != err:
@@ -550,7 +501,6 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
             h = 1.2 * d1
         if lands:
             # contact is lost exactly at t_stop
-            refining = False
             t = t_ref
             y[0] = -n
             stats[S_EVENTS] += 1
