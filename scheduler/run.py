@@ -1,7 +1,7 @@
 """Run a study: plan, open/create the store, ship blocks to Dask, write results as they come.
 
 The client is the only writer: for each finished task (``distributed.as_completed``) it
-writes the block (xarray region write) and then sets the task's ``task_done`` flag.
+writes the block (a region write of whole chunks) and then sets the task's ``task_done`` flag.
 Durability comes from the store, not from Dask: rerunning the same command computes only
 the tasks not flagged.
 """
