@@ -34,8 +34,8 @@ from kernels.model import HERTZ, rhs_force, rhs_force_and_stiffness
 
 # layout of the ``stats`` array filled by ``integrate``
 (S_ACCEPTED, S_REJECTED, S_EVENTS, S_FLIGHT_TIME, S_MIN_Q, S_MAX_Q, S_MAX_IMPACT, S_H_FIRST,
- S_H_RECONTACT, S_PARTIAL, S_WSTEPS) = range(11)
-N_STATS = 11
+ S_H_RECONTACT, S_PARTIAL) = range(10)
+N_STATS = 10
 N_HARMONICS = 4
 BIG = 1e6              # |q| or |v| beyond this: diverged
 W_EXIT = 0.5           # after a recontact, step in w = sqrt(t - t_r) up to t - t_r = W_EXIT^2
@@ -227,8 +227,9 @@ def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta,
                      atol, t_ref, s_guess, stats_partial):
     """Increment s in (0, h] of the mode's variable from x where q = -n, the step over h ending
     below (or dipping below) the surface. Bracketed Newton on partial steps from x (each lies in
-    contact up to the root, so it is as accurate as a step), to |q + n| <= max(1e-2 rtol, 1e-14) n; dq/dx is the
-    FSAL derivative f_new[0].
+    contact up to the root, so it is as accurate as a step) from a Hermite first guess, to
+    |q + n| <= g_tol = max(1e-2 rtol, 1e-14) n; dq/dx is the FSAL derivative f_new[0]. Counts
+    the partial steps (full steps in cost, in no other counter) in stats_partial[0].
 
     Returns (s, err): err is the error estimate of the partial step onto the root when y_new
     holds its end state (|q + n| <= g_tol), else -1 (y_new left arbitrary)."""
@@ -387,8 +388,6 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
             at_target = True
         err = _step(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
                     atol, t_ref)
-        if mode != MODE_T:
-            stats[S_WSTEPS] += 1
         land_on_switch = False
         if hertz and mode != MODE_LOSS and y_new[0] < -n:
             # The trial step crossed the surface. Its error estimate is meaningless (a kink

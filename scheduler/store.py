@@ -23,6 +23,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 import zarr
+# zarr's own bridge into its event loop (what Array.__setitem__ calls), to run the writes of
+# all of a block's variables in one call
 from zarr.core.sync import sync as zarr_sync
 
 from study.dataset import (STORE_FORMAT, VARIABLES, history_line, parse_attrs,
