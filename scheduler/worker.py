@@ -8,6 +8,7 @@ solve when a worker starts, which loads (or compiles) the numba kernels once per
 from __future__ import annotations
 
 import importlib
+import inspect
 import os
 import time
 from typing import Any, Callable
@@ -85,11 +86,16 @@ def run_task(spec: dict[str, Any]) -> dict[str, Any]:
 
 
 def solve_points(points: list[tuple[float, float, float]], kwargs: dict[str, Any],
-                 solver: str = DEFAULT_SOLVER) -> list[dict[str, np.ndarray]]:
-    """Solve isolated grid points (one block each); used by the error estimate."""
+                 solver: str = DEFAULT_SOLVER,
+                 seeds: list[list[tuple[int, float, float]]] | None = None
+                 ) -> list[dict[str, np.ndarray]]:
+    """Solve isolated grid points (one block each); used by the error estimate. ``seeds``
+    (one list of (period, q0, q'0) per point) go to solvers that take a ``seeds`` argument."""
     fn = load_solver(solver)
+    takes_seeds = "seeds" in inspect.signature(fn).parameters
     out = []
-    for w, s, z in points:
-        r = fn(np.array([w]), np.array([s]), np.array([z]), **kwargs)
+    for i, (w, s, z) in enumerate(points):
+        kw = dict(kwargs, seeds=seeds[i]) if seeds is not None and takes_seeds else kwargs
+        r = fn(np.array([w]), np.array([s]), np.array([z]), **kw)
         out.append({k: np.asarray(r[k])[0, 0, 0] for k in ("period", "status", "q0", "v0")})
     return out

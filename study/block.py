@@ -246,6 +246,11 @@ def _mark_continued(sols, parents, omega):
             s["omega_prev"] = parent["omega"]
 
 
+def _given_seeds(options, period):
+    """The caller's own seeds (``solve_block(seeds=...)``) of this period, as (q, q')."""
+    return [(q, v) for p, q, v in options.get("seeds", ()) if p == period]
+
+
 def _point(omega, sigma, zeta, periods, prev, options, first_visit, mms_seeds=()):
     """Solutions at one point from continuation of the previous point's solutions ``prev``
     and, on the first visit of the point, from the linear, multiple-scales and flip seeds.
@@ -258,7 +263,7 @@ def _point(omega, sigma, zeta, periods, prev, options, first_visit, mms_seeds=()
         parents = [s for s in prev if s["period"] == 1]
         seeds = [_continuation_seed(p, omega) for p in parents]
         if first_visit:     # first: of two tries landing on one orbit, _merge keeps the first
-            seeds.insert(0, linear_response_seed(omega, sigma, zeta))
+            seeds[:0] = [linear_response_seed(omega, sigma, zeta)] + _given_seeds(options, 1)
         tries_1t = _solve(omega, sigma, zeta, 1, seeds, dict(options, max_iter=MAX_ITER_1T))
         _mark_continued(tries_1t[len(seeds) - len(parents):], parents, omega)
         _merge(found, tries_1t)
@@ -269,6 +274,7 @@ def _point(omega, sigma, zeta, periods, prev, options, first_visit, mms_seeds=()
             seeds += mms_seeds
             for s in found:
                 seeds += _flip_seeds(s)
+            seeds += _given_seeds(options, 2)
         sols = _solve(omega, sigma, zeta, 2, seeds, dict(options, max_iter=MAX_ITER_2T))
         _mark_continued(sols, parents, omega)
         _merge(found, [s for s in sols if s["period"] == 2])
@@ -321,8 +327,12 @@ def _record_bifurcations(arrays, j, k, points):
 
 def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hertz", rtol=1e-10,
                 max_solutions=4, discover=False, transients=16, locate=False,
-                harmonics=True, time_budget=None) -> dict[str, np.ndarray]:
+                harmonics=True, time_budget=None, seeds=()) -> dict[str, np.ndarray]:
     """Every periodic response at each point of the block omega x sigma x zeta.
+
+    ``seeds``: more initial guesses ``(period, q0, q'0)``, shot at every point of the block on
+    its first visit after the automatic ones (the error estimate re-solves a stored orbit from
+    its own start point with them, so that it finds that orbit again without its neighbours).
 
     ``discover=True`` adds, per omega line, the discovery stage of study.discovery (transients
     from ``transients`` initial states at up to 12 points of the line, continuation of every
@@ -362,7 +372,8 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
     if not (np.isfinite(exponent) and exponent > 0):
         raise ValueError(f"exponent must be a finite number > 0, got {exponent!r}")
     options = dict(exponent=float(exponent), model=model, rtol=float(rtol),
-                   harmonics=bool(harmonics))
+                   harmonics=bool(harmonics),
+                   seeds=tuple((int(p), float(q), float(v)) for p, q, v in seeds))
     shape = (omega.size, sigma.size, zeta.size, int(max_solutions))
     arrays = {name: np.full(shape + trail, empty, dtype=dtype)
               for name, (dtype, empty, trail) in VARIABLES.items()}
