@@ -264,6 +264,18 @@ def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta,
         if hi - lo <= 1e-15 * max(1.0, abs(x)):
             return hi, -1.0
         dg = f_new[0]
+        if mode == MODE_T and dg != 0.0:
+            # Close enough for a Taylor step instead of another partial step: d solves
+            # g + d dq/dt + d^2 q''/2 = 0, and the end state moves by d y' (the stages use the
+            # law's smooth continuation across the surface, so y' = f_new holds on both
+            # sides); what is left out, d^2 y''/2, stays below g_tol
+            d = -g / dg
+            d = -(g + 0.5 * f_new[1] * d * d) / dg
+            if d * d <= g_tol and lo < s + d < hi:
+                for i in range(dim):
+                    y_new[i] += d * f_new[i]
+                y_new[0] = -n
+                return s + d, err
         s_new = s - g / dg if dg != 0.0 else 0.5 * (lo + hi)
         if not (lo < s_new < hi):
             s_new = 0.5 * (lo + hi)
