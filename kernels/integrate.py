@@ -206,9 +206,11 @@ def _hermite_root(g0, d0, a0, g1, d1, a1):
     lo = 0.0
     hi = 1.0
     x = g0 / (g0 - g1)
-    for _ in range(12):
+    for _ in range(40):
         p = c0 + x * (c1 + x * (c2 + x * (c3 + x * (c4 + x * c5))))
         dp = c1 + x * (2.0 * c2 + x * (3.0 * c3 + x * (4.0 * c4 + x * 5.0 * c5)))
+        if p == 0.0:
+            return x
         if p > 0.0:
             lo = x
         else:

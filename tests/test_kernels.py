@@ -250,3 +250,37 @@ def test_cos_shifted_against_long_double():
     assert np.abs(got - ref)[small].max() < 1e-15
     # beyond |theta| = 1 it falls back to libm on the rounded sum
     assert np.abs(got - ref)[~small].max() < 400 * np.finfo(float).eps
+
+
+def test_crossing_guess_is_the_hermite_interpolants_root():
+    # Oracle: numpy's polynomial fit through the same end values and derivatives, and its roots.
+    from hypothesis import given, settings, strategies as hs
+
+    from kernels.integrate import _hermite_root
+
+    val = hs.floats(0.01, 10.0)
+    der = hs.floats(-20.0, 20.0)
+
+    @settings(max_examples=300, deadline=None)
+    @given(val, val, der, der, der, der, hs.booleans())
+    def check(g0, mg1, d0, d1, a0, a1, quintic):
+        g1 = -mg1
+        if quintic:
+            # p(0) = g0, p'(0) = d0, p''(0) = a0, p(1) = g1, p'(1) = d1, p''(1) = a1
+            rows = [[1, 0, 0, 0, 0, 0], [0, 1, 0, 0, 0, 0], [0, 0, 2, 0, 0, 0],
+                    [1, 1, 1, 1, 1, 1], [0, 1, 2, 3, 4, 5], [0, 0, 2, 6, 12, 20]]
+            rhs = [g0, d0, a0, g1, d1, a1]
+        else:
+            rows = [[1, 0, 0, 0], [0, 1, 0, 0], [1, 1, 1, 1], [0, 1, 2, 3]]
+            rhs = [g0, d0, g1, d1]
+            a0 = a1 = np.nan
+        c = np.linalg.solve(np.array(rows, float), np.array(rhs, float))
+        p = np.polynomial.Polynomial(c)
+        x = _hermite_root(g0, d0, a0, g1, d1, a1)
+        assert 0.0 < x < 1.0
+        roots = [r.real for r in p.roots() if abs(r.imag) < 1e-9 and 0.0 < r.real < 1.0]
+        # a sign change on (0, 1) guarantees a root; the guess must be one of them
+        assert roots
+        assert min(abs(x - r) for r in roots) <= 1e-9 * max(1.0, max(abs(c)))
+
+    check()
