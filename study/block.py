@@ -331,8 +331,10 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
     """Every periodic response at each point of the block omega x sigma x zeta.
 
     ``seeds``: more initial guesses ``(period, q0, q'0)``, shot at every point of the block on
-    its first visit after the automatic ones (the error estimate re-solves a stored orbit from
-    its own start point with them, so that it finds that orbit again without its neighbours).
+    its first visit with the automatic ones (1T: after the linear seed; 2T: last), so an orbit
+    they reach that another seed also reaches is kept once. The error estimate re-solves a
+    stored orbit from its own start point with them, so that it finds that orbit again without
+    its neighbours.
 
     ``discover=True`` adds, per omega line, the discovery stage of study.discovery (transients
     from ``transients`` initial states at up to 12 points of the line, continuation of every
