@@ -294,7 +294,7 @@ def record_error_estimate(store: Store, summary: dict[str, Any]) -> None:
     e["wall_seconds"] = summary.get("wall")
     e = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in e.items()}
     try:
-        store._group.attrs["hertzmap_error_estimate"] = json.dumps(e)
+        store.set_attrs(hertzmap_error_estimate=json.dumps(e))
         dev = e.get("max_deviation")
         store.add_history(f"error estimate: max |d(q0, v0)| = "
                           f"{'n/a' if dev is None else format(dev, '.2e')} over {e.get('matched', 0)}/"

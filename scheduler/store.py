@@ -105,9 +105,16 @@ class Store:
         for name in lazy.variables:
             lazy[name].encoding = enc[name]
         path.parent.mkdir(parents=True, exist_ok=True)
+        # Written next to its place, then renamed into it (atomic on one file system): a reader
+        # finds no store or a whole one with its consolidated metadata, never one half made,
+        # and a creation cut short leaves nothing at ``path``.
+        building = path.parent / f".{path.name}.creating"
+        if building.exists():
+            shutil.rmtree(building)         # left by a creation cut short
         with _quiet():
-            lazy.to_zarr(zarr.storage.LocalStore(path), mode="w-", compute=False,
+            lazy.to_zarr(zarr.storage.LocalStore(building), mode="w-", compute=False,
                          zarr_format=3, consolidated=True)
+        os.rename(building, path)
         return cls(path)
 
     # -- checks ---------------------------------------------------------------------------
@@ -229,12 +236,28 @@ class Store:
             self._arrays[name] = arr
         return arr
 
-    def add_history(self, action: str) -> None:
-        hist = self._group.attrs.get("history", "")
-        self._group.attrs["history"] = (hist + "\n" if hist else "") + history_line(action)
+    def set_attrs(self, **attrs: Any) -> None:
+        """Update root attrs in one atomic rewrite of the root zarr.json that keeps its
+        consolidated metadata. Written through a handle opened without it, zarr.json lost
+        the consolidated metadata until the next consolidate_metadata: a reader opening the
+        store meanwhile (``xr.open_zarr`` during a run) fell back to listing the directory,
+        with warnings, and met zarr's temporary ``.partial`` files."""
+        store = zarr.storage.LocalStore(self.path)
         with _quiet():
-            zarr.consolidate_metadata(zarr.storage.LocalStore(self.path))
+            try:
+                group = zarr.open_group(store, mode="r+", zarr_format=3, use_consolidated=True)
+            except ValueError:      # no consolidated metadata (yet): write, then consolidate
+                group = None
+            if group is not None:
+                group.attrs.update(attrs)
+            else:
+                self._group.attrs.update(attrs)
+                zarr.consolidate_metadata(store)
         self.attrs = read_attrs(self.path) or self.attrs
+
+    def add_history(self, action: str) -> None:
+        hist = self.attrs.get("history", "")
+        self.set_attrs(history=(hist + "\n" if hist else "") + history_line(action))
 
 
 def remove_store(path: str | Path) -> None:
