@@ -270,7 +270,7 @@ def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta,
             # Close enough for a Taylor step instead of another partial step: d solves
             # g + d dq/dt + d^2 q''/2 = 0, and the end state moves by d y' (the stages use the
             # law's smooth continuation across the surface, so y' = f_new holds on both
-            # sides); what is left out, d^2 y''/2, stays below g_tol
+            # sides); d^2 <= g_tol keeps what is left out, d^2 y''/2, at g_tol |y''| / 2
             d = -g / dg
             d = -(g + 0.5 * f_new[1] * d * d) / dg
             if d * d <= g_tol and lo < s + d < hi:

@@ -247,12 +247,11 @@ class Store:
             try:
                 group = zarr.open_group(store, mode="r+", zarr_format=3, use_consolidated=True)
             except ValueError:      # no consolidated metadata (yet): write, then consolidate
-                group = None
-            if group is not None:
+                group = zarr.open_group(store, mode="r+", zarr_format=3, use_consolidated=False)
                 group.attrs.update(attrs)
-            else:
-                self._group.attrs.update(attrs)
                 zarr.consolidate_metadata(store)
+            else:
+                group.attrs.update(attrs)
         self.attrs = read_attrs(self.path) or self.attrs
 
     def add_history(self, action: str) -> None:

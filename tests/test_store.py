@@ -432,3 +432,16 @@ def test_a_store_appears_whole(tmp_path, monkeypatch):
     assert path.is_dir() and not stale.exists()
     assert json.loads((path / "zarr.json").read_text()).get("consolidated_metadata") is not None
     assert store.study_hash == s.hash
+
+
+def test_attr_update_restores_missing_consolidated_metadata(tmp_path):
+    # a store whose zarr.json lost its consolidated metadata (written by older code) gets it back
+    s = study()
+    store = Store.create(tmp_path / "c.zarr", s, choose_chunks(s), "test")
+    zarr.open_group(zarr.storage.LocalStore(store.path), mode="r+", zarr_format=3,
+                    use_consolidated=False).attrs["probe"] = 1
+    assert json.loads((store.path / "zarr.json").read_text()).get("consolidated_metadata") is None
+    store.add_history("after")
+    doc = json.loads((store.path / "zarr.json").read_text())
+    assert doc.get("consolidated_metadata") is not None
+    assert doc["attributes"]["probe"] == 1 and doc["attributes"]["history"].endswith("after")
