@@ -2,7 +2,8 @@
 converged orbit is silently wrong.
 
 For each case: shoot at rtol 1e-10 from up to four guesses (linear response first), stop at the
-first converged orbit. A converged orbit must (1) map onto itself under kernels.simulate at
+first converged orbit (the cases of ROUTES, which no guess reaches, first from the point where
+a continuation in sigma or omega arrives, and must converge from it). A converged orbit must (1) map onto itself under kernels.simulate at
 rtol 1e-12 (the state-only integration path, no variational equations, no Newton), (2) pass
 Liouville (det M = exp(-2 zeta P)), (3) agree with a reference re-solved at rtol 1e-13 from it.
 The table is printed by ``benchmarks/extremes.py`` (markdown, for BENCHMARKS.md).
@@ -45,6 +46,40 @@ CASES = [
     ("n = 10/9, 2T", 1.9, 0.5, 0.01, 2, 10 / 9),
     ("grazing (min q = -n + 0)", 0.6, None, 0.05, 1, 1.5),   # sigma found by bisection
 ]
+
+
+# Cases that no guess reaches (status from all four: not_converged or singular). Their orbit is
+# followed by pseudo-arclength continuation (kernels.continuation) from a parameter value where a
+# guess converges, then solved at the case's parameters from the continuation's last point and
+# checked like any other: (parameter, start value, continuation keywords)
+ROUTES = {
+    "sigma 10, omega 1": ("sigma", 0.05, dict(ds=0.05, ds_max=0.5)),
+    "sigma 10, omega 0.3": ("sigma", 0.05, dict(ds=0.05, ds_max=0.5)),
+    # in omega from 0.2 (a guess converges there): q0 grows to ~-3500, hence the long arclength
+    "omega 0.05, sigma 3": ("omega", 0.2, dict(ds=0.05, ds_max=20.0)),
+}
+
+
+def continuation_guess(omega, sigma, zeta, m, n, route):
+    """A start point for (omega, sigma) from continuation along ``route`` (see ROUTES): the
+    branch's last point past the target value, or None if the branch does not get there."""
+    from kernels.continuation import continue_orbit
+
+    param, start, kw = route
+    w0, s0 = (omega, start) if param == "sigma" else (start, sigma)
+    first = solve_case(w0, s0, zeta, m, n)
+    if not first["converged"]:
+        return None
+    target = sigma if param == "sigma" else omega
+    direction = 1.0 if target > start else -1.0
+    lo, hi = min(start, target), max(start, target)
+    branch = continue_orbit(zeta, first["x0"], omega=w0, sigma=s0, period=m, param=param,
+                            direction=direction, p_min=lo, p_max=hi, max_points=3000,
+                            exponent=n, rtol=RTOL, locate=(), **kw)
+    p = branch.points.get(param, np.empty(0))
+    if p.size == 0 or abs(p[-1] - target) > 0.05 * abs(target):
+        return None
+    return (float(branch.points["q0"][-1]), float(branch.points["v0"][-1]))
 
 
 def guesses(omega, sigma, zeta):
@@ -126,6 +161,8 @@ def case_args(case):
     extra = None
     if sigma is None:
         sigma, extra = grazing_sigma(omega, zeta)
+    elif name in ROUTES:
+        extra = continuation_guess(omega, sigma, zeta, m, n, ROUTES[name])
     return name, omega, sigma, zeta, m, n, extra
 
 
@@ -142,5 +179,8 @@ def test_extreme_case(case):
         assert row["liouville"] < 1e-6, row
         if row["ref"] == "converged":
             assert row["err"] < 1e-6 * scale, row
+    if name in ROUTES:
+        # the orbit exists and continuation reaches it: the first guess (its point) converges
+        assert row["converged"] and row["guess"] == 0, row
     if name.startswith("grazing"):
         assert row["converged"] and -1.5 - 1e-6 < row["min_q"] <= -1.5 + 1e-6, row
