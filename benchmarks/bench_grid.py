@@ -7,11 +7,13 @@ with and without the compile cache, peak memory per worker, and the study's own 
                                     (the 100,000-point target, run for real: 1-2 minutes)
     .venv/bin/python benchmarks/bench_grid.py --ceiling
                                     (two solver processes at once vs one, no Dask: ~10 s)
+    .venv/bin/python benchmarks/bench_grid.py --omega 161 --sigma 77 --with-profiler
+                                    (workers with Dask's stack profiler on, as Dask's default)
 
 A small study (the default study's (omega, sigma) window at zeta 0.01, 1T and 2T seeds, rtol
 1e-10; 41 x 25 = 1025 points by default) is run with ``scheduler.run.run_study`` into stores in a
-temporary directory, on a LocalCluster of 1 then 2 single-threaded worker processes (started
-before timing, kernels warmed from the numba cache by the worker plugin). Figures:
+temporary directory, on the LocalCluster `hertzmap run` starts (scheduler.cluster.make_client:
+1 then 2 single-threaded worker processes, Dask's stack profiler off; started before timing, kernels warmed from the numba cache by the worker plugin). Figures:
 
 * points/s = grid points / wall time from submission to the last write (setup excluded);
   parallel efficiency = points/s on 2 workers / (2 x points/s on 1 worker);
@@ -109,15 +111,14 @@ def machine_ceiling() -> float:
 
 
 def run_on(workers: int, study, tmp: Path) -> dict:
-    from distributed import Client, LocalCluster
-
-    from scheduler.cluster import ClusterSpec
+    from scheduler.cluster import ClusterSpec, make_client
     from scheduler.run import RunOptions, run_study
     from scheduler.store import read_attrs
 
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster, Client(cluster) as client:
-        opts = RunOptions(store=tmp / f"w{workers}.zarr", cluster=ClusterSpec(kind="local", workers=workers),
+    spec = ClusterSpec(kind="local", workers=workers)
+    client, cluster = make_client(spec)     # the cluster `hertzmap run` would start
+    try:
+        opts = RunOptions(store=tmp / f"w{workers}.zarr", cluster=spec,
                           command=f"bench_grid {workers} workers")
         buf = io.StringIO()
         cpu0 = time.process_time()
@@ -133,6 +134,9 @@ def run_on(workers: int, study, tmp: Path) -> dict:
         s["maxrss_mb"] = sorted(client.run(_maxrss_mb).values())
         s["printed"] = buf.getvalue()
         s["attr"] = json.loads((read_attrs(opts.store) or {}).get("hertzmap_error_estimate", "null") or "null")
+    finally:
+        client.close()
+        cluster.close()
     return s
 
 
@@ -144,7 +148,13 @@ def main(argv=None):
                     help="comma-separated worker counts to run on (efficiency needs 1 and 2)")
     ap.add_argument("--ceiling", action="store_true",
                     help="only measure what the machine gives two solver processes (no Dask)")
+    ap.add_argument("--with-profiler", action="store_true",
+                    help="workers keep Dask's stack profiler on (what scheduler.cluster turns off)")
+    ap.add_argument("--no-cold-start", action="store_true", help="skip the numba cold-start figure")
     a = ap.parse_args(argv)
+    if a.with_profiler:
+        import scheduler.cluster
+        scheduler.cluster.WORKER_CONFIG = {"distributed.worker.profile.enabled": True}
     if a.ceiling:
         machine_ceiling()
         return
@@ -188,6 +198,8 @@ def main(argv=None):
             pps = res[2]["points_per_second"]
             print(f"100,000 points (1T and 2T seeds) at this rate on 2 workers: {1e5 / pps:.0f} s "
                   f"(target < 60 s)")
+    if a.no_cold_start:
+        return
     with tempfile.TemporaryDirectory() as cache:
         cold = cold_start(cache)
         warm = cold_start(cache)

@@ -84,6 +84,15 @@ class ClusterSpec:
                                f"got {self.address!r}")
 
 
+# Dask's statistical profiler samples every worker's stack every 10 ms from a thread of its own,
+# which takes the GIL from the block solver's Python parts and a share of cores that the solvers
+# already fill. Both workers busy, the same block: 1.04-1.06x slower with it (median of 40-block
+# ABBA runs; fastest blocks 0.99-1.03x; benchmarks/dask_profiler_ab.py). It only feeds the
+# dashboard's profile page: the workers hertzmap starts run without it.
+WORKER_CONFIG = {"distributed.worker.profile.enabled": False}
+WORKER_ENV = "export DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED=False"
+
+
 def _dashboard_address() -> str | None:
     return ":0" if importlib.util.find_spec("bokeh") is not None else None
 
@@ -100,12 +109,16 @@ def make_client(spec: ClusterSpec):
             raise ClusterError(f"--scheduler {spec.address}: cannot connect to a Dask scheduler "
                                f"there ({type(exc).__name__}: {exc})") from None
         return client, None
-    if spec.kind == "local":
-        cluster = LocalCluster(n_workers=spec.workers or default_workers(), threads_per_worker=1,
-                               processes=True, dashboard_address=_dashboard_address(),
-                               silence_logs=logging.ERROR)
-        return Client(cluster), cluster
     import dask
+
+    if spec.kind == "local":
+        # the nannies hand the config to the worker processes they start
+        with dask.config.set(WORKER_CONFIG):
+            cluster = LocalCluster(n_workers=spec.workers or default_workers(),
+                                   threads_per_worker=1, processes=True,
+                                   dashboard_address=_dashboard_address(),
+                                   silence_logs=logging.ERROR)
+        return Client(cluster), cluster
     import dask_jobqueue
 
     cls = getattr(dask_jobqueue, JOBQUEUE[spec.kind])
@@ -120,6 +133,8 @@ def make_client(spec: ClusterSpec):
         opts["processes"] = cores              # one single-threaded worker process per core
     if "memory" not in opts and conf.get("memory") is None:
         opts["memory"] = f"{2 * cores}GB"
+    if "job_script_prologue" not in opts and conf.get("job-script-prologue") is None:
+        opts["job_script_prologue"] = [WORKER_ENV]
     if _dashboard_address() is None and "scheduler_options" not in opts:
         opts["scheduler_options"] = {"dashboard_address": None}
     cluster = cls(**opts)
