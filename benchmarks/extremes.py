@@ -3,10 +3,11 @@
     .venv/bin/python benchmarks/extremes.py        (about 10-20 s with a warm numba cache)
 
 Per case: the status at rtol 1e-10 (first of up to four guesses that converges; "guess" is its
-index, 0 = linear response; the cases of ROUTES start from the point of a continuation in sigma
-or omega instead, not timed here), the start-point error against a re-solve at rtol 1e-13, the residual
-of an independent state-only integration at rtol 1e-12 (|simulate(x0, P) - x0|), the Liouville
-error, the largest Floquet multiplier modulus (> 1: unstable), contact switches per orbit, flight fraction, integrator steps of one period map
+index, 0 = linear response; the cases of ROUTES start from the point of a continuation in
+sigma or omega instead, not timed here), the start-point error against a re-solve at rtol
+1e-13, the residual of an independent state-only integration at rtol 1e-12
+(|simulate(x0, P) - x0|), the Liouville error, the largest Floquet multiplier modulus (> 1:
+unstable), contact switches per orbit, flight fraction, integrator steps of one period map
 (on the orbit), Newton iterations of the successful (or last) solve, and the time of all guesses.
 """
 from __future__ import annotations

@@ -3,9 +3,10 @@ converged orbit is silently wrong.
 
 For each case: shoot at rtol 1e-10 from up to four guesses (linear response first), stop at the
 first converged orbit (the cases of ROUTES, which no guess reaches, first from the point where
-a continuation in sigma or omega arrives, and must converge from it). A converged orbit must (1) map onto itself under kernels.simulate at
-rtol 1e-12 (the state-only integration path, no variational equations, no Newton), (2) pass
-Liouville (det M = exp(-2 zeta P)), (3) agree with a reference re-solved at rtol 1e-13 from it.
+a continuation in sigma or omega arrives, and must converge from it). A converged orbit must
+(1) map onto itself under kernels.simulate at rtol 1e-12 (the state-only integration path, no
+variational equations, no Newton), (2) pass Liouville (det M = exp(-2 zeta P)), (3) agree with
+a reference re-solved at rtol 1e-13 from it.
 The table is printed by ``benchmarks/extremes.py`` (markdown, for BENCHMARKS.md).
 """
 from __future__ import annotations
@@ -67,13 +68,16 @@ def continuation_guess(omega, sigma, zeta, m, n, route):
 
     param, start, kw = route
     w0, s0 = (omega, start) if param == "sigma" else (start, sigma)
-    first = solve_case(w0, s0, zeta, m, n)
-    if not first["converged"]:
+    for g in guesses(w0, s0, zeta):
+        first = shoot(w0, s0, zeta, m, guess=g, exponent=n, rtol=RTOL, max_iter=30)
+        if first.converged:
+            break
+    else:
         return None
     target = sigma if param == "sigma" else omega
     direction = 1.0 if target > start else -1.0
     lo, hi = min(start, target), max(start, target)
-    branch = continue_orbit(zeta, first["x0"], omega=w0, sigma=s0, period=m, param=param,
+    branch = continue_orbit(zeta, first.x0, omega=w0, sigma=s0, period=m, param=param,
                             direction=direction, p_min=lo, p_max=hi, max_points=3000,
                             exponent=n, rtol=RTOL, locate=(), **kw)
     p = branch.points.get(param, np.empty(0))
@@ -180,7 +184,8 @@ def test_extreme_case(case):
         if row["ref"] == "converged":
             assert row["err"] < 1e-6 * scale, row
     if name in ROUTES:
-        # the orbit exists and continuation reaches it: the first guess (its point) converges
+        # the orbit exists, continuation reaches it, and Newton converges from there
+        assert extra is not None, name
         assert row["converged"] and row["guess"] == 0, row
     if name.startswith("grazing"):
         assert row["converged"] and -1.5 - 1e-6 < row["min_q"] <= -1.5 + 1e-6, row
