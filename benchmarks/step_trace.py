@@ -8,7 +8,7 @@ map from it is run through the Python source of ``kernels.integrate.integrate`` 
 every step evaluation: accepted and rejected steps and the partial steps that locate a crossing.
 The map is run twice and the second is printed, so that it starts with the step sizes a Newton
 run carries over. Columns: mode (t: time steps, rec: w-steps after a recontact, loss: w-steps
-onto a loss of contact), the physical times the step spans, its size in its own variable, its
+onto a located loss of contact, hgt: steps in x = -sqrt(q + n) onto a loss of contact), the physical times the step spans, its size in its own variable, its
 error norm (accepted if <= 1; a crossing's trial step shows a large one), q at its end. Slow
 (Python), for reading, not timing.
 """
@@ -26,7 +26,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 import kernels.integrate as integ  # noqa: E402
 from kernels import shoot  # noqa: E402
 
-MODE_NAMES = {integ.MODE_T: "t", integ.MODE_RECONTACT: "rec", integ.MODE_LOSS: "loss"}
+MODE_NAMES = {integ.MODE_T: "t", integ.MODE_RECONTACT: "rec", integ.MODE_LOSS: "loss",
+              integ.MODE_HEIGHT: "hgt"}
 
 
 def trace_map(omega, sigma, zeta, m, rtol, x0, n=1.5):
@@ -37,8 +38,12 @@ def trace_map(omega, sigma, zeta, m, rtol, x0, n=1.5):
     def recording_step(dim, mode, x, h, y, f, y_new, *rest):
         err = compiled_step(dim, mode, x, h, y, f, y_new, *rest)
         t_ref = rest[-1]
-        log.append((MODE_NAMES[mode], integ._time(mode, x, t_ref), integ._time(mode, x + h, t_ref),
-                    h, err, y_new[0]))
+        if mode == integ.MODE_HEIGHT:       # y[0] is t - t_ref, q = x^2 - n
+            log.append((MODE_NAMES[mode], t_ref + y[0], t_ref + y_new[0], h, err,
+                        (x + h) ** 2 - rest[-5]))
+        else:
+            log.append((MODE_NAMES[mode], integ._time(mode, x, t_ref),
+                        integ._time(mode, x + h, t_ref), h, err, y_new[0]))
         return err
 
     P = m * 2 * pi / omega

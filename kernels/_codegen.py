@@ -26,7 +26,8 @@ Two systems share one tableau:
 * ``step_state``: state (q, v) only.
 Stages use the contact-side continuation of the law (kernels.model.contact_side_force):
 contact steps only; flight is closed form. ``*_w`` variants step in w with t = t_ref + sgn w^2 (next to a contact switch, where the
-solution is smooth in w but not in t). All take the FSAL derivative at the step start, return the error norm (accept if <= 1),
+solution is smooth in w but not in t). ``*_h`` variants step in x = -sqrt(q + n) onto a loss of
+contact, with tau = t - t_ref in place of q (smooth in x, and x = 0 is the surface). All take the FSAL derivative at the step start, return the error norm (accept if <= 1),
 write the new state, its derivative and the stages of (q, v) into ``K`` (for dense output).
 The error norm is Hairer's combined 5th/3rd order estimate (as in scipy) on all components.
 """
@@ -62,22 +63,29 @@ def _theta(ch: str, timemap: bool) -> str:
     return f"omega * ({ch})"
 
 
-def _step(name: str, variational: bool, timemap: bool = False) -> str:
+def _step(name: str, variational: bool, timemap: bool = False, heightmap: bool = False) -> str:
     """One DOP853 step. With ``timemap`` the independent variable is w, t = t_ref + sgn w^2,
-    and every stage derivative is multiplied by dt/dw = 2 sgn w (stages at w + c h)."""
+    and every stage derivative is multiplied by dt/dw = 2 sgn w (stages at w + c h).
+
+    With ``heightmap`` the independent variable is x = -sqrt(q + n) (from below 0 up to 0, the
+    contact surface) and the first component is tau = t - t_ref instead of q: q = x^2 - n, and
+    every stage derivative is multiplied by dt/dx = 2 x / q' (q' < 0 on the way down)."""
     A, B, C, E3, E5 = _c.A, _c.B, _c.C, _c.E3, _c.E5
     comps = ["q", "v", "a", "b", "c", "d"] if variational else ["q", "v"]
     L = []
     sig = SIG_VAR if variational else SIG_STATE
     extra = ""
-    if timemap:
+    if timemap or heightmap:
         sig = sig.replace(", float64, float64)", ", float64, float64, float64, float64)")
         extra = ", t_ref, sgn"
     L.append(f"@njit({sig}, cache=True, nogil=True)")
     L.append(f"def {name}(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol{extra}):")
     L.append("    tz = 2.0 * zeta")
     # the excitation at the stages: cos(omega t0 + theta) from one cos/sin at the step start
-    L.append("    phi0 = omega * (t_ref + sgn * t * t)" if timemap else "    phi0 = omega * t")
+    if heightmap:
+        L.append("    phi0 = omega * (t_ref + y[0])")
+    else:
+        L.append("    phi0 = omega * (t_ref + sgn * t * t)" if timemap else "    phi0 = omega * t")
     L.append("    cphi = cos(phi0)")
     L.append("    sphi = sin(phi0)")
     for i, c in enumerate(comps):
@@ -100,18 +108,20 @@ def _step(name: str, variational: bool, timemap: bool = False) -> str:
             head = f"{c}0 + h * ({_lin(row[:j], terms)})" if any(row[:j]) else f"{c}0"
             L.append(f"    y{c} = ({head}) + ha{s} * k{j}{c}")
         ch = "h" if s == 12 else f"{float(C[s])!r} * h"
-        if timemap:
+        if timemap or heightmap:
             L.append(f"    w = t + {ch}")
-            L.append("    m = 2.0 * sgn * w")
+            L.append("    m = 2.0 * w / yv" if heightmap else "    m = 2.0 * sgn * w")
             mul = "m * "
         else:
             mul = ""
-        L.append(f"    g = cos_shifted(cphi, sphi, phi0, {_theta(ch, timemap)})")
+        theta = "omega * (yq - q0)" if heightmap else _theta(ch, timemap)
+        L.append(f"    g = cos_shifted(cphi, sphi, phi0, {theta})")
+        qs = "w * w - n" if heightmap else "yq"
         if variational:
-            L.append(f"    F, dF = rhs_force_and_stiffness(yq, n, model)")
+            L.append(f"    F, dF = rhs_force_and_stiffness({qs}, n, model)")
         else:
-            L.append(f"    F = rhs_force(yq, n, model)")
-        L.append(f"    k{s}q = {mul}yv")
+            L.append(f"    F = rhs_force({qs}, n, model)")
+        L.append(f"    k{s}q = m" if heightmap else f"    k{s}q = {mul}yv")
         L.append(f"    k{s}v = {mul}(1.0 + sigma * g - tz * yv - F)")
         if variational:
             L.append(f"    k{s}a = {mul}yc")
@@ -143,19 +153,24 @@ def _step(name: str, variational: bool, timemap: bool = False) -> str:
     return "\n".join(L) + "\n"
 
 
-def _dense(name: str = "dense_coefficients", timemap: bool = False) -> str:
-    """Coefficients of the 7th-order continuous extension of (q, v) over one accepted step."""
+def _dense(name: str = "dense_coefficients", timemap: bool = False,
+           heightmap: bool = False) -> str:
+    """Coefficients of the 7th-order continuous extension of (q, v) over one accepted step
+    ((tau, v) with ``heightmap``, see _step)."""
     A, C, D = _c.A, _c.C, _c.D
     L = []
-    extra_sig = ", float64, float64" if timemap else ""
-    extra = ", t_ref, sgn" if timemap else ""
+    extra_sig = ", float64, float64" if timemap or heightmap else ""
+    extra = ", t_ref, sgn" if timemap or heightmap else ""
     L.append("@njit(\"void(float64, float64, float64[::1], float64[::1], float64[:, ::1], "
              f"float64, float64, float64, float64, int64, float64[:, ::1]{extra_sig})\", "
              "cache=True, nogil=True)")
     L.append(f"def {name}(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P{extra}):")
     L.append("    \"\"\"Fill P (7, 2) so that dense_eval(P, y_old, x) is (q, v) at t + x h, 0 <= x <= 1.\"\"\"")
     L.append("    tz = 2.0 * zeta")
-    L.append("    phi0 = omega * (t_ref + sgn * t * t)" if timemap else "    phi0 = omega * t")
+    if heightmap:
+        L.append("    phi0 = omega * (t_ref + y_old[0])")
+    else:
+        L.append("    phi0 = omega * (t_ref + sgn * t * t)" if timemap else "    phi0 = omega * t")
     L.append("    cphi = cos(phi0)")
     L.append("    sphi = sin(phi0)")
     for s in range(13):
@@ -165,8 +180,16 @@ def _dense(name: str = "dense_coefficients", timemap: bool = False) -> str:
         for ci, c in enumerate(("q", "v")):
             terms = [f"k{j}{c}" for j in range(s)]
             L.append(f"    y{c} = y_old[{ci}] + h * ({_lin(A[s][:s], terms)})")
-        L.append("    F = rhs_force(yq, n, model)")
         ch = f"{float(C[s])!r} * h"
+        if heightmap:
+            L.append(f"    w = t + {ch}")
+            L.append("    m = 2.0 * w / yv")
+            L.append("    F = rhs_force(w * w - n, n, model)")
+            L.append("    g = cos_shifted(cphi, sphi, phi0, omega * (yq - y_old[0]))")
+            L.append(f"    k{s}q = m")
+            L.append(f"    k{s}v = m * (1.0 + sigma * g - tz * yv - F)")
+            continue
+        L.append("    F = rhs_force(yq, n, model)")
         L.append(f"    g = cos_shifted(cphi, sphi, phi0, {_theta(ch, timemap)})")
         if timemap:
             L.append(f"    w = t + {ch}")
@@ -191,7 +214,10 @@ def source() -> str:
     return (HEADER + "\n" + _step("step_var", True) + "\n\n" + _step("step_state", False)
             + "\n\n" + _dense() + "\n\n" + _step("step_var_w", True, True) + "\n\n"
             + _step("step_state_w", False, True) + "\n\n"
-            + _dense("dense_coefficients_w", True))
+            + _dense("dense_coefficients_w", True) + "\n\n"
+            + _step("step_var_h", True, heightmap=True) + "\n\n"
+            + _step("step_state_h", False, heightmap=True) + "\n\n"
+            + _dense("dense_coefficients_h", heightmap=True))
 
 
 TARGET = pathlib.Path(__file__).with_name("_dop853.py")

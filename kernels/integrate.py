@@ -13,6 +13,14 @@ integrator steps in w with t = t_switch + sgn w^2, in which the solution is smoo
 recontact (sgn = +1, w from 0 up to W_EXIT) and onto a located loss of contact (sgn = -1, w
 from -sqrt(t_stop - t) up to 0, landing exactly on the switch). The error control covers the
 state and the variational matrix in every mode.
+Heading down to a loss of contact, t-steps shrink towards the singular point (each about half
+the time left). Once the local parabola puts the surface within HEIGHT_TRIGGER t-steps, with a
+landing speed within a factor 2 of the current one (no turn before the surface), the approach
+steps in x = -sqrt(q + n) instead, with tau = t - t_ref in place of q and dt/dx = 2 x / q': the
+solution is smooth in x (x is a smooth function of w there), and x = 0 is the surface, so the
+last step lands on it with no crossing to locate (3-6 step evaluations fewer per loss on
+long-flight orbits). If q' turns, or the span's end or an output time comes first, the
+approach goes on in t from the last accepted step.
 
 The vector field is continuous at q = -n (F(-n) = 0), so the saltation matrix is the identity:
 the monodromy is the plain product of the contact flow Jacobians (variational equations) and
@@ -27,8 +35,9 @@ import numpy as np
 from numba import boolean, float64, int64, njit
 
 from kernels import status as st
-from kernels._dop853 import (dense_coefficients, dense_coefficients_w, step_state,
-                             step_state_w, step_var, step_var_w)
+from kernels._dop853 import (dense_coefficients, dense_coefficients_h, dense_coefficients_w,
+                             step_state, step_state_h, step_state_w, step_var, step_var_h,
+                             step_var_w)
 from kernels.flight import flight_state, flight_until_recontact
 from kernels.model import HERTZ, rhs_force, rhs_force_and_stiffness
 
@@ -39,7 +48,12 @@ N_STATS = 10
 N_HARMONICS = 4
 BIG = 1e6              # |q| or |v| beyond this: diverged
 W_EXIT = 0.5           # after a recontact, step in w = sqrt(t - t_r) up to t - t_r = W_EXIT^2
-MODE_T, MODE_RECONTACT, MODE_LOSS = 0, 1, -1
+MODE_T, MODE_RECONTACT, MODE_LOSS, MODE_HEIGHT = 0, 1, -1, 2
+# Heading for a loss of contact, t-steps shrink with the time left to the singular point (each
+# about half of it). Once the surface is this many t-steps away on the local parabola, the
+# approach steps in x = -sqrt(q + n) instead: the solution is smooth in x, and x = 0 is the
+# surface itself, so the last step lands on it without the crossing being located first.
+HEIGHT_TRIGGER = 2.5
 
 # 8-point Gauss-Legendre nodes and weights on [0, 1] (for the contact-force harmonics)
 _GL_X = np.array([0.019855071751231856, 0.10166676129318664, 0.2372337950418355,
@@ -113,11 +127,17 @@ def derivative(t, y, f, omega, sigma, zeta, n, model):
 @njit(cache=True, nogil=True)
 def _step(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol,
           t_ref):
-    """One step in the mode's variable (t, or w with t = t_ref + mode w^2)."""
+    """One step in the mode's variable (t; w with t = t_ref + mode w^2; or x = -sqrt(q + n))."""
     if mode == MODE_T:
         if dim == 6:
             return step_var(x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol)
         return step_state(x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol)
+    if mode == MODE_HEIGHT:
+        if dim == 6:
+            return step_var_h(x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
+                              atol, t_ref, 1.0)
+        return step_state_h(x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
+                            atol, t_ref, 1.0)
     sgn = float(mode)
     if dim == 6:
         return step_var_w(x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol,
@@ -180,6 +200,17 @@ def _time_to_surface(g, v, a):
         if den > 0.0:
             best = min(best, 2.0 * g / den)
     return best
+
+
+@njit(boolean(float64, float64, float64), cache=True, nogil=True)
+def _lands_steeply(g, v, a):
+    """On the local parabola (height g above the surface, velocity v < 0, acceleration a),
+    does q reach the surface at a speed between |v| / 2 and 2 |v|? The condition for stepping
+    in x = -sqrt(q + n): dt/dx = 2 x / q' stays bounded and well scaled on the way down."""
+    if not v < 0.0:
+        return False
+    landing2 = v * v - 2.0 * a * g
+    return 0.25 * v * v <= landing2 <= 4.0 * v * v
 
 
 @njit(float64(float64, float64, float64, float64, float64, float64), cache=True, nogil=True)
@@ -335,6 +366,7 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
     if h <= 0.0 or h > span:
         h = min(span, 0.1)
     h_t = h                     # the t-step to resume with after a w-mode
+    height_ok = True            # until the next contact switch, after an approach in x gave up
     while t < t1:
         work += 1
         if work > max_steps:
@@ -370,6 +402,7 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
                 if measure and v1 > stats[S_MAX_IMPACT]:
                     stats[S_MAX_IMPACT] = v1
                 in_flight = False
+                height_ok = True
                 # the contact phase starts on the singularity of F': step in w = sqrt(t - t_r)
                 # (n = 1: F is linear in contact, the contact solution analytic from the switch
                 # on: plain t-steps, 2-3 fewer steps per recontact)
@@ -392,7 +425,7 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
         # ---- contact: one adaptive step in the mode's variable -------------------------------
         if mode == MODE_T:
             x_target = t1
-        elif mode == MODE_LOSS:
+        elif mode == MODE_LOSS or mode == MODE_HEIGHT:
             x_target = 0.0
         else:
             x_target = min(W_EXIT, sqrt(max(0.0, t1 - t_ref)))
@@ -402,6 +435,57 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
             at_target = True
         err = _step(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
                     atol, t_ref)
+        if mode == MODE_HEIGHT:
+            # y[0] holds tau = t - t_ref here, and q = x^2 - n
+            t_new = t_ref + y_new[0]
+            if not (y_new[1] < 0.0) or t_new >= t1 or (i_eval < n_eval and t_eval[i_eval] <= t_new):
+                # q turns before the surface, or the span's end or an output lies inside:
+                # finish in t from the step start
+                y[0] = x * x - n
+                mode = MODE_T
+                height_ok = False
+                x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
+                h = h_t
+                continue
+            if not (err <= 1.0):
+                stats[S_REJECTED] += 1
+                h *= 0.2 if err != err else max(0.2, 0.9 / sqrt(sqrt(sqrt(err))))
+                if h < h_min:
+                    return st.STEP_SIZE
+                continue
+            stats[S_ACCEPTED] += 1
+            if measure:
+                # q falls monotonically here: its lowest value is at the step end
+                q_end = -n if at_target else (x + h) * (x + h) - n
+                if q_end < stats[S_MIN_Q]:
+                    stats[S_MIN_Q] = q_end
+                if harmonics:
+                    dense_coefficients_h(x, h, y, y_new, K, omega, sigma, zeta, n, model, P,
+                                         t_ref, 1.0)
+                    _height_step_harmonics(P, y, x, h, t_ref, n, model, w_h, harm)
+            for i in range(dim):
+                y[i] = y_new[i]
+                f[i] = f_new[i]
+            t = t_new
+            if at_target:
+                # on the surface: contact is lost here
+                y[0] = -n
+                stats[S_EVENTS] += 1
+                in_flight = y[1] < 0.0
+                mode = MODE_T
+                x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
+                h = h_t
+            else:
+                x += h
+                h *= max(0.2, min(10.0, 0.9 / sqrt(sqrt(sqrt(err))) if err > 0.0 else 10.0))
+                if not _lands_steeply(x * x, y[1], f[1] / f[0]):
+                    # q may turn before the surface (dt/dx = 2 x / q' would blow up): go on in t
+                    y[0] = x * x - n
+                    mode = MODE_T
+                    height_ok = False
+                    x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
+                    h = h_t
+            continue
         land_on_switch = False
         if hertz and mode != MODE_LOSS and y_new[0] < -n:
             # The trial step crossed the surface. Its error estimate is meaningless (a kink
@@ -508,11 +592,27 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
             # err^(-1/8) by three square roots: the next step waits for this factor, and libm's
             # pow takes longer on that critical path
             h *= min(10.0, max(0.2, 0.9 / sqrt(sqrt(sqrt(err))))) * approach
-        if h >= 0.7 * d1:
+        to_height = (d1 < HEIGHT_TRIGGER * h and height_ok and n != 1.0 and t + d1 < t1
+                     and not at_target and _lands_steeply(y[0] + n, y[1], f[1]))
+        if h >= 0.7 * d1 and not to_height:
             # the surface is within about one (scaled) step: aim past it, so that the next
             # trial crosses and the crossing is located
             h = 1.2 * d1
-        if lands:
+        if to_height:
+            # step in x = -sqrt(q + n) from here: tau = t - t_ref replaces q, and the FSAL
+            # derivative is taken to x units (dt/dx = 2 x / q'); the first step is the proposed
+            # t-step in x units
+            h_t = h
+            t_ref = t
+            x = -sqrt(max(0.0, y[0] + n))
+            m = 2.0 * x / y[1]
+            f[0] = 1.0
+            for i in range(dim):
+                f[i] *= m
+            y[0] = 0.0
+            mode = MODE_HEIGHT
+            h = min(-x, h_t / m)
+        elif lands:
             # contact is lost exactly at t_stop
             t = t_ref
             y[0] = -n
@@ -527,6 +627,8 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
             mode = MODE_T
             x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
             h = max(h_min, 2.0 * W_EXIT * h_w)
+    if mode == MODE_HEIGHT:     # (not reached: a step in x never ends at t1; q from x if it did)
+        y[0] = x * x - n
     # outputs at t1 exactly (t_eval may end at t1)
     while i_eval < n_eval and t_eval[i_eval] <= t1 * (1.0 + 1e-15) + 1e-300:
         out_eval[0, i_eval] = y[0]
@@ -584,15 +686,32 @@ def _measure_step(P, y, y_new, mode, x, h, t_ref, n, model, extremum, harmonics,
         xx = x + xi * h
         dtdx = 1.0 if mode == MODE_T else abs(2.0 * xx)
         Fe = rhs_force(qe, n, model) * _GL_W[j] * h * dtdx
-        if Fe == 0.0:
-            continue
-        tt = _time(mode, xx, t_ref)
-        c1 = cos(w_h * tt)
-        s1 = sin(w_h * tt)
-        ck = 1.0
-        sk = 0.0
-        for k in range(N_HARMONICS + 1):
-            harm[0, k] += Fe * ck
-            harm[1, k] += Fe * sk
-            # angle addition: cos/sin of (k+1) w t from those of k w t
-            ck, sk = ck * c1 - sk * s1, sk * c1 + ck * s1
+        if Fe != 0.0:
+            _add_harmonics(Fe, _time(mode, xx, t_ref), w_h, harm)
+
+
+@njit(cache=True, nogil=True)
+def _height_step_harmonics(P, y, x, h, t_ref, n, model, w_h, harm):
+    """The contact-force harmonics over one step in x = -sqrt(q + n) (P: its continuous
+    extension of (tau, q')): q = x^2 - n at the Gauss nodes, dt = 2 x / q' dx."""
+    for j in range(8):
+        xi = _GL_X[j]
+        xx = x + xi * h
+        dtdx = 2.0 * xx / dense_eval(P, 1, y[1], xi)
+        Fe = rhs_force(xx * xx - n, n, model) * _GL_W[j] * h * dtdx
+        if Fe != 0.0:
+            _add_harmonics(Fe, t_ref + dense_eval(P, 0, y[0], xi), w_h, harm)
+
+
+@njit(cache=True, nogil=True)
+def _add_harmonics(Fe, tt, w_h, harm):
+    """harm[0, k] += Fe cos(k w_h tt), harm[1, k] += Fe sin(k w_h tt), k = 0..N_HARMONICS."""
+    c1 = cos(w_h * tt)
+    s1 = sin(w_h * tt)
+    ck = 1.0
+    sk = 0.0
+    for k in range(N_HARMONICS + 1):
+        harm[0, k] += Fe * ck
+        harm[1, k] += Fe * sk
+        # angle addition: cos/sin of (k+1) w t from those of k w t
+        ck, sk = ck * c1 - sk * s1, sk * c1 + ck * s1

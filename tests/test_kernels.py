@@ -284,3 +284,27 @@ def test_crossing_guess_is_the_hermite_interpolants_root():
         assert min(abs(x - r) for r in roots) <= 1e-9 * max(1.0, max(abs(c)))
 
     check()
+
+
+@pytest.mark.parametrize("dim", [2, 6])
+def test_spans_ending_on_the_way_down_to_contact_loss(dim):
+    """Spans that end anywhere on the approach to a loss of contact (where the integrator steps
+    in x = -sqrt(q + n) with t - t_ref in place of q), just before it and just after: the state
+    at the end agrees with scipy, and with the variational matrix det Phi = exp(-2 zeta t).
+    (A span whose last t-step started the approach in x once returned t - t_ref as q.)"""
+    from kernels.integrate import N_HARMONICS, N_STATS, integrate
+
+    omega, sigma, zeta = 0.8, 1.5, 0.01
+    x0 = shoot(omega, sigma, zeta, 1, guess=(-7.7, 0.17), rtol=1e-12).x0
+    # the loss of contact of this orbit is at t = 5.3365 (benchmarks/step_trace.py)
+    for t1 in np.r_[np.linspace(4.6, 5.336, 23), 5.3365, 5.337, 5.4]:
+        y = np.r_[x0, 1.0, 0.0, 0.0, 1.0][:dim].astype(float)
+        code = integrate(y, 0.0, t1, omega, sigma, zeta, 1.5, 0, 1e-10, 1e-10, 0.1, 100_000,
+                         dim == 6, False, False, 1.0, np.zeros((2, N_HARMONICS + 1)),
+                         np.empty(0), np.empty((3, 0)), np.zeros(N_STATS), np.empty(dim),
+                         np.empty(dim), np.empty(dim), np.empty((16, 2)), np.empty((7, 2)))
+        assert code == status.CONVERGED
+        np.testing.assert_allclose(y[:2], oracle.flow(x0, 0.0, t1, omega, sigma, zeta),
+                                   atol=1e-8, err_msg=f"t1 = {t1}")
+        if dim == 6:
+            assert abs(y[2] * y[5] - y[3] * y[4] - exp(-2 * zeta * t1)) < 1e-8
