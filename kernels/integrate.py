@@ -438,53 +438,49 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
         if mode == MODE_HEIGHT:
             # y[0] holds tau = t - t_ref here, and q = x^2 - n
             t_new = t_ref + y_new[0]
-            if not (y_new[1] < 0.0) or t_new >= t1 or (i_eval < n_eval and t_eval[i_eval] <= t_new):
-                # q turns before the surface, or the span's end or an output lies inside:
-                # finish in t from the step start
+            leave = (not (y_new[1] < 0.0) or t_new >= t1
+                     or (i_eval < n_eval and t_eval[i_eval] <= t_new))
+            if not leave:
+                if not (err <= 1.0):
+                    stats[S_REJECTED] += 1
+                    h *= 0.2 if err != err else max(0.2, 0.9 / sqrt(sqrt(sqrt(err))))
+                    if h < h_min:
+                        return st.STEP_SIZE
+                    continue
+                stats[S_ACCEPTED] += 1
+                if measure:
+                    # q falls monotonically here: its lowest value is at the step end
+                    q_end = -n if at_target else (x + h) * (x + h) - n
+                    if q_end < stats[S_MIN_Q]:
+                        stats[S_MIN_Q] = q_end
+                    if harmonics:
+                        dense_coefficients_h(x, h, y, y_new, K, omega, sigma, zeta, n, model,
+                                             P, t_ref, 1.0)
+                        _height_step_harmonics(P, y, x, h, t_ref, n, model, w_h, harm)
+                for i in range(dim):
+                    y[i] = y_new[i]
+                    f[i] = f_new[i]
+                t = t_new
+                if at_target:
+                    # on the surface: contact is lost here
+                    y[0] = -n
+                    stats[S_EVENTS] += 1
+                    in_flight = y[1] < 0.0
+                    mode = MODE_T
+                    x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
+                    h = h_t
+                    continue
+                x += h
+                h *= max(0.2, min(10.0, 0.9 / sqrt(sqrt(sqrt(err))) if err > 0.0 else 10.0))
+                leave = not _lands_steeply(x * x, y[1], f[1] / f[0])
+            if leave:
+                # q may turn before the surface (dt/dx = 2 x / q' would blow up), or the span's
+                # end or an output time comes first: go on in t from the last accepted point
                 y[0] = x * x - n
                 mode = MODE_T
                 height_ok = False
                 x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
                 h = h_t
-                continue
-            if not (err <= 1.0):
-                stats[S_REJECTED] += 1
-                h *= 0.2 if err != err else max(0.2, 0.9 / sqrt(sqrt(sqrt(err))))
-                if h < h_min:
-                    return st.STEP_SIZE
-                continue
-            stats[S_ACCEPTED] += 1
-            if measure:
-                # q falls monotonically here: its lowest value is at the step end
-                q_end = -n if at_target else (x + h) * (x + h) - n
-                if q_end < stats[S_MIN_Q]:
-                    stats[S_MIN_Q] = q_end
-                if harmonics:
-                    dense_coefficients_h(x, h, y, y_new, K, omega, sigma, zeta, n, model, P,
-                                         t_ref, 1.0)
-                    _height_step_harmonics(P, y, x, h, t_ref, n, model, w_h, harm)
-            for i in range(dim):
-                y[i] = y_new[i]
-                f[i] = f_new[i]
-            t = t_new
-            if at_target:
-                # on the surface: contact is lost here
-                y[0] = -n
-                stats[S_EVENTS] += 1
-                in_flight = y[1] < 0.0
-                mode = MODE_T
-                x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
-                h = h_t
-            else:
-                x += h
-                h *= max(0.2, min(10.0, 0.9 / sqrt(sqrt(sqrt(err))) if err > 0.0 else 10.0))
-                if not _lands_steeply(x * x, y[1], f[1] / f[0]):
-                    # q may turn before the surface (dt/dx = 2 x / q' would blow up): go on in t
-                    y[0] = x * x - n
-                    mode = MODE_T
-                    height_ok = False
-                    x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
-                    h = h_t
             continue
         land_on_switch = False
         if hertz and mode != MODE_LOSS and y_new[0] < -n:
