@@ -13,7 +13,7 @@ with and without the compile cache, peak memory per worker, and the study's own 
 A small study (the default study's (omega, sigma) window at zeta 0.01, 1T and 2T seeds, rtol
 1e-10; 41 x 25 = 1025 points by default) is run with ``scheduler.run.run_study`` into stores in a
 temporary directory, on the LocalCluster `hertzmap run` starts (scheduler.cluster.make_client:
-1 then 2 single-threaded worker processes, Dask's stack profiler off; started before timing, kernels warmed from the numba cache by the worker plugin). Figures:
+1 then 2 single-threaded worker processes, Dask's housekeeping trimmed; started before timing, kernels warmed from the numba cache by the worker plugin). Figures:
 
 * points/s = grid points / wall time from submission to the last write (setup excluded);
   parallel efficiency = points/s on 2 workers / (2 x points/s on 1 worker);
@@ -154,7 +154,8 @@ def main(argv=None):
     a = ap.parse_args(argv)
     if a.with_profiler:
         import scheduler.cluster
-        scheduler.cluster.WORKER_CONFIG = {"distributed.worker.profile.enabled": True}
+        scheduler.cluster.CLUSTER_CONFIG = {**scheduler.cluster.CLUSTER_CONFIG,
+                                            "distributed.worker.profile.enabled": True}
     if a.ceiling:
         machine_ceiling()
         return

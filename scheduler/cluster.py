@@ -84,13 +84,33 @@ class ClusterSpec:
                                f"got {self.address!r}")
 
 
-# Dask's statistical profiler samples every worker's stack every 10 ms from a thread of its own,
-# which takes the GIL from the block solver's Python parts and a share of cores that the solvers
-# already fill. Both workers busy, the same block: 1.04-1.06x slower with it (median of 40-block
-# ABBA runs; fastest blocks 0.99-1.03x; benchmarks/dask_profiler_ab.py). It only feeds the
-# dashboard's profile page: the workers hertzmap starts run without it.
-WORKER_CONFIG = {"distributed.worker.profile.enabled": False}
-WORKER_ENV = "export DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED=False"
+# Dask's housekeeping, trimmed for processes that share a few cores with the solvers:
+# * the statistical profiler samples every worker's stack every 10 ms from a thread of its own,
+#   taking the GIL from the block solver's Python parts: both workers busy, the same block ran
+#   1.04-1.06x slower with it (median of 40-block ABBA runs; benchmarks/dask_profiler_ab.py). It
+#   only feeds the dashboard's profile page: off.
+# * every event loop ticks every 20 ms (to warn when it is blocked), the system monitor samples
+#   every 0.5 s and the memory monitor every 0.1 s. An idle 2-worker LocalCluster burnt 12.1-14.4 %
+#   of a core with Dask's defaults, 2.3-2.6 % with this config (benchmarks/dask_idle_cpu.py; the
+#   profiler and the ticks are most of it): CPU the solvers do not get on a 2-core machine.
+# The embedded cluster (scheduler, client, nannies, workers) runs with these; jobqueue workers
+# get them through their job script's environment.
+CLUSTER_CONFIG = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "200ms",
+    "distributed.admin.system-monitor.interval": "2s",
+    "distributed.worker.memory.monitor-interval": "1s",
+}
+
+
+def config_env_lines(config: dict) -> list[str]:
+    """``export DASK_...=value`` lines that give a Dask process started elsewhere (a batch job)
+    the same config (Dask reads DASK_* variables, ``__`` for a dot, at import)."""
+    lines = []
+    for key, value in config.items():
+        name = "DASK_" + key.upper().replace(".", "__").replace("-", "_")
+        lines.append(f"export {name}={value}")
+    return lines
 
 
 def _dashboard_address() -> str | None:
@@ -113,7 +133,7 @@ def make_client(spec: ClusterSpec):
 
     if spec.kind == "local":
         # the nannies hand the config to the worker processes they start
-        with dask.config.set(WORKER_CONFIG):
+        with dask.config.set(CLUSTER_CONFIG):
             cluster = LocalCluster(n_workers=spec.workers or default_workers(),
                                    threads_per_worker=1, processes=True,
                                    dashboard_address=_dashboard_address(),
@@ -134,7 +154,7 @@ def make_client(spec: ClusterSpec):
     if "memory" not in opts and conf.get("memory") is None:
         opts["memory"] = f"{2 * cores}GB"
     if "job_script_prologue" not in opts and conf.get("job-script-prologue") is None:
-        opts["job_script_prologue"] = [WORKER_ENV]
+        opts["job_script_prologue"] = config_env_lines(CLUSTER_CONFIG)
     if _dashboard_address() is None and "scheduler_options" not in opts:
         opts["scheduler_options"] = {"dashboard_address": None}
     cluster = cls(**opts)

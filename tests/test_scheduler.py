@@ -94,22 +94,39 @@ def test_local_cluster_end_to_end(reference):
         np.testing.assert_array_equal(ds[name].values[:, 1:2, :1], line[name], err_msg=name)
 
 
-def test_local_workers_run_without_the_stack_profiler():
-    """make_client's LocalCluster hands WORKER_CONFIG to its worker processes: no 'profile'
-    periodic callback on them (it costs the solvers ~15 % on 2 cores, scheduler.cluster)."""
-    from scheduler.cluster import make_client
+def test_local_cluster_runs_with_the_trimmed_dask_config():
+    """make_client's LocalCluster hands CLUSTER_CONFIG to its worker processes (no 'profile'
+    periodic callback, ticks every 200 ms): Dask's housekeeping costs the solvers on few cores."""
+    from scheduler.cluster import CLUSTER_CONFIG, make_client
 
     client, cluster = make_client(ClusterSpec(kind="local", workers=1))
     try:
         callbacks = client.run(lambda dask_worker: sorted(dask_worker.periodic_callbacks))
-        enabled = client.run(lambda: __import__("dask").config.get(
-            "distributed.worker.profile.enabled"))
+        seen = client.run(lambda: {k: __import__("dask").config.get(k) for k in CLUSTER_CONFIG})
     finally:
         client.close()
         cluster.close()
-    assert list(enabled.values()) == [False]
+    assert list(seen.values()) == [CLUSTER_CONFIG]
     (names,) = callbacks.values()
     assert "profile" not in names and "heartbeat" in names
+
+
+def test_config_env_lines_reproduce_the_config(monkeypatch):
+    """The job-script lines for batch workers give Dask the same config (read from DASK_*)."""
+    import dask
+    import dask.config
+
+    from scheduler.cluster import CLUSTER_CONFIG, config_env_lines
+
+    env = {}
+    for line in config_env_lines(CLUSTER_CONFIG):
+        name, _, value = line.removeprefix("export ").partition("=")
+        env[name] = value
+    for name, value in env.items():
+        monkeypatch.setenv(name, value)
+    collected = dask.config.collect_env(env)
+    with dask.config.set(collected):
+        assert {k: dask.config.get(k) for k in CLUSTER_CONFIG} == CLUSTER_CONFIG
 
 
 @needs_block
@@ -245,9 +262,9 @@ def test_jobqueue_cluster_is_made_from_options(tmp_path, monkeypatch, capsys):
     assert rc == 0, capsys.readouterr().err
     assert made["queue"] == "normal" and made["cores"] == 4 and made["processes"] == 4
     assert made["job_extra_directives"] == ["--exclusive"] and made["memory"] == "8GB"
-    # the job's workers run without Dask's stack profiler (scheduler.cluster.WORKER_CONFIG)
-    assert made["job_script_prologue"] == [
-        "export DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED=False"]
+    # the job's workers get the trimmed Dask config (scheduler.cluster.CLUSTER_CONFIG)
+    assert "export DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED=False" in made["job_script_prologue"]
+    assert "export DASK_DISTRIBUTED__ADMIN__TICK__INTERVAL=200ms" in made["job_script_prologue"]
     assert Store(tmp_path / "j.zarr").done_mask().all()
 
 
