@@ -132,13 +132,13 @@ def make_client(spec: ClusterSpec):
     import dask
 
     if spec.kind == "local":
-        # the nannies hand the config to the worker processes they start
+        # (the nannies hand the config to the worker processes they start)
         with dask.config.set(CLUSTER_CONFIG):
             cluster = LocalCluster(n_workers=spec.workers or default_workers(),
                                    threads_per_worker=1, processes=True,
                                    dashboard_address=_dashboard_address(),
                                    silence_logs=logging.ERROR)
-        return Client(cluster), cluster
+            return Client(cluster), cluster
     import dask_jobqueue
 
     cls = getattr(dask_jobqueue, JOBQUEUE[spec.kind])
