@@ -183,6 +183,15 @@ def _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model):
     return x
 
 
+@njit(cache=True, nogil=True)
+def _lose_contact(t, y, f, stats, omega, sigma, zeta, n, model):
+    """Contact is lost at t: q = -n exactly and one more event. Returns the t-mode variable
+    (with f the derivative there) and whether flight follows (q' < 0)."""
+    y[0] = -n
+    stats[S_EVENTS] += 1
+    return _enter(MODE_T, t, t, y, f, omega, sigma, zeta, n, model), y[1] < 0.0
+
+
 @njit(float64(float64, float64, float64), cache=True, nogil=True)
 def _time_to_surface(g, v, a):
     """First s > 0 with g + v s + a s^2 / 2 = 0 (g = q + n >= 0 the height above the contact
@@ -463,11 +472,8 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
                 t = t_new
                 if at_target:
                     # on the surface: contact is lost here
-                    y[0] = -n
-                    stats[S_EVENTS] += 1
-                    in_flight = y[1] < 0.0
+                    x, in_flight = _lose_contact(t, y, f, stats, omega, sigma, zeta, n, model)
                     mode = MODE_T
-                    x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
                     h = h_t
                     continue
                 x += h
@@ -611,11 +617,8 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
         elif lands:
             # contact is lost exactly at t_stop
             t = t_ref
-            y[0] = -n
-            stats[S_EVENTS] += 1
-            in_flight = y[1] < 0.0
+            x, in_flight = _lose_contact(t, y, f, stats, omega, sigma, zeta, n, model)
             mode = MODE_T
-            x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
             h = h_t
         elif mode == MODE_RECONTACT and at_target:
             # out of the singular layer: back to t, with the t-length of the last w-step
