@@ -111,19 +111,15 @@ def test_local_cluster_runs_with_the_trimmed_dask_config():
     assert "profile" not in names and "heartbeat" in names
 
 
-def test_config_env_lines_reproduce_the_config(monkeypatch):
+def test_config_env_lines_reproduce_the_config():
     """The job-script lines for batch workers give Dask the same config (read from DASK_*)."""
     import dask
     import dask.config
 
     from scheduler.cluster import CLUSTER_CONFIG, config_env_lines
 
-    env = {}
-    for line in config_env_lines(CLUSTER_CONFIG):
-        name, _, value = line.removeprefix("export ").partition("=")
-        env[name] = value
-    for name, value in env.items():
-        monkeypatch.setenv(name, value)
+    env = dict(line.removeprefix("export ").split("=", 1)
+               for line in config_env_lines(CLUSTER_CONFIG))
     collected = dask.config.collect_env(env)
     with dask.config.set(collected):
         assert {k: dask.config.get(k) for k in CLUSTER_CONFIG} == CLUSTER_CONFIG
