@@ -29,6 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import kernels.integrate as integ  # noqa: E402
 from kernels import shoot  # noqa: E402
+from kernels.shooting import _start  # noqa: E402  (y = (q, q', Phi = I))
 
 CASES = [  # name, omega, sigma, zeta, period, rough guess (benchmarks/bench_kernels.py)
     ("1T in contact", 1.5, 0.2, 0.01, 1, (-0.16, 0.006)),
@@ -143,12 +144,7 @@ def taylor_map(y, t0, t1, omega, sigma, zeta, n, order, tol, co):
 def dop853_loop(reps, x0, v0, P, omega, sigma, zeta, n, rtol, h, y, stats, harm, t_eval,
                 out_eval, f, y_new, f_new, Kw, Pw):
     for _ in range(reps):
-        y[0] = x0
-        y[1] = v0
-        y[2] = 1.0
-        y[3] = 0.0
-        y[4] = 0.0
-        y[5] = 1.0
+        _start(y, x0, v0)
         stats[integ.S_ACCEPTED] = 0.0
         stats[integ.S_REJECTED] = 0.0
         integ.integrate(y, 0.0, P, omega, sigma, zeta, n, integ.HERTZ, rtol, rtol, h, 100000,
@@ -161,12 +157,7 @@ def dop853_loop(reps, x0, v0, P, omega, sigma, zeta, n, rtol, h, y, stats, harm,
 def taylor_loop(reps, x0, v0, P, omega, sigma, zeta, n, order, tol, y, co):
     steps = 0
     for _ in range(reps):
-        y[0] = x0
-        y[1] = v0
-        y[2] = 1.0
-        y[3] = 0.0
-        y[4] = 0.0
-        y[5] = 1.0
+        _start(y, x0, v0)
         steps = taylor_map(y, 0.0, P, omega, sigma, zeta, n, order, tol, co)
     return steps
 
