@@ -12,7 +12,8 @@ at rtol 1e-13 from the stored start point, every method starting Newton from ref
 identical solves through the numba entry point the grid solver uses).
 
 Printed: the speed-up distribution (min, 10th percentile, median, share below 30x) over the sample and per
-class of orbit (period x contact loss), with each class's share of the whole store; sampled
+class of orbit (period x contact loss), with each class's share of the whole store, and over
+the sample against the paper's scheme tuned (kernels.central_difference.cd_shoot_tuned); sampled
 orbits that either method does not bring back to the reference are counted, not timed. About
 a minute for 120 orbits.
 """
@@ -31,7 +32,7 @@ sys.path.insert(0, str(ROOT))
 from bench_kernels import RTOLS, per_call  # noqa: E402  (same directory)
 
 from kernels import shoot  # noqa: E402
-from kernels.central_difference import cd_shoot  # noqa: E402
+from kernels.central_difference import cd_shoot, cd_shoot_tuned  # noqa: E402
 from kernels.shooting import N_FIELDS, shoot_batch_into  # noqa: E402
 from study.benchmark import paper_scheme_xtol  # noqa: E402
 
@@ -69,17 +70,18 @@ def sample_orbits(store: Path, size: int, seed: int):
 
 
 def time_orbit(w, s, z, m, x0, n_exp):
-    """(speed-up, hertzmap us, paper ms, rtol, reason) for one orbit; reason is None when timed."""
+    """(speed-up, hertzmap s, paper s, rtol, reason, tuned paper s) for one orbit; reason is
+    None when timed. The tuned paper's scheme (cd_shoot_tuned) runs the same iterates."""
     ref = shoot(w, s, z, m, guess=x0, rtol=1e-13, exponent=n_exp)
     if not ref.converged or np.abs(ref.x0 - np.asarray(x0)).max() > 1e-6 * (1 + np.abs(x0).max()):
-        return None, None, None, None, "reference not found at rtol 1e-13"
+        return None, None, None, None, "reference not found at rtol 1e-13", None
     guess = ref.x0 + 1e-2
     xtol, _ = paper_scheme_xtol(w, s, z, m, guess, n_exp, ref.x0, N_PAPER)
     out = np.zeros(9)
     cd_shoot(w, s, z, m, guess[0], guess[1], n_exp, 0, N_PAPER, 40, xtol, out)
     err_cd = float(np.abs(out[1:3] - ref.x0).max())
     if out[0] != 0 or err_cd > 1e-4:
-        return None, None, None, None, "the paper's scheme leaves the orbit from the guess"
+        return None, None, None, None, "the paper's scheme leaves the orbit from the guess", None
     target = min(err_cd, 1e-8)
     rtol = None
     for r in RTOLS:
@@ -88,15 +90,17 @@ def time_orbit(w, s, z, m, x0, n_exp):
             rtol = r
             break
     if rtol is None:
-        return None, None, None, None, "hertzmap leaves the orbit from the guess"
+        return None, None, None, None, "hertzmap leaves the orbit from the guess", None
     t_cd = per_call(lambda: cd_shoot(w, s, z, m, guess[0], guess[1], n_exp, 0, N_PAPER, 40,
                                      xtol, out), 0.05)
+    t_tuned = per_call(lambda: cd_shoot_tuned(w, s, z, m, guess[0], guess[1], n_exp, 0, N_PAPER,
+                                              40, xtol, out), 0.05)
     args = [np.full(BATCH, v) for v in (w, s, z)] + [np.full(BATCH, m, np.int64)] + \
         [np.full(BATCH, guess[0]), np.full(BATCH, guess[1])]
     res = np.empty((BATCH, N_FIELDS))
     t_hm = per_call(lambda: shoot_batch_into(*args, n_exp, 0, rtol, rtol, 40, 200_000, False,
                                              res), 0.05) / BATCH
-    return t_cd / t_hm, t_hm, t_cd, rtol, None
+    return t_cd / t_hm, t_hm, t_cd, rtol, None, t_tuned
 
 
 def describe(w, s, z, m, x0, n_exp, rtol):
@@ -130,14 +134,15 @@ def main(argv=None):
     print(f"{store}: {n_total} converged orbits, exponent {n_exp}; sample of {len(rows)} "
           f"(seed {a.seed})")
     t0 = time.perf_counter()
-    by_class, skipped, all_ratios, t_hm_all, timed = {}, {}, [], [], []
+    by_class, skipped, all_ratios, t_hm_all, timed, tuned = {}, {}, [], [], [], []
     for w, s, z, m, q0, v0, lc in rows:
-        ratio, t_hm, t_cd, rtol, why = time_orbit(w, s, z, m, (q0, v0), n_exp)
+        ratio, t_hm, t_cd, rtol, why, t_tuned = time_orbit(w, s, z, m, (q0, v0), n_exp)
         if why is not None:
             skipped[why] = skipped.get(why, 0) + 1
             continue
         by_class.setdefault((m, lc), []).append(ratio)
         all_ratios.append(ratio)
+        tuned.append(t_tuned / t_hm)
         t_hm_all.append(t_hm)
         timed.append((ratio, w, s, z, m, (q0, v0), t_hm, t_cd, rtol))
     print(f"({time.perf_counter() - t0:.0f} s)")
@@ -147,6 +152,7 @@ def main(argv=None):
         label = f"{m}T, {'loses contact' if lc else 'in contact'}"
         print(summary(label, by_class.get(key, []), classes[key] / n_total))
     print(summary("all sampled orbits", all_ratios))
+    print(summary("  against the tuned scheme", tuned))
     print(f"hertzmap time per orbit: median {np.median(t_hm_all) * 1e6:.1f} us")
     if a.worst > 0 and timed:
         print(f"the {a.worst} lowest speed-ups:")

@@ -6,8 +6,15 @@ location), and Newton shooting with a forward-difference Jacobian ("evaluated vi
 rule"): three integrations per Newton iteration.
 
     (q_{k+1} - 2 q_k + q_{k-1}) / h^2 + 2 zeta (q_{k+1} - q_{k-1}) / (2 h) + F(q_k) = 1 + sigma cos(w t_k)
+
+Two implementations of the same scheme: ``cd_shoot`` as the paper describes it (three maps
+one after the other, cos(w t_k) at every step), and ``cd_shoot_tuned``, with the care hertzmap's
+own kernels get: the three maps of a Newton iteration advance together in one loop (their
+dependency chains overlap in the CPU) and the forcing comes from a rotation recurrence instead
+of a cosine per step (within ~1e-12 of it over 10000 steps, far inside the scheme's own error).
+Same iterates to round-off, 1.5-3x less time (benchmarks/bench_kernels.py prints both).
 """
-from math import cos, hypot, pi
+from math import cos, hypot, pi, sin
 
 import numpy as np
 from numba import njit
@@ -39,24 +46,83 @@ def cd_map(q0, v0, P, N, omega, sigma, zeta, n, model, out):
 
 
 @njit(cache=True, nogil=True)
+def cd_map3(q0, v0, dq, dv, P, N, omega, sigma, zeta, n, model, out):
+    """cd_map from (q0, v0), (q0 + dq, v0) and (q0, v0 + dv) in one loop; out (3, 2).
+
+    The forcing cos(w t_k) by the rotation (c, s) <- (c cos wh - s sin wh, s cos wh + c sin wh).
+    """
+    h = P / N
+    h2 = h * h
+    c_plus = 1.0 + zeta * h
+    c_minus = 1.0 - zeta * h
+    a = rhs_force(q0, n, model)
+    b = rhs_force(q0 + dq, n, model)
+    q = q0
+    r = q0 + dq
+    u = q0
+    q_prev = q0 - h * v0 + 0.5 * h2 * (1.0 + sigma - 2.0 * zeta * v0 - a)
+    r_prev = r - h * v0 + 0.5 * h2 * (1.0 + sigma - 2.0 * zeta * v0 - b)
+    u_prev = q0 - h * (v0 + dv) + 0.5 * h2 * (1.0 + sigma - 2.0 * zeta * (v0 + dv) - a)
+    cw = cos(omega * h)
+    sw = sin(omega * h)
+    c = 1.0
+    s = 0.0
+    for k in range(N + 1):
+        g = h2 * (1.0 + sigma * c)
+        q_next = (g - h2 * rhs_force(q, n, model) + 2.0 * q - c_minus * q_prev) / c_plus
+        r_next = (g - h2 * rhs_force(r, n, model) + 2.0 * r - c_minus * r_prev) / c_plus
+        u_next = (g - h2 * rhs_force(u, n, model) + 2.0 * u - c_minus * u_prev) / c_plus
+        c, s = c * cw - s * sw, s * cw + c * sw
+        if k < N:
+            q_prev = q
+            q = q_next
+            r_prev = r
+            r = r_next
+            u_prev = u
+            u = u_next
+    out[0, 0] = q
+    out[0, 1] = (q_next - q_prev) / (2.0 * h)
+    out[1, 0] = r
+    out[1, 1] = (r_next - r_prev) / (2.0 * h)
+    out[2, 0] = u
+    out[2, 1] = (u_next - u_prev) / (2.0 * h)
+
+
+@njit(cache=True, nogil=True)
 def cd_shoot(omega, sigma, zeta, m, q_guess, v_guess, n, model, N, max_iter, xtol, out):
-    """Newton shooting on cd_map with a forward-difference Jacobian.
+    """Newton shooting on cd_map with a forward-difference Jacobian, as in the paper.
 
     out = [status, q0, v0, iterations, residual, m11, m12, m21, m22].
     """
+    _cd_newton(omega, sigma, zeta, m, q_guess, v_guess, n, model, N, max_iter, xtol, out, False)
+
+
+@njit(cache=True, nogil=True)
+def cd_shoot_tuned(omega, sigma, zeta, m, q_guess, v_guess, n, model, N, max_iter, xtol, out):
+    """cd_shoot with its three maps per iteration in one loop (cd_map3): same scheme, same
+    Newton, faster code."""
+    _cd_newton(omega, sigma, zeta, m, q_guess, v_guess, n, model, N, max_iter, xtol, out, True)
+
+
+@njit(cache=True, nogil=True)
+def _cd_newton(omega, sigma, zeta, m, q_guess, v_guess, n, model, N, max_iter, xtol, out, tuned):
     P = m * 2.0 * pi / omega
     x = q_guess
     v = v_guess
-    y = np.empty(2)
-    yq = np.empty(2)
-    yv = np.empty(2)
+    ys = np.empty((3, 2))
+    y = ys[0]
+    yq = ys[1]
+    yv = ys[2]
     out[0] = st.NOT_CONVERGED
     for it in range(1, max_iter + 1):
-        cd_map(x, v, P, N, omega, sigma, zeta, n, model, y)
         dq_ = 1e-7 * (1.0 + abs(x))
         dv_ = 1e-7 * (1.0 + abs(v))
-        cd_map(x + dq_, v, P, N, omega, sigma, zeta, n, model, yq)
-        cd_map(x, v + dv_, P, N, omega, sigma, zeta, n, model, yv)
+        if tuned:
+            cd_map3(x, v, dq_, dv_, P, N, omega, sigma, zeta, n, model, ys)
+        else:
+            cd_map(x, v, P, N, omega, sigma, zeta, n, model, y)
+            cd_map(x + dq_, v, P, N, omega, sigma, zeta, n, model, yq)
+            cd_map(x, v + dv_, P, N, omega, sigma, zeta, n, model, yv)
         m11 = (yq[0] - y[0]) / dq_
         m21 = (yq[1] - y[1]) / dq_
         m12 = (yv[0] - y[0]) / dv_

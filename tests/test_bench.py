@@ -8,7 +8,7 @@ def test_bench_quick_writes_csv_png_and_ratios(tmp_path):
     r = run_bench(tmp_path, quick=True, log=lambda *a: None)
     rows = list(csv.DictReader(open(r["csv"])))
     methods = {row["method"] for row in rows}
-    assert methods == {"hertzmap", "paper-cd", "scipy-DOP853", "scipy-Radau"}
+    assert methods == {"hertzmap", "paper-cd", "paper-cd-tuned", "scipy-DOP853", "scipy-Radau"}
     assert r["png"].stat().st_size > 1000
     hm = [row for row in rows if row["method"] == "hertzmap"]
     assert all(row["status"] == "converged" for row in hm)
