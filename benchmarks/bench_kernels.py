@@ -9,7 +9,7 @@ the paper's scheme (central differences, N = 10000 steps per period, forward-dif
 Jacobian, in numba; Newton stopped at the loosest xtol that keeps its converged accuracy, as
 hertzmap's rtol is the loosest that reaches the target) as the paper describes it and, column
 "tuned", the same scheme and iterates coded for speed (its three maps per Newton iteration in
-one loop, the forcing by rotation: kernels.central_difference.cd_shoot_tuned), hertzmap at the loosest tolerance whose start-point error is
+one loop, no division on its chains, the forcing by rotation: kernels.central_difference.cd_shoot_tuned), hertzmap at the loosest tolerance whose start-point error is
 <= min(paper's error, 1e-8), timed with what the paper's scheme gives (start point and
 multipliers; hertzmap adds min/max q, flight fraction, impact velocity) and, column "+harm",
 with the contact-force harmonics as well; scipy solve_ivp (DOP853,
@@ -161,7 +161,7 @@ def main():
     print(f"speed-up over the paper's scheme at equal or better accuracy: min {min(ratios_paper):.0f}x,"
           f" median {np.median(ratios_paper):.0f}x")
     print(f"speed-up over the paper's scheme tuned (cd_shoot_tuned: same scheme and iterates, "
-          f"its three maps in one loop): min {min(ratios_tuned):.0f}x, "
+          f"coded for speed): min {min(ratios_tuned):.0f}x, "
           f"median {np.median(ratios_tuned):.0f}x")
     print(f"speed-up over scipy solve_ivp + root: min {min(ratios_scipy):.0f}x, "
           f"median {np.median(ratios_scipy):.0f}x")

@@ -10,18 +10,19 @@ rule"): three integrations per Newton iteration.
 Two implementations of the same scheme: ``cd_shoot`` as the paper describes it (three maps
 one after the other, cos(w t_k) at every step), and ``cd_shoot_tuned``, with the care hertzmap's
 own kernels get: the three maps of a Newton iteration advance together in one loop (their
-dependency chains overlap in the CPU) and the forcing comes from a rotation recurrence instead
-of a cosine per step (within ~1e-12 of it over 10000 steps, far inside the scheme's own error).
-The same Newton iterates to ~1e-9 (that round-off, amplified by the forward-difference Jacobian),
-3.0-3.6x less time (benchmarks/bench_kernels.py prints both).
+dependency chains overlap in the CPU), no division on those chains, and the forcing from a
+rotation recurrence instead of a cosine per step (within ~1e-12 of it over 10000 steps). The
+same Newton iterates to ~1e-9 (that round-off, amplified by the forward-difference Jacobian;
+far inside the scheme's own error), several times less time (benchmarks/bench_kernels.py
+prints both).
 """
-from math import cos, hypot, pi, sin
+from math import cos, hypot, pi, sin, sqrt
 
 import numpy as np
 from numba import njit
 
 from kernels import status as st
-from kernels.model import rhs_force
+from kernels.model import TAYLOR, rhs_force
 
 
 @njit(cache=True, nogil=True)
@@ -47,17 +48,39 @@ def cd_map(q0, v0, P, N, omega, sigma, zeta, n, model, out):
 
 
 @njit(cache=True, nogil=True)
+def _force_no_division(q, inv_n, n, model):
+    """rhs_force with its divisions turned into products (q / n -> q * (1 / n)): a division
+    sits on the recurrence's dependency chain and costs ~13 cycles; same values to round-off."""
+    if model == TAYLOR:
+        return 1.0 + q + q * q * (1.0 / 6.0) - q * q * q * (1.0 / 54.0)
+    s = 1.0 + q * inv_n
+    if s <= 0.0:
+        return 0.0
+    if n == 1.5:
+        return s * sqrt(s)
+    if n == 1.0:
+        return s
+    return s ** n
+
+
+@njit(cache=True, nogil=True)
 def cd_map3(q0, v0, dq, dv, P, N, omega, sigma, zeta, n, model, out):
     """cd_map from (q0, v0), (q0 + dq, v0) and (q0, v0 + dv) in one loop; out (3, 2).
 
-    The forcing cos(w t_k) by the rotation (c, s) <- (c cos wh - s sin wh, s cos wh + c sin wh).
+    Coded for speed, same scheme: the three recurrences are independent, so the CPU overlaps
+    their dependency chains; no division on them (the step's 1 / (1 + zeta h) and the force's
+    1 / n are factors computed once); the forcing cos(w t_k) by the rotation
+    (c, s) <- (c cos wh - s sin wh, s cos wh + c sin wh).
     """
     h = P / N
     h2 = h * h
-    c_plus = 1.0 + zeta * h
-    c_minus = 1.0 - zeta * h
-    a = rhs_force(q0, n, model)
-    b = rhs_force(q0 + dq, n, model)
+    inv_n = 1.0 / n
+    inv_plus = 1.0 / (1.0 + zeta * h)
+    h2_plus = h2 * inv_plus                     # q_next = h2_plus (f - F) + two_plus q - minus q_prev
+    two_plus = 2.0 * inv_plus
+    minus = (1.0 - zeta * h) * inv_plus
+    a = _force_no_division(q0, inv_n, n, model)
+    b = _force_no_division(q0 + dq, inv_n, n, model)
     q = q0
     r = q0 + dq
     u = q0
@@ -69,10 +92,10 @@ def cd_map3(q0, v0, dq, dv, P, N, omega, sigma, zeta, n, model, out):
     c = 1.0
     s = 0.0
     for k in range(N + 1):
-        g = h2 * (1.0 + sigma * c)
-        q_next = (g - h2 * rhs_force(q, n, model) + 2.0 * q - c_minus * q_prev) / c_plus
-        r_next = (g - h2 * rhs_force(r, n, model) + 2.0 * r - c_minus * r_prev) / c_plus
-        u_next = (g - h2 * rhs_force(u, n, model) + 2.0 * u - c_minus * u_prev) / c_plus
+        g = h2_plus * (1.0 + sigma * c)
+        q_next = g - h2_plus * _force_no_division(q, inv_n, n, model) + two_plus * q - minus * q_prev
+        r_next = g - h2_plus * _force_no_division(r, inv_n, n, model) + two_plus * r - minus * r_prev
+        u_next = g - h2_plus * _force_no_division(u, inv_n, n, model) + two_plus * u - minus * u_prev
         c, s = c * cw - s * sw, s * cw + c * sw
         if k < N:
             q_prev = q
@@ -100,8 +123,8 @@ def cd_shoot(omega, sigma, zeta, m, q_guess, v_guess, n, model, N, max_iter, xto
 
 @njit(cache=True, nogil=True)
 def cd_shoot_tuned(omega, sigma, zeta, m, q_guess, v_guess, n, model, N, max_iter, xtol, out):
-    """cd_shoot with its three maps per iteration in one loop (cd_map3): same scheme, same
-    Newton, faster code."""
+    """cd_shoot with its three maps per iteration in one loop, coded for speed (cd_map3): same
+    scheme, same Newton, faster code."""
     _cd_newton(omega, sigma, zeta, m, q_guess, v_guess, n, model, N, max_iter, xtol, out, True)
 
 

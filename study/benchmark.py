@@ -20,9 +20,9 @@ Methods:
   iterate;
 * ``paper-cd-tuned``: the same scheme, Newton and xtol coded for speed
   (``kernels.central_difference.cd_shoot_tuned``: the three maps of a Newton iteration in one
-  loop, whose dependency chains then overlap in the CPU, and the forcing by a rotation
-  recurrence): the same iterates to ~1e-9, 3-4x less time. The care hertzmap's own kernels
-  get, given to the baseline;
+  loop, whose dependency chains then overlap in the CPU, no division on those chains, and the
+  forcing by a rotation recurrence): the same iterates to ~1e-9, 5-10x less time. The care
+  hertzmap's own kernels get, given to the baseline;
 * ``scipy-DOP853`` / ``scipy-Radau``: ``scipy.integrate.solve_ivp`` with the contact switches as
   terminal events and restarts (as ``tests/oracle.py``; Radau with the analytic Jacobian of the
   vector field), ``scipy.optimize.root`` (hybr) on Phi(x) - x; multipliers from central finite
