@@ -20,7 +20,7 @@ from kernels.model import cos_shifted
 from kernels.model import contact_side_force_and_stiffness as rhs_force_and_stiffness
 
 
-@njit(float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64), cache=True, nogil=True)
+@njit(float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64), cache=True, nogil=True, inline='always')
 def step_var(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol):
     tz = 2.0 * zeta
     phi0 = omega * t

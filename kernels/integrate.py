@@ -124,7 +124,8 @@ def derivative(t, y, f, omega, sigma, zeta, n, model):
         f[5] = -dF * y[3] - tz * y[5]
 
 
-@njit(cache=True, nogil=True)
+# inlined, with step_var (kernels/_codegen.py source()), into the integration loop
+@njit(cache=True, nogil=True, inline='always')
 def _step(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol,
           t_ref):
     """One step in the mode's variable (t; w with t = t_ref + mode w^2; or x = -sqrt(q + n))."""
