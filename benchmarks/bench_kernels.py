@@ -89,8 +89,11 @@ def cold_start_seconds():
 def main():
     step = bare_step_seconds()
     chained = bare_step_seconds(chained=True)
+    adaptive = bare_step_seconds(adaptive=True)
     print(f"bare DOP853 step (state + variational, 6-D): {step * 1e6:.3f} us repeated from one "
-          f"state (throughput), {chained * 1e6:.3f} us chained as in an integration (latency)")
+          f"state (throughput), {chained * 1e6:.3f} us chained as in an integration (latency), "
+          f"{adaptive * 1e6:.3f} us chained with each step size waiting for the last error norm "
+          "(the adaptive floor)")
     header = (f"{'case':24s} {'paper err':>9s} {'xtol':>6s} {'it':>3s} {'paper ms':>9s} "
               f"{'tuned':>6s} | "
               f"{'rtol':>6s} {'err':>8s} "
@@ -166,7 +169,8 @@ def main():
     print(f"speed-up over scipy solve_ivp + root: min {min(ratios_scipy):.0f}x, "
           f"median {np.median(ratios_scipy):.0f}x")
     print(f"time / arithmetic floor (steps x bare step): max {max(floors):.2f}, "
-          f"median {np.median(floors):.2f}")
+          f"median {np.median(floors):.2f}; / adaptive floor (steps x adaptive step): max "
+          f"{max(floors) * step / adaptive:.2f}, median {np.median(floors) * step / adaptive:.2f}")
     # what these step counts allow at best: every solve at the floor, nothing but RK steps
     print(f"speed-up over the paper's scheme if each solve cost only its steps x bare step: "
           f"min {min(ceilings):.0f}x, median {np.median(ceilings):.0f}x ("

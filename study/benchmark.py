@@ -111,19 +111,21 @@ def paper_scheme_xtol(omega, sigma, zeta, m, guess, exponent, x_ref, N) -> tuple
     return best, found[best][1]
 
 
-def bare_step_seconds(n: int = 500_000, chained: bool = False) -> float:
+def bare_step_seconds(n: int = 500_000, chained: bool = False, adaptive: bool = False) -> float:
     """Seconds of one bare DOP853 step with its variational equations (the arithmetic unit).
 
     ``chained=False``: the same step repeated from the same state: the CPU overlaps successive
     steps, so this is the step's throughput (the issue's "arithmetic floor"). ``chained=True``:
-    each step starts from the last one's result, as in an integration: its latency, the
-    floor an integrator can actually reach.
+    each step starts from the last one's result, as in an integration: its latency.
+    ``adaptive=True`` (chained): each step's size also waits for the previous step's error norm,
+    as in any adaptive integrator, the floor one can actually reach. The model's parameters are
+    run-time values (the step is inlined since stop 13: constants would be folded into it).
     """
     from kernels._dop853 import step_var
     from numba import njit
 
     @njit(cache=False)
-    def steps(k, chained):
+    def steps(k, chained, adaptive, omega, sigma, zeta, n_exp, model, tol):
         y = np.array([0.1, 0.2, 1.0, 0.0, 0.0, 1.0])
         f = np.array([0.2, 0.3, 0.0, 1.0, -1.0, -0.02])
         y_new = np.empty(6)
@@ -131,22 +133,30 @@ def bare_step_seconds(n: int = 500_000, chained: bool = False) -> float:
         K = np.empty((16, 2))
         acc = 0.0
         t = 0.0
+        h = 0.05
         for i in range(k):
             if chained:
-                acc += step_var(t, 0.05, y, f, y_new, f_new, K, 1.0, 0.3, 0.01, 1.5, 0, 1e-10, 1e-10)
-                t += 0.05
+                err = step_var(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n_exp, model,
+                               tol, tol)
+                acc += err
+                t += h
                 y[:] = y_new
                 f[:] = f_new
+                if adaptive:    # the integrator's rule, kept inside [0.01, 0.3]
+                    fac = 0.9 / np.sqrt(np.sqrt(np.sqrt(err + 1e-300)))
+                    h = min(0.3, max(0.01, h * min(10.0, max(0.2, fac))))
                 if (i & 1023) == 0:     # keep the variational matrix bounded
                     y[2:] = (1.0, 0.0, 0.0, 1.0)
             else:
-                acc += step_var(0.001 * i, 0.1, y, f, y_new, f_new, K, 1.0, 0.3, 0.01, 1.5, 0, 1e-10, 1e-10)
+                acc += step_var(0.001 * i, 0.1, y, f, y_new, f_new, K, omega, sigma, zeta, n_exp,
+                                model, tol, tol)
         return acc
-    steps(10, chained)
+    args = (chained or adaptive, adaptive, 1.0, 0.3, 0.01, 1.5, 0, 1e-10)
+    steps(10, *args)
     times = []
     for _ in range(3):
         t0 = time.perf_counter()
-        steps(n, chained)
+        steps(n, *args)
         times.append((time.perf_counter() - t0) / n)
     return float(min(times))
 
