@@ -26,8 +26,9 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from kernels._dop853 import step_var  # noqa: E402
+from study.benchmark import STEP_PARAMS, seconds_per_step, step_loop  # noqa: E402
 
-PARAMS = (1.0, 0.3, 0.01, 1.5, 0, 1e-10)    # omega, sigma, zeta, n, model, tolerance
+N = 300_000     # steps per timing
 
 
 def called_copy():
@@ -38,29 +39,6 @@ def called_copy():
     ns: dict = {}
     exec(head + "\n\n@njit(inline='never')\n" + body.replace("def step_var(", "def step_called("), ns)
     return ns["step_called"]
-
-
-def chain(step, adaptive):
-    """A chained loop; ``adaptive`` is frozen into the compiled code (a run-time flag would make
-    h depend on the error norm through a select even when the flag is off)."""
-    @njit
-    def run(k, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, tol):
-        acc = 0.0
-        t = 0.0
-        h = 0.05
-        for i in range(k):
-            err = step(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, tol, tol)
-            acc += err
-            t += h
-            y[:] = y_new
-            f[:] = f_new
-            if adaptive:
-                h = min(0.3, max(0.01, h * min(10.0, max(0.2, 0.9 / np.sqrt(np.sqrt(np.sqrt(
-                    err + 1e-300)))))))
-            if (i & 1023) == 0:
-                y[2:] = (1.0, 0.0, 0.0, 1.0)
-        return acc
-    return run
 
 
 @njit
@@ -88,25 +66,19 @@ def arrays(q):
             np.empty(6), np.empty(6), np.empty((16, 2)))
 
 
-def per_step(fn, steps_per_call, n=300_000):
-    fn(10)
-    best = np.inf
-    for _ in range(3):
-        t0 = time.perf_counter()
-        fn(n)
-        best = min(best, (time.perf_counter() - t0) / (n * steps_per_call))
-    return best
-
-
 def main() -> None:
     step_called = called_copy()
-    inlined, called = chain(step_var, False), chain(step_called, False)
-    inlined_ad, called_ad = chain(step_var, True), chain(step_called, True)
-    t_in = per_step(lambda k: inlined(k, *arrays(0.1), *PARAMS), 1)
-    t_call = per_step(lambda k: called(k, *arrays(0.1), *PARAMS), 1)
-    t_two = per_step(lambda k: two_lanes(k, *arrays(0.1), *arrays(-0.1), *PARAMS), 2)
-    t_ad = per_step(lambda k: inlined_ad(k, *arrays(0.1), *PARAMS), 1)
-    t_call_ad = per_step(lambda k: called_ad(k, *arrays(0.1), *PARAMS), 1)
+    t_in = seconds_per_step(step_loop(step_var, "chained"), N)
+    t_call = seconds_per_step(step_loop(step_called, "chained"), N)
+    t_ad = seconds_per_step(step_loop(step_var, "adaptive"), N)
+    t_call_ad = seconds_per_step(step_loop(step_called, "adaptive"), N)
+    lanes = [arrays(0.1), arrays(-0.1)]
+    two_lanes(10, *lanes[0], *lanes[1], *STEP_PARAMS)
+    t_two = np.inf
+    for _ in range(3):
+        t0 = time.perf_counter()
+        two_lanes(N, *lanes[0], *lanes[1], *STEP_PARAMS)
+        t_two = min(t_two, (time.perf_counter() - t0) / (2 * N))
     print(f"inlined, fixed h:    {t_in * 1e6:.3f} us per step")
     print(f"called, fixed h:     {t_call * 1e6:.3f} us per step ({t_call / t_in:.2f}x the inlined)")
     print(f"two lanes, inlined:  {t_two * 1e6:.3f} us per step ({t_in / t_two:.2f}x faster than one)")

@@ -111,21 +111,28 @@ def paper_scheme_xtol(omega, sigma, zeta, m, guess, exponent, x_ref, N) -> tuple
     return best, found[best][1]
 
 
-def bare_step_seconds(n: int = 500_000, chained: bool = False, adaptive: bool = False) -> float:
-    """Seconds of one bare DOP853 step with its variational equations (the arithmetic unit).
+STEP_PARAMS = (1.0, 0.3, 0.01, 1.5, 0, 1e-10)   # omega, sigma, zeta, n, model, tolerance
 
-    ``chained=False``: the same step repeated from the same state: the CPU overlaps successive
-    steps, so this is the step's throughput (the issue's "arithmetic floor"). ``chained=True``:
-    each step starts from the last one's result, as in an integration: its latency.
-    ``adaptive=True`` (chained): each step's size also waits for the previous step's error norm,
-    as in any adaptive integrator, the floor one can actually reach. The model's parameters are
-    run-time values (the step is inlined since stop 13: constants would be folded into it).
+
+def step_loop(step, mode: str):
+    """A compiled loop of DOP853 steps (``step`` with step_var's signature), k steps per call.
+
+    ``mode`` is frozen into the code: a run-time flag would make h depend on the error norm
+    through a select even when off. "repeated": the same step from the same state (successive
+    steps overlap in the CPU: throughput); "chained": each step from the last one's result, fixed
+    h (latency); "adaptive": chained, and each h computed from the last error norm by the
+    integrator's rule (the next step waits for it, as in any adaptive integrator). The model's
+    parameters are run-time arguments (an inlined step would fold constants into the loop).
     """
-    from kernels._dop853 import step_var
     from numba import njit
 
+    chained = mode in ("chained", "adaptive")
+    adaptive = mode == "adaptive"
+    if mode not in ("repeated", "chained", "adaptive"):
+        raise ValueError(f"mode must be repeated, chained or adaptive, not {mode!r}")
+
     @njit(cache=False)
-    def steps(k, chained, adaptive, omega, sigma, zeta, n_exp, model, tol):
+    def run(k, omega, sigma, zeta, n_exp, model, tol):
         y = np.array([0.1, 0.2, 1.0, 0.0, 0.0, 1.0])
         f = np.array([0.2, 0.3, 0.0, 1.0, -1.0, -0.02])
         y_new = np.empty(6)
@@ -136,29 +143,48 @@ def bare_step_seconds(n: int = 500_000, chained: bool = False, adaptive: bool = 
         h = 0.05
         for i in range(k):
             if chained:
-                err = step_var(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n_exp, model,
-                               tol, tol)
+                err = step(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n_exp, model, tol,
+                           tol)
                 acc += err
                 t += h
                 y[:] = y_new
                 f[:] = f_new
-                if adaptive:    # the integrator's rule, kept inside [0.01, 0.3]
+                if adaptive:    # integrate's rule, h kept inside [0.01, 0.3]
                     fac = 0.9 / np.sqrt(np.sqrt(np.sqrt(err + 1e-300)))
                     h = min(0.3, max(0.01, h * min(10.0, max(0.2, fac))))
                 if (i & 1023) == 0:     # keep the variational matrix bounded
                     y[2:] = (1.0, 0.0, 0.0, 1.0)
             else:
-                acc += step_var(0.001 * i, 0.1, y, f, y_new, f_new, K, omega, sigma, zeta, n_exp,
-                                model, tol, tol)
+                acc += step(0.001 * i, 0.1, y, f, y_new, f_new, K, omega, sigma, zeta, n_exp,
+                            model, tol, tol)
         return acc
-    args = (chained or adaptive, adaptive, 1.0, 0.3, 0.01, 1.5, 0, 1e-10)
-    steps(10, *args)
-    times = []
-    for _ in range(3):
+    return run
+
+
+def seconds_per_step(loop, n: int = 500_000, rounds: int = 3) -> float:
+    """Fastest of ``rounds`` timings of a ``step_loop``, per step."""
+    loop(10, *STEP_PARAMS)
+    best = np.inf
+    for _ in range(rounds):
         t0 = time.perf_counter()
-        steps(n, *args)
-        times.append((time.perf_counter() - t0) / n)
-    return float(min(times))
+        loop(n, *STEP_PARAMS)
+        best = min(best, (time.perf_counter() - t0) / n)
+    return float(best)
+
+
+def bare_step_seconds(n: int = 500_000, chained: bool = False, adaptive: bool = False) -> float:
+    """Seconds of one bare DOP853 step with its variational equations (the arithmetic unit).
+
+    ``chained=False``: the same step repeated from the same state: the CPU overlaps successive
+    steps, so this is the step's throughput (the issue's "arithmetic floor"). ``chained=True``:
+    each step starts from the last one's result, as in an integration: its latency.
+    ``adaptive=True``: chained, each step's size waiting for the previous step's error norm, as
+    in any adaptive integrator: the floor one can actually reach. See ``step_loop``.
+    """
+    from kernels._dop853 import step_var
+
+    mode = "adaptive" if adaptive else ("chained" if chained else "repeated")
+    return seconds_per_step(step_loop(step_var, mode), n)
 
 
 def mult_error(mu, mu_ref) -> float:
