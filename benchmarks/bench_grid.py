@@ -84,7 +84,7 @@ def _solve_default_window(_):
     """Seconds per block (4 sigma lines x 161 omega of the default window), best of 3."""
     import numpy as np
 
-    from study.block import solve_block
+    from study.solve.block import solve_block
     omega, sigma, zeta = np.linspace(0.5, 2.5, 161), np.array([0.1, 0.3, 0.5, 0.8]), np.array([0.01])
     solve_block(omega[:5], sigma[:1], zeta, harmonics=False)      # kernels from the cache
     times = []

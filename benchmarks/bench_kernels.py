@@ -31,13 +31,12 @@ from math import pi
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "tests"))
 
-import oracle  # noqa: E402  (scipy reference, shares no code with kernels/)
+from benchmarks import oracle  # noqa: E402  (scipy reference, shares no code with kernels/)
 
 from kernels import shoot  # noqa: E402
 from kernels.shooting import N_FIELDS, shoot_batch_into  # noqa: E402
-from study.benchmark import bare_step_seconds, paper_scheme_xtol  # noqa: E402
+from benchmarks.work_precision import bare_step_seconds, paper_scheme_xtol  # noqa: E402
 from kernels.central_difference import cd_shoot, cd_shoot_tuned  # noqa: E402
 
 CASES = [

@@ -15,7 +15,7 @@ from collections import defaultdict
 
 import numpy as np
 
-import study.block as block
+import study.solve.block as block
 from kernels.shooting import F
 
 

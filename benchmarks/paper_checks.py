@@ -15,9 +15,9 @@ import time
 import numpy as np
 
 from kernels import continuation as cont
-from study import multiple_scales as ms
-from study.block import linear_response_seed
-from study.discovery import discover_line
+from study.analytic import multiple_scales as ms
+from study.solve.seeds import linear_response_seed
+from study.solve.discovery import discover_line
 
 RTOLS = (1e-8, 1e-10, 1e-12)
 

@@ -22,7 +22,7 @@ Test functions, evaluated from M at every point of a branch (2x2 monodromy):
 
     fold     1 - tr M + det M = (1 - mu1)(1 - mu2)     (a multiplier +1)
     flip     1 + tr M + det M = (1 + mu1)(1 + mu2)     (a multiplier -1)
-    grazing  min q + n   (Hertz; min q - q_c, q_c = -1.3479 for the Taylor model, paper Eq. 12)
+    grazing  min q + n   (Hertz; min q - q_c for the Taylor model, q_c = kernels.model.TAYLOR_CONTACT_LOSS, Eq. 12)
 
 A sign change between consecutive points of a branch is refined by the Illinois variant of
 regula falsi on the chord between them, each trial point corrected onto the branch on the
@@ -50,8 +50,8 @@ from numba import njit
 from kernels import status as st
 from kernels.api import DEFAULT_MAX_STEPS, DEFAULT_RTOL, _check_exponent, _model_code, shoot
 from kernels.integrate import N_HARMONICS, N_STATS
-from kernels.model import HERTZ
-from kernels.shooting import TAYLOR_CONTACT_LIMIT, _map
+from kernels.model import contact_loss_level
+from kernels.shooting import _map
 
 # ---- branch status codes ------------------------------------------------------------------
 BOUNDARY = 0        # left the parameter window
@@ -116,7 +116,7 @@ class System:
         return out[:2].copy(), out[2:].reshape(2, 2).copy(), int(code)
 
     def contact_level(self):
-        return -self.exponent if _model_code(self.model) == HERTZ else TAYLOR_CONTACT_LIMIT
+        return contact_loss_level(self.model, self.exponent)
 
     def shoot(self, omega, sigma, m, guess, max_iter=3):
         return shoot(omega, sigma, self.zeta, m, guess, exponent=self.exponent, model=self.model,

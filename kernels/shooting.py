@@ -23,7 +23,7 @@ from kernels.integrate import (N_HARMONICS, N_STATS, S_ACCEPTED, S_EVENTS, S_FLI
                                S_H_FIRST, S_H_RECONTACT, S_MAX_IMPACT, S_MAX_Q, S_MIN_Q,
                                S_REJECTED, BIG,
                                integrate)
-from kernels.model import HERTZ
+from kernels.model import HERTZ, TAYLOR_CONTACT_LOSS
 
 FIELDS = (
     "status", "q0", "v0",
@@ -39,8 +39,6 @@ N_FIELDS = len(FIELDS)
  I_FLIGHT, I_IMPACT, I_H1, I_H2, I_H3, I_H4, I_MEANF, I_ITER, I_RES, I_TR, I_DET, I_LIOU,
  I_MINPER, I_STEPS, I_REJ, I_EVENTS, I_M11, I_M12, I_M21, I_M22) = range(N_FIELDS)
 
-# Eq. 12: the Taylor force of Eq. 10 vanishes at q = -1.3479...: "loss of contact" of Eq. 11
-TAYLOR_CONTACT_LIMIT = -1.3479253168228557
 XTOL_MEASURE = 1e-3    # Newton hands over to the measure pass below this step (relative)
 # Newton gives up after this many consecutive steps that the line search could not make
 # decrease the residual even at its smallest damping (why 2: at the test in shoot_into)
@@ -286,7 +284,7 @@ def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, ma
     if model == HERTZ:
         res[I_LOSES] = 1.0 if stats[S_EVENTS] > 0 or stats[S_FLIGHT_TIME] > 0.0 else 0.0
     else:
-        res[I_LOSES] = 1.0 if stats[S_MIN_Q] < TAYLOR_CONTACT_LIMIT else 0.0
+        res[I_LOSES] = 1.0 if stats[S_MIN_Q] < TAYLOR_CONTACT_LOSS else 0.0
     if harmonics:
         for k in range(1, N_HARMONICS + 1):
             res[I_H1 + k - 1] = 2.0 / P * hypot(harm[0, k], harm[1, k])

@@ -1,4 +1,5 @@
-"""The ``hertzmap`` command line: ``hertzmap run STUDY.toml``, ``hertzmap status STORE``.
+"""The ``hertzmap`` command line: ``run``, ``status``, ``plot``, ``bench``. The only place that
+parses arguments.
 
 Subcommands register themselves in :data:`SUBCOMMANDS` (name -> (add_arguments, handler)),
 so ``plot``, ``bench``... can be added without touching the others.
@@ -71,6 +72,15 @@ def _run_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--solver", default=None, help=argparse.SUPPRESS)
 
 
+def run_command_line(args: argparse.Namespace) -> str:
+    """The command that resumes this run: the words the user typed, shell-quoted, without
+    ``--overwrite`` (rerunning with it would start the study again instead of resuming)."""
+    import shlex
+
+    words = [w for w in args.argv if w != "--overwrite"]
+    return "hertzmap " + shlex.join(words)
+
+
 @subcommand("run", "run (or resume) a study into a zarr store")(_run_args)
 def cmd_run(args: argparse.Namespace) -> int:
     from study.spec import StudyError, load_study
@@ -80,10 +90,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     except StudyError as exc:
         return _error(f"{args.study}: {exc}")
 
-    from scheduler.cluster import ClusterError, ClusterSpec, parse_cluster_options
+    from scheduler.cluster import ClusterSpec, parse_cluster_options
+    from scheduler.dry_run import describe
+    from scheduler.errors import ClusterError, RefusedError
     from scheduler.plan import DEFAULT_TASK_SECONDS, DEFAULT_TASK_TIMEOUT
-    from scheduler.run import (RunError, RunOptions, default_store_path, describe, run_study)
-    from scheduler.store import StoreError
+    from scheduler.run import RunOptions, default_store_path, run_study
     from scheduler.worker import DEFAULT_SOLVER
 
     try:
@@ -115,18 +126,20 @@ def cmd_run(args: argparse.Namespace) -> int:
         task_seconds=args.task_seconds or DEFAULT_TASK_SECONDS,
         task_timeout=args.task_timeout or DEFAULT_TASK_TIMEOUT,
         error_sample=8 if args.error_sample is None else args.error_sample,
-        command=f"hertzmap run {args.study}",
+        command=run_command_line(args),
     )
     try:
         if args.dry_run:
-            print(describe(study, opts))
+            print(describe(study, opts.store, opts.task_seconds, opts.cluster))
             print("dry run: nothing written")
             return EXIT_OK
         summary = run_study(study, opts)
-    except (StoreError, RunError, ClusterError) as exc:
+    except RefusedError as exc:
         return _error(str(exc))
-    except KeyboardInterrupt:
-        print("\nhertzmap: interrupted; rerun the same command to resume", file=sys.stderr)
+    except KeyboardInterrupt as exc:
+        if not getattr(exc, "reported", False):
+            print(f"\nhertzmap: interrupted; to resume, run again: {opts.command}",
+                  file=sys.stderr)
         return EXIT_INTERRUPTED
     return EXIT_OK if not summary["failed"] else EXIT_FAILED
 
@@ -142,7 +155,8 @@ def _status_args(p: argparse.ArgumentParser) -> None:
 
 @subcommand("status", "tasks done/total, study name and hash, versions of a store")(_status_args)
 def cmd_status(args: argparse.Namespace) -> int:
-    from scheduler.store import StoreError, store_status
+    from scheduler.errors import StoreError
+    from scheduler.store import store_status
 
     try:
         info = store_status(args.store, check=args.check)
@@ -173,7 +187,7 @@ def cmd_status(args: argparse.Namespace) -> int:
     return rc
 
 
-# -- plot (study/plots.py) --------------------------------------------------------------------
+# -- plot -------------------------------------------------------------------------------------
 
 def _plot_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("store", type=Path, nargs="?", help="a store written by hertzmap run")
@@ -188,11 +202,39 @@ def _plot_args(p: argparse.ArgumentParser) -> None:
 
 @subcommand("plot", "products of a store into its products/ groups, and PNG figures")(_plot_args)
 def cmd_plot(args: argparse.Namespace) -> int:
-    from study.plots import plot_command
-    return plot_command(args)
+    """Compute the products of a store (study.products), store them in its products/ groups
+    (scheduler.store) unless --no-products, and draw the figures (study.plots)."""
+    from scheduler.errors import StoreError
+    from scheduler.store import list_products, write_products
+    from study import plots
+    from study import products as P
+
+    if args.store is None and not args.paper:
+        return _error("plot: give a STORE or --paper FIG ...")
+    try:
+        paths = plots.plot_paper(args.paper, args.out) if args.paper else []
+        if args.store is not None:
+            if not (Path(args.store) / "zarr.json").is_file():
+                raise ValueError(f"{args.store} is not a zarr store")
+            ds = P.open_store(args.store)
+            prods = P.compute_products(ds)
+            if plots.wants_time_histories(ds, args.which):
+                prods["time_histories"] = P.time_histories(ds, rig=P.rig_of(ds))
+            if not args.no_products:
+                write_products(args.store, prods)
+            paths += plots.plot_results(ds, prods, args.out, args.which,
+                                        prefix=ds.attrs.get("hertzmap_study_name")
+                                        or Path(args.store).stem)
+    except (ValueError, KeyError, FileNotFoundError, StoreError) as exc:
+        return _error(f"plot: {exc}")
+    for p in paths:
+        print(p)
+    if args.store is not None and not args.no_products:
+        print(f"products: {', '.join(list_products(args.store))} in {args.store}/products/")
+    return EXIT_OK
 
 
-# -- bench (study/benchmark.py) --------------------------------------------------------------
+# -- bench (benchmarks/work_precision.py) -------------------------------------------------------
 
 def _bench_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, default=Path("results"), help="folder for bench.csv and bench.png")
@@ -201,9 +243,14 @@ def _bench_args(p: argparse.ArgumentParser) -> None:
 
 @subcommand("bench", "work-precision benchmark: hertzmap vs the paper's scheme vs scipy")(_bench_args)
 def cmd_bench(args: argparse.Namespace) -> int:
-    from study.benchmark import run_bench
-    run_bench(args.out, quick=args.quick)
-    return EXIT_OK
+    """Runs the benchmark harness (benchmarks/work_precision.py) as its own process: the
+    benchmarks stand above the packages and are not imported by them."""
+    import subprocess
+
+    cmd = [sys.executable, "-m", "benchmarks.work_precision", "--out", str(args.out)]
+    if args.quick:
+        cmd.append("--quick")
+    return subprocess.call(cmd)
 
 
 # -- entry point ------------------------------------------------------------------------------
@@ -222,7 +269,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
     args = parser.parse_args(argv)      # usage errors exit with code 2 (argparse)
+    args.argv = argv
     return args.handler(args)
 
 

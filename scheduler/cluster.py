@@ -4,6 +4,7 @@ cluster (Slurm, PBS). Always one thread per worker process (numba kernels, no GI
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import logging
 import os
@@ -12,8 +13,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 
-class ClusterError(Exception):
-    """The cluster cannot be set up as asked (bad option, missing optional dependency)."""
+from scheduler.errors import ClusterError
 
 
 JOBQUEUE = {"slurm": "SLURMCluster", "pbs": "PBSCluster", "sge": "SGECluster",
@@ -137,7 +137,10 @@ def make_client(spec: ClusterSpec):
             cluster = LocalCluster(n_workers=spec.workers or default_workers(),
                                    threads_per_worker=1, processes=True,
                                    dashboard_address=_dashboard_address(),
-                                   silence_logs=logging.ERROR)
+                                   # tasks that fail reach the client as exceptions and are
+                                   # reported there; the workers' own logs (heartbeats cut at
+                                   # shutdown) are noise to a user
+                                   silence_logs=logging.CRITICAL)
             return Client(cluster), cluster
     import dask_jobqueue
 
@@ -160,6 +163,33 @@ def make_client(spec: ClusterSpec):
     cluster = cls(**opts)
     cluster.scale(n=spec.workers or int(opts.get("processes") or conf.get("processes") or 1))
     return Client(cluster), cluster
+
+
+@contextlib.contextmanager
+def _quiet_logs():
+    """No log record of this process printed for the duration (Dask's loggers set their own
+    levels, e.g. distributed.client, so the parent logger's level is not enough)."""
+    logging.disable(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        logging.disable(logging.NOTSET)
+
+
+def close_quietly(client, cluster=None) -> None:
+    """Close the client, then the cluster hertzmap made, without printing Dask's shutdown noise.
+
+    The loggers of this process are silenced while the connections close (the embedded
+    cluster's worker processes log at CRITICAL only: see make_client). A loaded machine printed
+    a CommClosedError traceback from a worker heartbeat at shutdown; a study's results are
+    already in the store at this point, and nothing said then concerns them.
+    """
+    with _quiet_logs():
+        with contextlib.suppress(Exception):
+            client.close()
+        if cluster is not None:
+            with contextlib.suppress(Exception):
+                cluster.close()
 
 
 def worker_count(client) -> int:

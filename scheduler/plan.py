@@ -14,20 +14,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from study.dataset import chunk_counts, chunk_slices
+from study.schema import chunk_counts, chunk_slices
 from study.spec import Study
 
 #: Estimated seconds of solver work per grid point, per period searched (a 1T search, a 2T
 #: search). Calibrated on the block solver (see docs/running.md); used only to size tasks
 #: and for --dry-run estimates.
-SECONDS_PER_POINT = {1: 1.4e-4, 2: 6.4e-4}  # study.block, default window (zeta 0.01, 5 sigma
+SECONDS_PER_POINT = {1: 1.4e-4, 2: 6.4e-4}  # study.solve.block, default window (zeta 0.01, 5 sigma
 #: lines): 0.134 ms per point for 1T, 0.772 ms for 1T + 2T; measured 2026-11-23 on 2 cores
 #: Target duration of one task (seconds). Dask costs a few ms per task: 1 s keeps it < 1 %.
 #: extra per point with [search] discover = true (transients + continuation, ~1.5 s per
 #: 161-point line, docs/discovery.md)
 SECONDS_PER_POINT_DISCOVER = 1e-2
 DEFAULT_TASK_SECONDS = 1.0
-DEFAULT_TASK_TIMEOUT = 600.0   # wall-clock budget of one task (s): see study.block time_budget
+DEFAULT_TASK_TIMEOUT = 600.0   # wall-clock budget of one task (s): see solve_block's time_budget
 #: Longest omega block in one chunk.
 MAX_OMEGA_CHUNK = 4096
 #: Try to have at least this many tasks (better balance, finer progress and resume).

@@ -1,4 +1,6 @@
-"""The zarr store of a study: create it from the template, check it, write blocks, mark tasks.
+"""The zarr store of a study: create it from the template, check it, write blocks, mark tasks,
+write products, and the lock that keeps one writer per store. Every write into a store and
+every lock of hertzmap is here.
 
 The client process is the only writer. The template is written once with
 ``to_zarr(compute=False)`` (metadata, coordinates, an all-False ``task_done``); each finished
@@ -27,9 +29,10 @@ import zarr
 # all of a block's variables in one call
 from zarr.core.sync import sync as zarr_sync
 
-from study.dataset import (STORE_FORMAT, VARIABLES, history_line, parse_attrs,
-                           stored_variables, template)
-from study.spec import Study
+from scheduler.errors import StoreError
+from study.schema import (PRODUCT_GROUP, STORE_FORMAT, VARIABLES, history_line, parse_attrs,
+                          stored_variables, study_from_attrs, template)
+from study.spec import Study, StudyError
 
 ALL_CHUNKS_ATTR = "hertzmap_all_chunks_written"
 LOCK_SUFFIX = ".lock"      # the lock of STORE is the file STORE.lock next to it
@@ -38,10 +41,6 @@ LOCK_SUFFIX = ".lock"      # the lock of STORE is the file STORE.lock next to it
 def lock_path(store_path: str | Path) -> Path:
     p = Path(store_path)
     return p.with_name(p.name + LOCK_SUFFIX)
-
-
-class StoreError(Exception):
-    """The store cannot be used (belongs to another study, is not a zarr store, is locked...)."""
 
 
 @contextlib.contextmanager
@@ -378,16 +377,11 @@ def store_status(path: str | Path, check: bool = False) -> dict[str, Any]:
         info["locked_by"] = {"host": "?", "pid": "? (unreadable lock file)"}
     if check:
         from scheduler.plan import make_plan
-        from study.spec import StudyError, parse_study
 
         try:
-            study = parse_study(store.attrs.get("hertzmap_study_toml", ""),
-                                default_name=store.info["hertzmap_study_name"])
+            study = study_from_attrs(store.attrs)
         except StudyError as exc:
             raise StoreError(f"{store.path}: the study recorded in the store is invalid ({exc})") from None
-        if study.hash != store.study_hash:
-            raise StoreError(f"{store.path}: the recorded study does not match its hash "
-                             "(attrs edited or written by another version)")
         plan = make_plan(study, store.chunks)
         flagged = [t for t in plan.tasks if done[t.index]]
         damaged = store.verify(flagged, stored_variables(study))
@@ -395,3 +389,57 @@ def store_status(path: str | Path, check: bool = False) -> dict[str, Any]:
             damaged.setdefault(idx, []).append("task_done: flag unreadable")
         info["damaged"] = {"-".join(map(str, k)): v for k, v in sorted(damaged.items())}
     return info
+
+
+# -- products ----------------------------------------------------------------------------------
+
+def write_product(store: str | Path, name: str, product: xr.Dataset) -> str:
+    """Write a product (study.products) into the store as the zarr group
+    ``products/<name>`` (replacing it). Returns the group path.
+
+    Only that group is written: the main group's arrays and attrs are untouched (zarr's
+    consolidated metadata at the root is refreshed to list the group). Takes the store's lock
+    for the write, so it is refused while a ``hertzmap run`` holds it.
+    """
+    store = Path(store)
+    if not (store / "zarr.json").is_file():
+        raise StoreError(f"{store} is not a zarr store")
+    if not name or "/" in name or name.startswith("."):
+        raise ValueError(f"invalid product name {name!r}")
+    group = f"{PRODUCT_GROUP}/{name}"
+    product = product.copy()
+    product.attrs = {k: (json.dumps(v) if isinstance(v, (dict, list)) else v)
+                     for k, v in product.attrs.items()}
+    for v in product.variables.values():
+        v.encoding = {}
+    try:
+        lock = Lock(store)
+        lock.acquire()
+    except StoreError:
+        raise StoreError(f"{store} is locked by a running hertzmap run ({lock_path(store)}); "
+                         "write products when it has finished") from None
+    try:
+        with _quiet():
+            product.to_zarr(str(store), group=group, mode="w", consolidated=True)
+    finally:
+        lock.release()
+    return group
+
+
+def write_products(store: str | Path, products: dict[str, xr.Dataset]) -> list[str]:
+    """write_product for each product; returns the group paths."""
+    return [write_product(store, name, prod) for name, prod in products.items()]
+
+
+def read_product(store: str | Path, name: str) -> xr.Dataset:
+    """A stored product, in memory."""
+    with _quiet():
+        return xr.open_zarr(str(store), group=f"{PRODUCT_GROUP}/{name}", chunks=None).load()
+
+
+def list_products(store: str | Path) -> list[str]:
+    """Names of the products stored in a store."""
+    root = Path(store) / PRODUCT_GROUP
+    if not root.is_dir():
+        return []
+    return sorted(p.name for p in root.iterdir() if (p / "zarr.json").is_file())

@@ -1,6 +1,6 @@
 """What a Dask worker runs: plain, importable, module-level functions (never numba objects).
 
-The block solver is imported by name on the worker (``study.block:solve_block`` by default),
+The block solver is imported by name on the worker (``study.solve.block:solve_block`` by default),
 so nothing jitted is ever pickled; the :class:`Warmup` plugin imports it and runs one tiny
 solve when a worker starts, which loads (or compiles) the numba kernels once per process.
 """
@@ -16,7 +16,7 @@ from typing import Any, Callable
 import numpy as np
 from distributed import WorkerPlugin
 
-DEFAULT_SOLVER = "study.block:solve_block"
+DEFAULT_SOLVER = "study.solve.block:solve_block"
 
 _SOLVERS: dict[str, Callable[..., dict]] = {}
 
@@ -67,7 +67,7 @@ def run_task(spec: dict[str, Any]) -> dict[str, Any]:
     names (variables to return), solver ("module:function").
     Returns the arrays (only ``names``, contract-checked), the solve time and the worker pid.
     """
-    from study.dataset import VARIABLES, check_block
+    from study.schema import VARIABLES, check_block
 
     fn = load_solver(spec.get("solver", DEFAULT_SOLVER))
     omega = np.ascontiguousarray(spec["omega"], dtype=np.float64)

@@ -2,16 +2,17 @@
 
 Entry points:
 
-* :func:`plot_store` - compute the products of a store (``study.products``), write them back into
-  it, and write the figures the store supports into a folder (default ``results/``).
-  ``hertzmap plot STORE [--out DIR] [--which ...]`` calls it.
+* :func:`plot_results` - the figures a study's results support, from its products
+  (``study.products.compute_products``), into a folder. ``hertzmap plot STORE [--out DIR]
+  [--which ...]`` computes the products, stores them and calls it.
 * :func:`plot_paper` - the paper's analytic figures that need no store (Fig. 2, 3, 4, 5):
   ``hertzmap plot --paper fig02 fig03 fig04 fig05``.
 * One function per figure (``plot_loss_of_contact_map``, ``plot_map_measures``,
   ``plot_bifurcation_set``, ``plot_frequency_response``, ``plot_force_harmonics``,
   ``plot_time_histories``, ``paper_fig02`` ... ``paper_fig05``), each taking products and a path.
 
-No Dask, no scheduler. Figures are small (about 100 dpi) so that they can be committed.
+No Dask, no scheduler, no store writes. Figures are small (about 100 dpi) so that they can be
+committed.
 """
 from __future__ import annotations
 
@@ -27,12 +28,17 @@ import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.colors import BoundaryNorm, ListedColormap  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
 
+from kernels.model import TAYLOR_CONTACT_LOSS  # noqa: E402
 from study import products as P  # noqa: E402
+from study.analytic import multiple_scales as mms  # noqa: E402
+from study.analytic.rig import restoring_force  # noqa: E402
+from study.orbits import CLASS_LABELS  # noqa: E402
 
 __all__ = [
     "WHICH",
     "PAPER_FIGURES",
-    "plot_store",
+    "plot_results",
+    "wants_time_histories",
     "plot_paper",
     "plot_loss_of_contact_map",
     "plot_map_measures",
@@ -51,17 +57,10 @@ DPI = 100
 #: Figures of :func:`plot_store` ("auto": those the store supports).
 WHICH = ("map", "measures", "bifurcation", "response", "harmonics", "histories")
 
-#: Colours of the orbit classes (ORBIT_CLASSES codes 1..8).
-CLASS_STYLE = {
-    1: ("tab:blue", "I: 1T stable"),
-    2: ("tab:green", "II: 2T stable, contact"),
-    3: ("tab:red", "III: 2T stable, contact loss"),
-    4: ("#9ecae1", "IV: 2T unstable, contact"),
-    5: ("#fcae91", "V: 2T unstable, contact loss"),
-    6: ("tab:purple", "1T stable, contact loss"),
-    7: ("#c6c6c6", "1T unstable"),
-    8: ("#dadaeb", "1T unstable, contact loss"),
-}
+#: Colour and legend label of each orbit class (study.orbits codes 1..8).
+_CLASS_COLORS = {1: "tab:blue", 2: "tab:green", 3: "tab:red", 4: "#9ecae1", 5: "#fcae91",
+                 6: "tab:purple", 7: "#c6c6c6", 8: "#dadaeb"}
+CLASS_STYLE = {code: (color, CLASS_LABELS[code]) for code, color in _CLASS_COLORS.items()}
 
 #: Colours of the stable_set bit-mask combinations (loss-of-contact map).
 _SET_LABEL = {
@@ -370,15 +369,13 @@ def plot_time_histories(th, path, *, title=None, max_cases=6, largest_only=True)
 
 def paper_fig02(path) -> Path:
     """Fig. 2: Hertz restoring force (1 + 2q/3)^(3/2) and its Taylor approximation (Eq. 10)."""
-    from study.rig import restoring_force
-
     q = np.linspace(-2.0, 2.0, 401)
     taylor = 1 + q + q**2 / 6 - q**3 / 54
     fig, ax = plt.subplots(figsize=(5.5, 4), layout="constrained")
     ax.plot(q, restoring_force(q, 1.5), "k", lw=2.2, label="Hertz (1 + 2q/3)^(3/2), Eq. 7")
     ax.plot(q, taylor, "k", lw=0.9, label="Taylor, Eq. 10")
     ax.axvline(-1.5, color="tab:red", lw=0.6, ls=":")
-    ax.axvline(P.TAYLOR_CONTACT_LOSS, color="tab:blue", lw=0.6, ls=":")
+    ax.axvline(TAYLOR_CONTACT_LOSS, color="tab:blue", lw=0.6, ls=":")
     inside = (q >= -1) & (q <= 1)
     err = np.max(np.abs(restoring_force(q[inside], 1.5) - taylor[inside]))
     ax.text(0.02, 0.97, f"max |difference| on -1 < q < 1: {err:.4f}", transform=ax.transAxes,
@@ -392,8 +389,6 @@ def paper_fig02(path) -> Path:
 
 def paper_fig03(path, zeta=0.005) -> Path:
     """Fig. 3: MMS regions I, II, III in (omega, sigma) with sigma1, sigma2 (zeta = 0.005)."""
-    from study import multiple_scales as mms
-
     om = np.linspace(1.9, 2.1, 401)
     sg = np.linspace(0.0, 1.0, 301)
     W, S = np.meshgrid(om, sg)
@@ -428,13 +423,13 @@ def paper_fig04(path, sigma=0.5, zeta=0.01) -> Path:
 
 def paper_fig05(path, sigma=0.5, zeta=0.01, fr=None) -> Path:
     """Fig. 5: min q of the MMS subharmonic response against omega, with the Taylor contact-loss
-    level -1.348 (Eq. 12); optionally the numerical stable 2T orbits of a store (``fr``)."""
+    level (kernels.model.TAYLOR_CONTACT_LOSS, Eq. 12); optionally the numerical stable 2T orbits of a store (``fr``)."""
     r = P.mms_response(np.linspace(1.5, 2.3, 1601), sigma, zeta)
     fig, ax = plt.subplots(figsize=(5.5, 4), layout="constrained")
     ax.plot(r["omega"], r["min_q_upper"], "k", lw=1.8, label="MMS, stable branch")
     ax.plot(r["omega"], r["min_q_lower"], "k", lw=0.8, ls="--", label="MMS, unstable branch")
-    ax.axhline(P.TAYLOR_CONTACT_LOSS, color="tab:blue", lw=0.8, ls=":",
-               label="Taylor contact loss -1.348 (Eq. 12)")
+    ax.axhline(TAYLOR_CONTACT_LOSS, color="tab:blue", lw=0.8, ls=":",
+               label=f"Taylor contact loss {TAYLOR_CONTACT_LOSS:.4f} (Eq. 12)")
     ax.axhline(-1.5, color="tab:red", lw=0.8, ls=":", label="Hertz contact loss -1.5")
     if fr is not None:
         line = fr.sel(sigma=sigma, zeta=zeta, method="nearest")
@@ -481,30 +476,37 @@ def _zoom_for(fr, sigma, zeta):
     return (1.85, min(float(om.max()), 2.1))
 
 
-def plot_store(store: str | Path, out: str | Path = "results", which: Sequence[str] = ("auto",),
-               *, write_products: bool = True, prefix: str | None = None,
-               omegas: Sequence[float] | None = None) -> list[Path]:
-    """Products of a store (written back into it unless ``write_products`` is False) and the
-    figures it supports, into ``out`` as ``<study>_<figure>[_...].png``. Returns the paths.
-
-    ``which``: "auto" (everything the store supports), or names from :data:`WHICH`. Maps and
-    bifurcation sets need >= 2 omega and >= 2 sigma; response curves are drawn for studies
-    with at most 8 (sigma, zeta) lines; harmonics need the ``force_harmonics`` output; time
-    histories are drawn for studies with at most 8 omega values, or at ``omegas``.
-    """
+def _check_which(which: Sequence[str]) -> tuple[str, ...]:
     which = tuple(which)
-    auto = "auto" in which
     bad = [w for w in which if w not in WHICH + ("auto",)]
     if bad:
         raise ValueError(f"unknown figure(s) {bad}; choose from auto, {', '.join(WHICH)}")
-    store = Path(store)
-    ds = P.open_store(store)
-    prods = P.compute_products(ds, write=False)
-    if write_products:
-        for name, prod in prods.items():
-            P.write_product(store, name, prod)
-    rig = P.rig_of(ds)
-    name = prefix or ds.attrs.get("hertzmap_study_name") or store.stem
+    return which
+
+
+def wants_time_histories(ds, which: Sequence[str] = ("auto",)) -> bool:
+    """True when :func:`plot_results` draws time histories for these results: asked for, or
+    ``auto`` on a scene of at most 8 named frequencies. The caller then adds the
+    ``time_histories`` product (study.products.time_histories) to the products it passes."""
+    which = _check_which(which)
+    return "histories" in which or ("auto" in which and ds.sizes["omega"] <= 8)
+
+
+def plot_results(ds, prods, out: str | Path = "results", which: Sequence[str] = ("auto",),
+                 *, prefix: str | None = None) -> list[Path]:
+    """The figures that a study's results support, drawn from its products ``prods``
+    (study.products.compute_products, plus ``time_histories`` where wanted), into ``out`` as
+    ``<study>_<figure>[_...].png``. Returns the paths.
+
+    ``ds``: the results (study.products.open_store). ``which``: "auto" (everything the
+    results support), or names from :data:`WHICH`. Maps and bifurcation sets need >= 2 omega
+    and >= 2 sigma; response curves are drawn for studies with at most 8 (sigma, zeta) lines;
+    harmonics need the ``force_harmonics`` output; time histories need the ``time_histories``
+    product (see :func:`wants_time_histories`).
+    """
+    which = _check_which(which)
+    auto = "auto" in which
+    name = prefix or ds.attrs.get("hertzmap_study_name") or "study"
     out = Path(out)
     paths: list[Path] = []
     is_map = ds.sizes["omega"] >= 2 and ds.sizes["sigma"] >= 2
@@ -546,35 +548,9 @@ def plot_store(store: str | Path, out: str | Path = "results", which: Sequence[s
                 tag = f"_sigma{s:g}" + (f"_zeta{z:g}" if multi_z else "") if nlines > 1 else ""
                 paths.append(plot_force_harmonics(fh, out / f"{name}_harmonics{tag}.png",
                                                   sigma=s, zeta=z))
-    want_hist = "histories" in which or (auto and few)
-    if want_hist:
-        th = P.time_histories(ds, omegas, rig=rig)
-        if write_products:
-            P.write_product(store, "time_histories", th)
-        if th.sizes["case"]:
-            paths.append(plot_time_histories(th, out / f"{name}_histories.png"))
+    th = prods.get("time_histories")
+    if th is not None and th.sizes["case"]:
+        paths.append(plot_time_histories(th, out / f"{name}_histories.png"))
     return paths
 
 
-def plot_command(args) -> int:
-    """``hertzmap plot`` (scheduler/cli.py): returns the exit code (0, or 2 on a usage error)."""
-    import sys
-
-    if args.store is None and not args.paper:
-        print("hertzmap: error: plot: give a STORE or --paper FIG ...", file=sys.stderr)
-        return 2
-    try:
-        paths = plot_paper(args.paper, args.out) if args.paper else []
-        if args.store is not None:
-            if not (Path(args.store) / "zarr.json").is_file():
-                raise ValueError(f"{args.store} is not a zarr store")
-            paths += plot_store(args.store, args.out, args.which,
-                                write_products=not args.no_products)
-    except (ValueError, KeyError, FileNotFoundError, RuntimeError) as exc:
-        print(f"hertzmap: error: plot: {exc}", file=sys.stderr)
-        return 2
-    for p in paths:
-        print(p)
-    if args.store is not None and not args.no_products:
-        print(f"products: {', '.join(P.list_products(args.store))} in {args.store}/products/")
-    return 0

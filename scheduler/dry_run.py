@@ -1,0 +1,55 @@
+"""``hertzmap run --dry-run``: the plan of a study and what it would cost, without writing."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from scheduler.plan import Plan, choose_chunks, make_plan
+from scheduler.report import fmt_bytes, fmt_time
+from scheduler.resources import check_resources
+from scheduler.store import Store, StoreError, read_attrs
+from study.schema import bytes_per_point, stored_variables
+from study.spec import Study
+
+
+def plan_for(study: Study, store_path: Path, task_seconds: float) -> tuple[Plan, str]:
+    """The plan, reusing the chunk shape of an existing store of the same study.
+    Reads only. Returns (plan, note about the store)."""
+    attrs = read_attrs(store_path) if store_path.exists() else None
+    if attrs is not None and attrs.get("hertzmap_study_hash") == study.hash:
+        plan = make_plan(study, tuple(attrs["hertzmap_chunk_shape"]))
+        try:
+            done = int(Store(store_path).done_mask().sum())
+        except (StoreError, KeyError):
+            done = 0
+        return plan, f"exists (same study): resume, {done}/{len(plan.tasks)} tasks done"
+    plan = make_plan(study, choose_chunks(study, task_seconds))
+    if attrs is not None:
+        return plan, "exists (another study or not hertzmap): refused unless --overwrite"
+    if store_path.exists():
+        return plan, "path exists and is not a zarr store: refused"
+    return plan, "new"
+
+
+def describe(study: Study, store_path: Path, task_seconds: float, cluster) -> str:
+    """The --dry-run report. Raises RunError when the study cannot fit (disk, memory)."""
+    plan, note = plan_for(study, store_path, task_seconds)
+    check_resources(study, plan, store_path, new_store=not note.startswith("exists (same"))
+    n_o, n_s, n_z = study.shape
+    size = study.size * bytes_per_point(study)
+    est = plan.estimated_seconds()
+    workers = cluster.workers if cluster.kind == "local" else None
+    per_worker = f", about {fmt_time(est / (workers or 1))} on {workers} workers" if workers else ""
+    lines = [
+        f"study        {study.name} (hash {study.hash[:12]})",
+        f"grid         {n_o} omega x {n_s} sigma x {n_z} zeta = {study.size} points, "
+        f"{study.max_solutions} solution slots, periods {list(study.periods)}",
+        f"model        {study.model}" + (f" exponent {study.exponent}" if study.exponent else "")
+        + f", rtol {study.rtol:g}",
+        f"products     {', '.join(study.products)} -> {', '.join(stored_variables(study))}",
+        f"tasks        {len(plan.tasks)} (chunk {plan.chunks[0]} omega x {plan.chunks[1]} sigma x "
+        f"{plan.chunks[2]} zeta; about {fmt_time(est / max(1, len(plan.tasks)))} each)",
+        f"compute      about {fmt_time(est)} of one core{per_worker} (estimate)",
+        f"store        {store_path} ({note}); about {fmt_bytes(size)} uncompressed",
+        f"runs on      {cluster.describe()}",
+    ]
+    return "\n".join(lines)

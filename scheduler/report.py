@@ -1,0 +1,65 @@
+"""What a run prints: sizes and durations in words, and the summary at the end of a run."""
+from __future__ import annotations
+
+import math
+from typing import Any, TextIO
+
+
+def fmt_bytes(n: float) -> str:
+    for unit in ("B", "kB", "MB", "GB", "TB"):
+        if n < 1000 or unit == "TB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
+        n /= 1000
+    return f"{n} B"  # pragma: no cover
+
+
+def fmt_time(s: float) -> str:
+    if not math.isfinite(s):
+        return "?"
+    s = int(round(s))
+    h, rem = divmod(s, 3600)
+    m, sec = divmod(rem, 60)
+    return f"{h}h{m:02d}m{sec:02d}s" if h else (f"{m}m{sec:02d}s" if m else f"{sec}s")
+
+
+def overhead_line(s: dict[str, Any]) -> str:
+    """Where the workers' time went. With fewer tasks than workers, the idle workers are not
+    Dask's overhead: the share is then of the busy workers' time, and the line says so."""
+    busy = min(s["workers"], max(1, s["tasks_run"]))
+    head = (f"dask overhead: {100 * s['overhead']:.1f} % (task compute {s['compute']:.2f} s over "
+            f"{busy} busy worker{'s' if busy > 1 else ''} x {s['wall']:.2f} s wall; "
+            f"{1000 * s['per_task']:.0f} ms per task)")
+    if busy < s["workers"]:
+        head += (f"; {s['tasks_run']} task{'s' if s['tasks_run'] > 1 else ''} for "
+                 f"{s['workers']} workers, so {s['workers'] - busy} stayed idle")
+    return head
+
+
+def print_summary(s: dict[str, Any], out: TextIO) -> None:
+    lines = [
+        f"done: {s['tasks_run']} tasks, {s['points']} points in {s['wall']:.2f} s wall on "
+        f"{s['workers']} workers ({s['points_per_second']:,.0f} points/s; setup {s['setup']:.1f} s)",
+        f"orbits: {s['orbits']} converged ({s['orbits_per_second']:,.0f} orbits/s), "
+        f"{s['failed_slots']} failed slots, converged fraction {s['converged_fraction']:.4f}, "
+        f"{s['points_with_orbit']} points with at least one orbit",
+        overhead_line(s),
+    ]
+    if s.get("time_limited"):
+        lines.append(f"time limit: {s['time_limited']} grid points not solved within "
+                     f"--task-timeout (status time_limit); rerun with --overwrite and a larger "
+                     f"--task-timeout to compute them")
+    e = s.get("error") or {}
+    if e.get("failed"):
+        lines.append(f"error estimate: failed ({e['failed']})")
+    elif e.get("n"):
+        lines.append(f"error estimate: max |d(q0, v0)| = {e['max_deviation']:.2e} over "
+                     f"{e['matched']}/{e['n']} sampled orbits re-solved at rtol {e['rtol_ref']:g}"
+                     f" (wall {s['wall']:.2f} s; in the store's attrs: hertzmap_error_estimate)"
+                     + (" (reference rtol not tighter than the run's)" if e.get("ref_equals_run") else ""))
+    lines.append(f"store: {s['store']} ({s['tasks_done_before'] + s['tasks_run']}/{s['tasks_total']} tasks done)")
+    if s["failed"]:
+        lines.append(f"FAILED tasks: {len(s['failed'])} (rerun the same command to retry them)")
+        for key, msg in s["failed"][:5]:
+            lines.append(f"  {key}: {msg}")
+    out.write("\n".join(lines) + "\n")
+    out.flush()

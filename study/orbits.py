@@ -1,0 +1,134 @@
+"""What a computed orbit is, defined once: its class (paper Fig. 6, extended) and when two
+computed orbits are the same orbit.
+
+Both rules are used by the solver (to keep each orbit once at a grid point), by the products (to
+classify and count the stored slots) and by the tests; nothing else defines them.
+
+Classes
+-------
+Codes 1-5 are paper Fig. 6's classes I-V; 6-8 extend them to the 1T orbits the paper does not
+label (the primary resonance with contact loss, and the unstable 1T orbits between folds or past a
+flip). Code 0 is an empty slot, a failed solve or a point not computed.
+
+Identity
+--------
+Two orbits are the same when they have the same period and the same invariants: min q, max q
+(within ``SAME_ORBIT_TOL (1 + ptp)``) and the trace of the monodromy (within
+``SAME_ORBIT_TOL (1 + |tr M|)``). The invariants do not change under the T-shift of a 2T orbit
+(its two start points at tau = 0 and tau = T are one orbit), and the trace separates a 1T orbit
+from the 2T solve that landed on it (whose monodromy is M^2). The tolerance is four orders above
+the solver's accuracy (rtol 1e-10 gives start points within ~1e-9) and far below the distance
+between distinct coexisting orbits on the paper's maps.
+"""
+from __future__ import annotations
+
+from typing import Any, Mapping
+
+import numpy as np
+
+__all__ = [
+    "ORBIT_CLASSES",
+    "CLASS_NAMES",
+    "CLASS_LABELS",
+    "SAME_ORBIT_TOL",
+    "class_code",
+    "class_codes",
+    "same_orbit",
+    "first_of_duplicates",
+]
+
+#: (code, flag name, description) of every orbit class.
+ORBIT_CLASSES: tuple[tuple[int, str, str], ...] = (
+    (0, "none", "empty slot, failed solve or not computed"),
+    (1, "I_1T_stable", "I: 1T stable, in contact"),
+    (2, "II_2T_stable_contact", "II: 2T stable without loss of contact"),
+    (3, "III_2T_stable_contact_loss", "III: 2T stable with loss of contact"),
+    (4, "IV_2T_unstable_contact", "IV: 2T unstable without loss of contact"),
+    (5, "V_2T_unstable_contact_loss", "V: 2T unstable with loss of contact"),
+    (6, "1T_stable_contact_loss", "1T stable with loss of contact (primary resonance impacts)"),
+    (7, "1T_unstable_contact", "1T unstable, in contact"),
+    (8, "1T_unstable_contact_loss", "1T unstable with loss of contact"),
+)
+#: Code -> description.
+CLASS_NAMES = {code: desc for code, _, desc in ORBIT_CLASSES}
+#: Code -> short label (legends of figures).
+CLASS_LABELS = {1: "I: 1T stable", 2: "II: 2T stable, contact", 3: "III: 2T stable, contact loss",
+                4: "IV: 2T unstable, contact", 5: "V: 2T unstable, contact loss",
+                6: "1T stable, contact loss", 7: "1T unstable", 8: "1T unstable, contact loss"}
+
+#: Relative tolerance of the identity rule (see the module docstring).
+SAME_ORBIT_TOL = 1e-6
+
+
+def class_codes(ok, period, stable, loses_contact) -> np.ndarray:
+    """Class code of each orbit from its flags (arrays broadcast; int8). ``ok``: the slot holds a
+    converged orbit (else class 0)."""
+    ok = np.asarray(ok, bool)
+    period = np.asarray(period)
+    p1 = ok & (period == 1)
+    p2 = ok & (period == 2)
+    s = np.asarray(stable, bool)
+    lc = np.asarray(loses_contact, bool)
+    code = np.zeros(np.broadcast(ok, period, s, lc).shape, np.int8)
+    code[p1 & s & ~lc] = 1
+    code[p2 & s & ~lc] = 2
+    code[p2 & s & lc] = 3
+    code[p2 & ~s & ~lc] = 4
+    code[p2 & ~s & lc] = 5
+    code[p1 & s & lc] = 6
+    code[p1 & ~s & ~lc] = 7
+    code[p1 & ~s & lc] = 8
+    return code
+
+
+def class_code(orbit) -> int:
+    """Class code of one converged orbit: a solution mapping (study.solve) or a kernels.Orbit."""
+    get = orbit.get if isinstance(orbit, Mapping) else lambda k: getattr(orbit, k)
+    return int(class_codes(True, get("period"), bool(get("stable")),
+                           bool(get("loses_contact"))))
+
+
+def _trace(orbit: Any) -> float:
+    if isinstance(orbit, Mapping):
+        if "trace" in orbit:
+            return float(orbit["trace"])
+        return float(np.sum(orbit["multipliers"]).real)
+    return float(np.sum(orbit.multipliers).real)
+
+
+def same_orbit(a, b) -> bool:
+    """The identity rule on two converged orbits (mappings with period, min_q, max_q, ptp and
+    trace or multipliers, or kernels.Orbit objects)."""
+    get_a = a.get if isinstance(a, Mapping) else lambda k: getattr(a, k)
+    get_b = b.get if isinstance(b, Mapping) else lambda k: getattr(b, k)
+    if get_a("period") != get_b("period"):
+        return False
+    tol = SAME_ORBIT_TOL * (1.0 + abs(get_a("ptp")))
+    ta, tb = _trace(a), _trace(b)
+    return (abs(get_a("min_q") - get_b("min_q")) <= tol
+            and abs(get_a("max_q") - get_b("max_q")) <= tol
+            and abs(ta - tb) <= SAME_ORBIT_TOL * (1.0 + abs(ta)))
+
+
+def first_of_duplicates(ok, period, min_q, max_q, trace) -> np.ndarray:
+    """The identity rule over stored slots: bool array (like ``ok``, slots on the last axis),
+    True for each converged slot that is not the same orbit as a converged slot before it.
+    ``trace``: tr M of each slot (the sum of its two multipliers)."""
+    ok = np.asarray(ok, bool)
+    per = np.asarray(period)
+    lo = np.asarray(min_q, float)
+    hi = np.asarray(max_q, float)
+    tr = np.asarray(trace, float)
+    keep = ok.copy()
+    n = ok.shape[-1]
+    with np.errstate(invalid="ignore"):
+        for j in range(1, n):
+            for i in range(j):
+                tol = SAME_ORBIT_TOL * (1.0 + np.abs(hi[..., i] - lo[..., i]))
+                same = (keep[..., i] & ok[..., j] & (per[..., i] == per[..., j])
+                        & (np.abs(lo[..., i] - lo[..., j]) <= tol)
+                        & (np.abs(hi[..., i] - hi[..., j]) <= tol)
+                        & (np.abs(tr[..., i] - tr[..., j])
+                           <= SAME_ORBIT_TOL * (1.0 + np.abs(tr[..., i]))))
+                keep[..., j] &= ~same
+    return keep

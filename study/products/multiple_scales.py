@@ -1,0 +1,79 @@
+"""The multiple-scales results as products: the sigma1 / sigma2 thresholds (paper Eq. 25-27,
+Fig. 3, 7, 9) and the frequency response A(omega), min q (Fig. 4, 5), from
+study.analytic.multiple_scales."""
+from __future__ import annotations
+
+from typing import Iterable
+
+import numpy as np
+import xarray as xr
+
+from kernels.model import TAYLOR_CONTACT_LOSS
+from study.analytic import multiple_scales as mms
+from study.products.results import var_attrs
+
+#: MMS curves are computed on |omega - 2| <= MMS_HALF_WIDTH (the expansion is about omega = 2).
+MMS_HALF_WIDTH = 0.25
+
+
+def mms_curves(omega: Iterable[float], zeta: Iterable[float]) -> xr.Dataset:
+    """MMS thresholds on an omega grid: sigma1 (Eq. 25a), sigma2 (Eq. 25b, implicit, derived
+    gamma), region boundaries of paper Fig. 3; and sigma* per zeta (Eq. 26, and the minimum of
+    sigma2). Dims (omega, zeta)."""
+    om = np.asarray(list(omega), float)
+    zt = np.atleast_1d(np.asarray(list(zeta) if not np.isscalar(zeta) else [zeta], float))
+    W, Z = np.meshgrid(om, zt, indexing="ij")
+    with np.errstate(all="ignore"):
+        s1 = np.asarray(mms.sigma1(W, Z), float)
+        s2 = np.asarray(mms.sigma2(W, Z), float)
+        # sigma1 bounds region II only on the softening side: left of the minimum of sigma2
+        # (where the two curves meet), and where it lies below sigma2
+        w_min = om[np.nanargmin(np.where(np.isfinite(s2), s2, np.inf), axis=0)] if om.size else 2.0
+        s1 = np.where(np.isfinite(s2) & (s1 <= s2) & (W <= w_min[None, :]), s1, np.nan)
+        star = np.asarray(mms.sigma_star(zt, "paper"), float)
+        smin = np.asarray(mms.sigma_star(zt, "min"), float)
+    out = xr.Dataset(
+        {"sigma1": (("omega", "zeta"), s1, var_attrs(
+            "MMS saddle-node threshold sigma1", "1",
+            "Eq. 25a, 2 zeta / |beta|: lower bound of region II (drawn on the softening side, "
+            "left of the minimum of sigma2)")),
+         "sigma2": (("omega", "zeta"), s2, var_attrs(
+             "MMS flip threshold sigma2", "1",
+             "Eq. 25b solved exactly as an implicit equation, with the re-derived gamma (Eq. 22, "
+             "see docs/analytic.md)")),
+         "sigma_star": (("zeta",), np.broadcast_to(star, zt.shape).copy(), var_attrs(
+             "MMS threshold sigma*", "1", "Eq. 26 as printed: 36 zeta / (1 + 16 zeta^2 / 9)")),
+         "sigma_star_min": (("zeta",), np.broadcast_to(smin, zt.shape).copy(), var_attrs(
+             "minimum of the MMS flip curve", "1", "min over omega of sigma2 (derived gamma)"))},
+        coords={"omega": ("omega", om, var_attrs("excitation frequency", "1",
+                                              "dimensionless excitation frequency")),
+                "zeta": ("zeta", zt, var_attrs("damping ratio", "1", "damping ratio"))})
+    out.attrs = {"title": "multiple-scales thresholds (paper Eq. 25-27, Fig. 3, 7, 9)"}
+    return out
+
+
+def mms_response(omega: Iterable[float], sigma: float, zeta: float) -> xr.Dataset:
+    """MMS frequency response at one (sigma, zeta): A (Eq. 23) and min q (Fig. 5) of the upper
+    (stable) and lower (unstable) branches, and the region (Fig. 3). Dim omega."""
+    om = np.asarray(list(omega), float)
+    with np.errstate(all="ignore"):
+        data = {}
+        for br in ("upper", "lower"):
+            data[f"A_{br}"] = (("omega",), np.asarray(mms.amplitude(om, sigma, zeta, br), float),
+                               var_attrs(f"MMS subharmonic amplitude, {br} branch", "1",
+                                      f"A of Eq. 23, {br} (" + ("stable" if br == "upper" else
+                                                                "unstable") + ") root"))
+            data[f"min_q_{br}"] = (("omega",), np.asarray(mms.min_response(om, sigma, zeta, br),
+                                                          float),
+                                   var_attrs(f"MMS minimum of q, {br} branch", "1",
+                                          "minimum over 2T of the response Eq. 19 (Fig. 5)"))
+        data["region"] = (("omega",), np.asarray(mms.region(om, sigma, zeta), np.int8), var_attrs(
+            "MMS region", "1", "region of paper Fig. 3 (1: I, 2: II, 3: III)",
+            flag_values=np.array([1, 2, 3], np.int8), flag_meanings="I II III"))
+    out = xr.Dataset(data, coords={"omega": ("omega", om, var_attrs(
+        "excitation frequency", "1", "dimensionless excitation frequency"))})
+    out.attrs = {"title": "multiple-scales frequency response (paper Fig. 4, 5)",
+                 "sigma": float(sigma), "zeta": float(zeta),
+                 "taylor_contact_loss": TAYLOR_CONTACT_LOSS}
+    return out
+

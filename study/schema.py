@@ -1,0 +1,420 @@
+"""The stored schema of a study, defined once: variables, dims, dtypes, fill values, units, flags,
+attrs, and the dataset a store starts from (no Dask, no I/O).
+
+One xarray Dataset per study, dims ``omega``, ``sigma``, ``zeta``, ``solution`` (plus
+``multiplier`` and ``harmonic`` for the two vector-valued variables) and a completion array
+``task_done`` over the chunk grid (dims ``omega_chunk``, ``sigma_chunk``, ``zeta_chunk``).
+
+Everything that writes or reads a store takes its variables from :data:`VARIABLES`: the block
+solver allocates its arrays with :func:`empty_arrays`, the scheduler turns :func:`template` into
+the store (``scheduler.store``) and region-writes each block, products read them back.
+Every variable and coordinate carries ``long_name``, ``units`` and ``description``; code
+variables carry ``flag_values``/``flag_meanings``. See docs/dataset.md for the reference.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import importlib.metadata
+import json
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+import xarray as xr
+
+from kernels import status as _status
+from kernels.integrate import N_HARMONICS
+from study.spec import Study, StudyError, parse_study
+
+__all__ = [
+    "VarSpec",
+    "VARIABLES",
+    "ORBIT_VARIABLES",
+    "LINE_VARIABLES",
+    "BIFURCATION_SLOTS",
+    "BIFURCATION_KINDS",
+    "empty_arrays",
+    "study_from_attrs",
+    "PRODUCT_VARIABLES",
+    "GRID_DIMS",
+    "PRODUCT_GROUP",
+    "STORE_FORMAT",
+    "stored_variables",
+    "template",
+    "block_dataset",
+    "check_block",
+    "chunk_counts",
+    "chunk_slices",
+    "bytes_per_point",
+    "software_versions",
+    "history_line",
+    "code_fingerprint",
+    "parse_attrs",
+]
+
+#: Version of the store layout written by this module (an attr of every store).
+STORE_FORMAT = 1
+
+GRID_DIMS = ("omega", "sigma", "zeta", "solution")
+#: Products (study.products) are stored in the study's store as zarr groups PRODUCT_GROUP/<name>.
+PRODUCT_GROUP = "products"
+#: Dims of the per-block variables (located bifurcation points): one entry per omega chunk of
+#: the store and (sigma, zeta) line, so that each task writes exactly its own chunk.
+BLOCK_DIMS = ("omega_block", "sigma", "zeta")
+#: Located bifurcation points kept per omega line of a block; more are dropped
+#: (``bifurcation_count`` says how many were found).
+BIFURCATION_SLOTS = 16
+#: Codes of ``bifurcation_kind`` (0: empty slot).
+BIFURCATION_KINDS = {"fold": 1, "flip": 2, "grazing": 3}
+BIFURCATION_FLAGS = ((0, "empty"),) + tuple((c, k) for k, c in BIFURCATION_KINDS.items())
+CHUNK_DIMS = ("omega_chunk", "sigma_chunk", "zeta_chunk")
+
+
+@dataclass(frozen=True)
+class VarSpec:
+    name: str
+    dtype: str
+    fill: Any                  # value of an empty slot (and the zarr fill_value)
+    long_name: str
+    units: str
+    description: str
+    extra_dim: tuple[str, int] | None = None    # trailing dim (name, length)
+    flags: tuple[tuple[int, str], ...] | None = None
+    per_block: bool = False    # dims BLOCK_DIMS (+ extra) instead of GRID_DIMS (+ extra)
+
+    @property
+    def dims(self) -> tuple[str, ...]:
+        lead = BLOCK_DIMS if self.per_block else GRID_DIMS
+        return lead + ((self.extra_dim[0],) if self.extra_dim else ())
+
+    def attrs(self) -> dict[str, Any]:
+        a: dict[str, Any] = {"long_name": self.long_name, "units": self.units,
+                             "description": self.description}
+        if self.flags:
+            a["flag_values"] = np.array([v for v, _ in self.flags], dtype=self.dtype)
+            a["flag_meanings"] = " ".join(m for _, m in self.flags)
+        return a
+
+
+_STATUS_FLAGS = tuple(sorted(_status.NAMES.items()))
+
+VARIABLES: dict[str, VarSpec] = {v.name: v for v in [
+    # -- orbits (always stored) ----------------------------------------------------------
+    VarSpec("period", "int8", 0, "period of the orbit", "1",
+            "period of the periodic response in forcing periods T = 2 pi / omega "
+            "(1: 1T orbit, 2: 2T orbit, 0: empty slot)",
+            flags=((0, "empty"), (1, "period_1T"), (2, "period_2T"))),
+    VarSpec("status", "int8", _status.EMPTY, "solver status", "1",
+            "outcome of the solve for this slot (kernels/status.py); only status 0 "
+            "(converged) slots hold a periodic orbit", flags=_STATUS_FLAGS),
+    VarSpec("q0", "float64", math.nan, "displacement at tau = 0", "1",
+            "dimensionless displacement q = 3 (z - z_s) / (2 z_s) of the orbit at tau = 0 "
+            "(start point of the periodic orbit); contact is lost at q = -exponent"),
+    VarSpec("v0", "float64", math.nan, "velocity at tau = 0", "1",
+            "dimensionless velocity dq/dtau of the orbit at tau = 0"),
+    VarSpec("multipliers", "complex128", complex(math.nan, 0.0), "Floquet multipliers", "1",
+            "the two eigenvalues of the monodromy matrix over the orbit's period "
+            "(their product is exp(-2 zeta P) for an orbit of period P = period * T)",
+            extra_dim=("multiplier", 2)),
+    VarSpec("stable", "bool", False, "orbit is stable", "1",
+            "True when both Floquet multipliers lie inside the unit circle"),
+    # -- measures ----------------------------------------------------------------------------
+    VarSpec("min_q", "float64", math.nan, "minimum displacement over the orbit", "1",
+            "minimum of q over one period of the orbit"),
+    VarSpec("max_q", "float64", math.nan, "maximum displacement over the orbit", "1",
+            "maximum of q over one period of the orbit"),
+    VarSpec("ptp", "float64", math.nan, "peak-to-peak displacement", "1",
+            "max_q - min_q"),
+    VarSpec("loses_contact", "bool", False, "orbit loses contact", "1",
+            "True when q reaches the loss-of-contact threshold q = -exponent during the orbit"),
+    VarSpec("flight_fraction", "float64", math.nan, "fraction of the period in flight", "1",
+            "fraction of the orbit's period spent out of contact (0..1)"),
+    VarSpec("max_impact_velocity", "float64", math.nan, "largest impact velocity", "1",
+            "largest |dq/dtau| at recontact (q = -exponent) over one period of the orbit"),
+    # -- force harmonics ---------------------------------------------------------------------
+    VarSpec("force_harmonics", "float64", math.nan, "contact force harmonic amplitudes", "1",
+            "amplitude of the contact force F(q) (in units of the static preload) at the "
+            f"frequencies k omega / period, k = 1..{N_HARMONICS}",
+            extra_dim=("harmonic", N_HARMONICS)),
+    # -- diagnostics --------------------------------------------------------------------------
+    VarSpec("newton_iterations", "int16", 0, "Newton iterations", "1",
+            "number of Newton (shooting) iterations used for this slot"),
+    VarSpec("residual", "float64", math.nan, "final shooting residual", "1",
+            "|Phi_P(x0) - x0| at the returned start point"),
+    # -- bifurcations (per omega block and (sigma, zeta) line) ---------------------------------
+    VarSpec("bifurcation_omega", "float64", math.nan, "omega of a located bifurcation point", "1",
+            "excitation frequency of a fold, flip or grazing point located on a branch along the "
+            "omega line (sigma, zeta), within the omega range of the block; refined to a zero of "
+            "the test function (|g| ~ 1e-14) by kernels.continuation; ordered by omega; NaN: "
+            "empty slot", extra_dim=("bifurcation", BIFURCATION_SLOTS), per_block=True),
+    VarSpec("bifurcation_kind", "int8", 0, "kind of the located bifurcation point", "1",
+            "1 fold (a multiplier +1: zero of 1 - tr M + det M), 2 flip (a multiplier -1: zero "
+            "of 1 + tr M + det M), 3 grazing (onset of contact loss: zero of min q + n), "
+            "0 empty slot", extra_dim=("bifurcation", BIFURCATION_SLOTS),
+            flags=BIFURCATION_FLAGS, per_block=True),
+    VarSpec("bifurcation_period", "int8", 0, "period of the orbit at the point", "1",
+            "period of the branch the point lies on, in forcing periods (1: 1T, 2: 2T; 0 empty)",
+            extra_dim=("bifurcation", BIFURCATION_SLOTS),
+            flags=((0, "empty"), (1, "period_1T"), (2, "period_2T")), per_block=True),
+    VarSpec("bifurcation_q0", "float64", math.nan, "displacement at tau = 0 at the point", "1",
+            "start point q(0) of the periodic orbit at the located point",
+            extra_dim=("bifurcation", BIFURCATION_SLOTS), per_block=True),
+    VarSpec("bifurcation_v0", "float64", math.nan, "velocity at tau = 0 at the point", "1",
+            "start point dq/dtau(0) of the periodic orbit at the located point",
+            extra_dim=("bifurcation", BIFURCATION_SLOTS), per_block=True),
+    VarSpec("bifurcation_count", "int16", -1, "number of located bifurcation points", "1",
+            "points located along the line in the block's omega range; more than the "
+            f"{BIFURCATION_SLOTS} slots means the extra ones (highest omega) were dropped; "
+            "-1: not located (block not computed, or its time budget ran out)", per_block=True),
+]}
+
+#: Per-slot variables of an orbit (dims GRID_DIMS + extra), in schema order.
+ORBIT_VARIABLES: tuple[str, ...] = tuple(n for n, v in VARIABLES.items() if not v.per_block)
+#: Per-line variables (dims BLOCK_DIMS + extra): the located bifurcation points.
+LINE_VARIABLES: tuple[str, ...] = tuple(n for n, v in VARIABLES.items() if v.per_block)
+
+
+def empty_arrays(shape: tuple[int, int, int], max_solutions: int,
+                 names: tuple[str, ...] | None = None) -> dict[str, np.ndarray]:
+    """The arrays of one block (``shape`` = (len(omega), len(sigma), len(zeta))) with every slot
+    empty: each variable at its fill value and dtype. Per-line variables get leading dims
+    (1, len(sigma), len(zeta)). ``names``: a subset (default: every variable)."""
+    out = {}
+    for name in (tuple(VARIABLES) if names is None else names):
+        v = VARIABLES[name]
+        lead = (1,) + tuple(shape[1:]) if v.per_block else tuple(shape) + (int(max_solutions),)
+        trail = (v.extra_dim[1],) if v.extra_dim else ()
+        out[name] = np.full(lead + trail, v.fill, dtype=v.dtype)
+    return out
+
+
+PRODUCT_VARIABLES: dict[str, tuple[str, ...]] = {
+    "orbits": ("period", "status", "q0", "v0", "multipliers", "stable"),
+    "measures": ("min_q", "max_q", "ptp", "loses_contact", "flight_fraction", "max_impact_velocity"),
+    "force_harmonics": ("force_harmonics",),
+    "diagnostics": ("newton_iterations", "residual"),
+    "bifurcations": ("bifurcation_omega", "bifurcation_kind", "bifurcation_period",
+                     "bifurcation_q0", "bifurcation_v0", "bifurcation_count"),
+}
+
+_COORD_ATTRS = {
+    "omega": {"long_name": "excitation frequency", "units": "1",
+              "description": "forcing frequency divided by the linearised natural frequency "
+                             "of the preloaded contact (dimensionless time tau = Omega t)"},
+    "sigma": {"long_name": "excitation amplitude", "units": "1",
+              "description": "amplitude of the harmonic force divided by the static preload"},
+    "zeta": {"long_name": "damping ratio", "units": "1",
+             "description": "viscous damping ratio (q'' + 2 zeta q' + F(q) = 1 + sigma cos(omega tau))"},
+    "solution": {"long_name": "solution slot", "units": "1",
+                 "description": "index of a coexisting periodic solution at a grid point; "
+                                "slots are filled from 0, empty slots have status -1"},
+    "multiplier": {"long_name": "Floquet multiplier index", "units": "1",
+                   "description": "index of the multiplier (order as returned by the block solver)"},
+    "harmonic": {"long_name": "harmonic order", "units": "1",
+                 "description": "k: the component at frequency k omega / period"},
+    "bifurcation": {"long_name": "bifurcation point slot", "units": "1",
+                    "description": "index of a located bifurcation point along the line "
+                                   "(ordered by omega); empty slots have bifurcation_kind 0"},
+}
+
+_TASK_DONE_ATTRS = {
+    "long_name": "task completed",
+    "units": "1",
+    "description": "True once the block of chunk (omega_chunk, sigma_chunk, zeta_chunk) is "
+                   "written; a block without this flag is not computed, whatever the chunk files say",
+}
+
+
+def stored_variables(study: Study) -> tuple[str, ...]:
+    """Names of the data variables stored for this study (its products), in schema order."""
+    wanted = {n for p in study.products for n in PRODUCT_VARIABLES[p]}
+    return tuple(n for n in VARIABLES if n in wanted)
+
+
+def bytes_per_point(study: Study) -> int:
+    """Uncompressed bytes stored per grid point (all solution slots)."""
+    total = 0.0
+    for name in stored_variables(study):
+        v = VARIABLES[name]
+        # a per-block variable: one line per (sigma, zeta), spread over the line's omega points
+        n = (1.0 / len(study.omega) if v.per_block else study.max_solutions) \
+            * (v.extra_dim[1] if v.extra_dim else 1)
+        total += n * np.dtype(v.dtype).itemsize
+    return int(math.ceil(total))
+
+
+def chunk_counts(shape: tuple[int, ...], chunks: tuple[int, ...]) -> tuple[int, ...]:
+    """Number of chunks along each grid axis."""
+    return tuple(-(-n // c) for n, c in zip(shape, chunks))
+
+
+def chunk_slices(shape: tuple[int, ...], chunks: tuple[int, ...],
+                 index: tuple[int, ...]) -> tuple[slice, ...]:
+    """Grid slices (omega, sigma, zeta) covered by the chunk at ``index``."""
+    return tuple(slice(i * c, min((i + 1) * c, n)) for n, c, i in zip(shape, chunks, index))
+
+
+def _hertzmap_version() -> str:
+    try:
+        return importlib.metadata.version("hertzmap")
+    except importlib.metadata.PackageNotFoundError:
+        pyproject = Path(__file__).resolve().parent.parent / "pyproject.toml"
+        try:
+            return tomllib.loads(pyproject.read_text())["project"]["version"] + "+src"
+        except (OSError, KeyError, tomllib.TOMLDecodeError):
+            return "unknown"
+
+
+def software_versions() -> dict[str, str]:
+    """Versions of hertzmap and its numerical stack (read from metadata: imports nothing)."""
+    out = {"hertzmap": _hertzmap_version()}
+    for pkg in ("numpy", "numba", "scipy", "dask", "distributed", "zarr", "xarray"):
+        try:
+            out[pkg] = importlib.metadata.version(pkg)
+        except importlib.metadata.PackageNotFoundError:
+            out[pkg] = "not installed"
+    return out
+
+
+def code_fingerprint() -> str:
+    """sha256 of the solver's source (kernels/*.py and study/*.py): a store resumed with other
+    code may hold blocks computed by two versions of the solver."""
+    import hashlib
+
+    root = Path(__file__).resolve().parent.parent
+    h = hashlib.sha256()
+    for pkg in ("kernels", "study"):
+        for f in sorted((root / pkg).rglob("*.py")):
+            h.update(str(f.relative_to(root)).encode())
+            h.update(f.read_bytes())
+    return h.hexdigest()
+
+
+def history_line(action: str) -> str:
+    """One line of the ``history`` attr: UTC timestamp, hertzmap version, action."""
+    now = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    return f"{now} hertzmap {_hertzmap_version()}: {action}"
+
+
+def template(study: Study, chunks: tuple[int, int, int], *, history: str) -> xr.Dataset:
+    """The empty dataset of a study, backed by zero-copy numpy broadcasts (no memory).
+
+    ``chunks`` is the (omega, sigma, zeta) chunk shape of the store; each variable's
+    ``encoding`` carries its zarr chunks, fill value and compressor. The scheduler chunks
+    this with Dask and writes it with ``to_zarr(compute=False)``: only metadata, the
+    coordinates and the (all False) ``task_done`` array are written.
+    """
+    if len(chunks) != 3 or any(int(c) < 1 for c in chunks):
+        raise ValueError(f"chunks must be three integers >= 1, got {chunks!r}")
+    chunks = tuple(min(int(c), n) for c, n in zip(chunks, study.shape))
+    ns = study.max_solutions
+    coords = {
+        "omega": ("omega", study.axis("omega"), _COORD_ATTRS["omega"]),
+        "sigma": ("sigma", study.axis("sigma"), _COORD_ATTRS["sigma"]),
+        "zeta": ("zeta", study.axis("zeta"), _COORD_ATTRS["zeta"]),
+        "solution": ("solution", np.arange(ns, dtype=np.int16), _COORD_ATTRS["solution"]),
+    }
+    data_vars: dict[str, xr.Variable] = {}
+    encoding: dict[str, dict[str, Any]] = {}
+    counts = chunk_counts(study.shape, chunks)
+    for name in stored_variables(study):
+        v = VARIABLES[name]
+        if v.per_block:
+            shape = (counts[0],) + study.shape[1:]
+            vchunks = (1,) + chunks[1:]
+        else:
+            shape = study.shape + (ns,)
+            vchunks = chunks + (ns,)
+        if v.extra_dim:
+            dim, n = v.extra_dim
+            shape += (n,)
+            vchunks += (n,)
+            if dim not in coords:
+                start = 1 if dim == "harmonic" else 0
+                coords[dim] = (dim, np.arange(start, start + n, dtype=np.int16), _COORD_ATTRS[dim])
+        fill = np.array(v.fill, dtype=v.dtype)
+        data_vars[name] = xr.Variable(v.dims, np.broadcast_to(fill, shape), v.attrs())
+        encoding[name] = {"chunks": vchunks, "fill_value": fill.item()}
+    data_vars["task_done"] = xr.Variable(CHUNK_DIMS, np.zeros(counts, dtype=bool), {
+        **_TASK_DONE_ATTRS, "chunk_shape": list(chunks)})
+    encoding["task_done"] = {"chunks": (1, 1, 1), "fill_value": False}
+
+    versions = software_versions()
+    attrs = {
+        "title": f"hertzmap study {study.name}",
+        "description": study.description,
+        "hertzmap_store_format": STORE_FORMAT,
+        "hertzmap_study_name": study.name,
+        "hertzmap_study_hash": study.hash,
+        "hertzmap_study_toml": study.source_text,
+        "hertzmap_study_json": study.canonical_json(),
+        "hertzmap_chunk_shape": list(chunks),
+        "hertzmap_versions": json.dumps(versions, sort_keys=True),
+        "hertzmap_code_hash": code_fingerprint(),
+        "model": study.model,
+        "exponent": study.exponent if study.exponent is not None else "none",
+        "rtol": study.rtol,
+        "history": history,
+    }
+    ds = xr.Dataset(data_vars, coords={k: xr.Variable(*c) for k, c in coords.items()}, attrs=attrs)
+    for name, enc in encoding.items():
+        ds[name].encoding.update(enc)
+    for name in coords:
+        ds[name].encoding.update({"chunks": (len(ds[name]),)})
+    return ds
+
+
+def check_block(arrays: Mapping[str, np.ndarray], names: tuple[str, ...],
+                shape: tuple[int, int, int], max_solutions: int) -> None:
+    """Check a ``solve_block`` result against the contract; raise ValueError naming the problem."""
+    for name in names:
+        if name not in arrays:
+            raise ValueError(f"solve_block result lacks variable {name!r}")
+        v = VARIABLES[name]
+        a = np.asarray(arrays[name])
+        lead = (1,) + tuple(shape)[1:] if v.per_block else tuple(shape) + (max_solutions,)
+        want = lead + ((v.extra_dim[1],) if v.extra_dim else ())
+        if a.shape != want:
+            raise ValueError(f"solve_block variable {name!r} has shape {a.shape}, expected {want}")
+        if not np.can_cast(a.dtype, np.dtype(v.dtype), casting="same_kind"):
+            raise ValueError(f"solve_block variable {name!r} has dtype {a.dtype}, expected {v.dtype}")
+
+
+def block_dataset(arrays: Mapping[str, np.ndarray], names: tuple[str, ...]) -> xr.Dataset:
+    """A dataset holding one solved block, without coordinates (for a region write)."""
+    data_vars = {}
+    for name in names:
+        v = VARIABLES[name]
+        data_vars[name] = xr.Variable(v.dims, np.asarray(arrays[name]).astype(v.dtype, copy=False))
+    return xr.Dataset(data_vars)
+
+
+def study_from_attrs(attrs: Mapping[str, Any]) -> Study:
+    """The study a store holds, parsed back from its attrs (the TOML text it was created from)
+    and checked against the recorded hash. Raises StudyError when the attrs hold no study or
+    one that does not match its hash (edited attrs, or written by another version)."""
+    text = attrs.get("hertzmap_study_toml")
+    if not text:
+        raise StudyError("store", "the store's attrs hold no study (not written by hertzmap run)")
+    study = parse_study(text, default_name=attrs.get("hertzmap_study_name") or "study")
+    recorded = attrs.get("hertzmap_study_hash")
+    if recorded is not None and study.hash != recorded:
+        raise StudyError("store", "the recorded study does not match its hash "
+                         "(attrs edited or written by another version)")
+    return study
+
+
+def parse_attrs(attrs: Mapping[str, Any]) -> dict[str, Any]:
+    """The hertzmap attrs of a store, decoded (versions as a dict)."""
+    out = {k: attrs.get(k) for k in ("hertzmap_store_format", "hertzmap_study_name",
+                                     "hertzmap_study_hash", "hertzmap_chunk_shape",
+                                     "hertzmap_code_hash", "history")}
+    try:
+        out["versions"] = json.loads(attrs.get("hertzmap_versions", "{}"))
+    except (TypeError, ValueError):
+        out["versions"] = {}
+    return out

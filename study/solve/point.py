@@ -1,0 +1,169 @@
+"""The orbits at one grid point: shoot from seeds, keep each orbit once (paper section 3.2).
+
+A *solution* is a dict with the stored variables of one slot (study.schema ORBIT_VARIABLES:
+period, status, x0 as the start point, multipliers, stable, min_q, ...) plus the monodromy and
+its trace; the solver adds bookkeeping keys (``omega``, ``continued``, ``x0_prev``...).
+Distinct orbits are kept once by the identity rule of study.orbits.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from kernels import status as st
+from kernels.api import DEFAULT_MAX_ITER, DEFAULT_MAX_STEPS
+from kernels.model import MODELS
+from kernels.shooting import F, N_FIELDS, shoot_batch_into
+from study.orbits import same_orbit
+from study.solve.seeds import continuation_seed, flip_seeds, linear_response_seed
+
+MAX_ITER_1T = 40
+MAX_ITER_2T = 15          # a 2T seed that has not converged in 15 Newton steps is a bad seed
+
+# Columns of the kernel's result rows (kernels.shooting.FIELDS) that become a solution's
+# arrays, gathered by one ``take`` per batch: the start point, the multipliers as (re, im)
+# pairs (viewed as complex), the monodromy row by row, the force harmonics.
+_ARRAY_COLUMNS = np.array([
+    F["q0"], F["v0"],
+    F["multiplier1_re"], F["multiplier1_im"], F["multiplier2_re"], F["multiplier2_im"],
+    F["m11"], F["m12"], F["m21"], F["m22"],
+    F["force_h1"], F["force_h2"], F["force_h3"], F["force_h4"]])
+_START, _MULTIPLIERS, _MONODROMY, _HARMONICS = (slice(0, 2), slice(2, 6), slice(6, 10),
+                                                slice(10, 14))
+
+
+def shoot_seeds(omega, sigma, zeta, period, seeds, options):
+    """Shoot from every seed; return a list of solution dicts (converged or not), in the
+    order of the seeds.
+
+    Calls the numba batch entry point directly with preallocated arrays: the generic
+    kernels.shoot_batch wrapper (broadcasting, a dict of arrays per call) cost ~15 % of a block.
+    The rows are converted a batch at a time (numpy indexing per row, for each field, was most
+    of the time spent outside the kernel) and the scalar fields read as Python floats.
+    """
+    if not seeds:
+        return []
+    n = len(seeds)
+    period = int(period)
+    q_guess, v_guess = zip(*seeds)
+    # (omega, sigma, zeta, q guess, q' guess) per seed, each row a contiguous array
+    inputs = np.array([(omega,) * n, (sigma,) * n, (zeta,) * n, q_guess, v_guess], float)
+    rtol = float(options.get("rtol", 1e-10))
+    rows = np.empty((n, N_FIELDS))
+    shoot_batch_into(inputs[0], inputs[1], inputs[2], np.full(n, period, np.int64),
+                     inputs[3], inputs[4], float(options.get("exponent", 1.5)),
+                     MODELS[options.get("model", "hertz")], rtol, rtol,
+                     int(options.get("max_iter", DEFAULT_MAX_ITER)), DEFAULT_MAX_STEPS,
+                     bool(options.get("harmonics", True)), rows)
+    picked = rows.take(_ARRAY_COLUMNS, axis=1)
+    starts = picked[:, _START]
+    multipliers = picked[:, _MULTIPLIERS].view(np.complex128)
+    monodromies = picked[:, _MONODROMY].reshape(n, 2, 2)
+    harmonics = picked[:, _HARMONICS]
+    out = []
+    for row, x0, mu, M, h in zip(rows.tolist(), starts, multipliers, monodromies, harmonics):
+        minimal = row[F["minimal_period"]]
+        out.append({
+            # a 2T solve whose orbit repeats after T is a 1T orbit (minimal period 1); its
+            # multipliers are still those of the 2T map: callers re-solve it as 1T
+            "period": int(minimal) if math.isfinite(minimal) and minimal >= 1 else period,
+            "status": int(row[F["status"]]),
+            "x0": x0, "multipliers": mu, "monodromy": M,
+            "stable": row[F["stable"]] == 1.0,
+            "min_q": row[F["min_q"]], "max_q": row[F["max_q"]], "ptp": row[F["ptp"]],
+            "loses_contact": row[F["loses_contact"]] == 1.0,
+            "flight_fraction": row[F["flight_fraction"]],
+            "max_impact_velocity": row[F["max_impact_velocity"]],
+            "force_harmonics": h,
+            "newton_iterations": int(row[F["iterations"]]), "residual": row[F["residual"]],
+            "trace": row[F["trace_m"]],
+        })
+    return out
+
+
+def shoot_seeds_minimal(omega, sigma, zeta, period, seeds, options):
+    """shoot_seeds; a solve that landed on an orbit of a lower period (a 2T solve on the 1T
+    orbit: its monodromy is then M^2) is re-solved as 1T from its start point, so that it
+    carries the 1T multipliers."""
+    out = shoot_seeds(omega, sigma, zeta, period, seeds, options)
+    low = [i for i, s in enumerate(out) if s["period"] < period and s["status"] == st.CONVERGED]
+    if low:
+        again = shoot_seeds(omega, sigma, zeta, 1, [tuple(out[i]["x0"]) for i in low], options)
+        for i, s in zip(low, again):
+            out[i] = s
+    return out
+
+
+def merge_new_orbits(found, candidates):
+    """Add the converged candidates that are new orbits; a candidate that duplicates a known
+    orbit passes on its ``continued`` mark (reached by continuation from the previous point)."""
+    for c in candidates:
+        if c["status"] != st.CONVERGED:
+            continue
+        same = [f for f in found if same_orbit(c, f)]
+        if same:
+            if c.get("continued"):
+                same[0]["continued"] = True
+        else:
+            found.append(c)
+
+
+def is_known(sol, sols) -> bool:
+    """sol is the same orbit as one of sols (study.orbits identity rule)."""
+    return any(same_orbit(sol, s) for s in sols)
+
+
+def mark_continued(sols, parents, omega):
+    """Mark the solutions shot from the continuation seeds of ``parents`` (in that order) as
+    continued; those that kept their parent's period remember it for the secant predictor."""
+    for s, parent in zip(sols, parents):
+        s["omega"] = omega
+        s["continued"] = True
+        if s["period"] == parent["period"]:
+            s["x0_prev"] = parent["x0"]
+            s["omega_prev"] = parent["omega"]
+
+
+def given_seeds(options, period):
+    """The caller's own seeds (``solve_block(seeds=...)``) of this period, as (q, q')."""
+    return [(q, v) for p, q, v in options.get("seeds", ()) if p == period]
+
+
+def solve_point(omega, sigma, zeta, periods, prev, options, first_visit, mms=()):
+    """Solutions at one point from continuation of the previous point's solutions ``prev``
+    and, on the first visit of the point, from the linear, multiple-scales and flip seeds.
+
+    Returns (distinct converged orbits, every 1T try). The seeds of one period share a
+    Newton budget and go to the kernel in one batch (the results do not depend on batching).
+    """
+    found, tries_1t = [], []
+    if 1 in periods:
+        parents = [s for s in prev if s["period"] == 1]
+        seeds = [continuation_seed(p, omega) for p in parents]
+        if first_visit:     # first: of two tries landing on one orbit, the merge keeps the first
+            seeds[:0] = [linear_response_seed(omega, sigma, zeta)] + given_seeds(options, 1)
+        tries_1t = shoot_seeds(omega, sigma, zeta, 1, seeds, dict(options, max_iter=MAX_ITER_1T))
+        mark_continued(tries_1t[len(seeds) - len(parents):], parents, omega)
+        merge_new_orbits(found, tries_1t)
+    if 2 in periods:
+        parents = [s for s in prev if s["period"] == 2]
+        seeds = [continuation_seed(p, omega) for p in parents]
+        if first_visit:
+            seeds += mms
+            for s in found:
+                seeds += flip_seeds(s)
+            seeds += given_seeds(options, 2)
+        sols = shoot_seeds(omega, sigma, zeta, 2, seeds, dict(options, max_iter=MAX_ITER_2T))
+        mark_continued(sols, parents, omega)
+        merge_new_orbits(found, [s for s in sols if s["period"] == 2])
+        # A 2T solve with minimal period 1 landed on a 1T orbit. Its monodromy is that of two
+        # periods (multipliers squared), so the orbit is re-solved as 1T from its start point
+        # (one Newton step) and kept only as that.
+        landed = [tuple(s["x0"]) for s in sols
+                  if s["period"] == 1 and s["status"] == st.CONVERGED]
+        if landed and 1 in periods:
+            merge_new_orbits(found, shoot_seeds(omega, sigma, zeta, 1, landed, options))
+    for s in found:
+        s.setdefault("omega", omega)
+    return found, tries_1t

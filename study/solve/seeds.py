@@ -1,0 +1,93 @@
+"""Where Newton starts: the seeds of the grid solver (paper section 3.2).
+
+* the linear 1T response (paper Eq. 7 linearised about the static point);
+* the multiple-scales 2T response (paper Eq. 19-23, study.analytic.multiple_scales), both
+  branches;
+* the flip eigenvector of a 1T orbit with a multiplier below -1 (the 2T branch leaves the 1T
+  orbit along it, x0 +- d e);
+* continuation from the neighbouring grid point (a secant predictor along the branch).
+
+Each seed is a (q, q') pair at tau = 0, dimensionless.
+"""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from kernels import status as st
+
+#: Distances d along the flip eigenvector at which 2T seeds are placed (both signs).
+FLIP_SEED_OFFSETS = (0.05, 0.3)
+
+
+def linear_response_seed(omega, sigma, zeta):
+    """(q, q') at tau = 0 of the linearised 1T response: q = Re[X e^{i omega tau}],
+    X = sigma / (1 - omega^2 + 2 i zeta omega)."""
+    den = 1.0 - omega**2 + 2j * zeta * omega
+    if den == 0:            # undamped exact resonance: no linear response; start at rest
+        return 0.0, 0.0
+    X = sigma / den
+    return X.real, (1j * omega * X).real
+
+
+def mms_seeds(omega, sigma, zeta):
+    """Multiple-scales 2T seeds (both branches of Eq. 23, where real) at every omega of a line:
+    a list, per omega, of (q0, v0) pairs. Evaluated once per line (the functions broadcast)."""
+    # Far from omega = 2 the multiple-scales response is no theory, but it is a cheap seed that
+    # lands on unstable halves of 2T branches the sweeps miss (measured on sigma 0.2/0.5/0.8
+    # lines: restricting it to |omega - 2| < 0.3 lost 17 unstable orbits of 1330).
+    from study.analytic.multiple_scales import mms_2t_seed
+
+    omega = np.atleast_1d(np.asarray(omega, float))
+    seeds = [[] for _ in range(omega.size)]
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore")
+        for branch in ("upper", "lower"):
+            q, v = mms_2t_seed(omega, sigma, zeta, branch)
+            q = np.broadcast_to(np.asarray(q, float), omega.shape)
+            v = np.broadcast_to(np.asarray(v, float), omega.shape)
+            for i in range(omega.size):
+                if np.isfinite(q[i]) and np.isfinite(v[i]):
+                    seeds[i].append((float(q[i]), float(v[i])))
+    return seeds
+
+
+def flip_seeds(sol):
+    """2T seeds along the eigenvector of a 1T multiplier below -1 (past a flip)."""
+    if sol["period"] != 1 or sol["status"] != st.CONVERGED:
+        return []
+    M = sol["monodromy"]
+    # np.linalg.eig is most of this function's cost and gives no seed unless a multiplier is
+    # below -0.95: skip it where the kernel's multipliers (roots of mu^2 - tr M mu + det M,
+    # the same M) are both above -0.9. For |M_ij| < 1e4 the two computations differ by less
+    # than ~sqrt(eps) |M| ~ 1e-4 (the eigenvalue perturbation bound of a 2x2 matrix), well
+    # inside the 0.05 margin: the seeds are exactly those eig gives.
+    mu = sol["multipliers"]
+    if mu[0].real > -0.9 and mu[1].real > -0.9 and np.abs(M).max() < 1e4:
+        return []
+    w, V = np.linalg.eig(M)
+    seeds = []
+    for k in range(2):
+        if abs(w[k].imag) < 1e-12 and w[k].real < -0.95:
+            e = np.real(V[:, k])
+            e /= np.linalg.norm(e)
+            for d in FLIP_SEED_OFFSETS:
+                seeds.append(tuple(sol["x0"] + d * e))
+                seeds.append(tuple(sol["x0"] - d * e))
+    return seeds
+
+
+def continuation_seed(sol, omega):
+    """Seed at omega from a solution of the neighbouring point: a secant predictor along the
+    branch when the solution itself came from continuation, else its start point."""
+    # Python floats: the same IEEE operations as on 2-element arrays, at a fraction of the cost
+    q, v = sol["x0"].tolist()
+    if "x0_prev" in sol and sol["omega"] != sol["omega_prev"]:
+        step = (omega - sol["omega"]) / (sol["omega"] - sol["omega_prev"])
+        q_prev, v_prev = sol["x0_prev"].tolist()
+        dq, dv = q - q_prev, v - v_prev
+        if (0.0 < step <= 2.0 and abs(dq) < 0.5 * (1.0 + abs(q))
+                and abs(dv) < 0.5 * (1.0 + abs(v))):
+            return q + step * dq, v + step * dv
+    return q, v

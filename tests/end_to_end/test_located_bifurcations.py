@@ -1,0 +1,154 @@
+"""The "bifurcations" output end to end: fold/flip/grazing points located along each omega line,
+stored per omega block, assembled into curves, with a client killed mid-study and rerun. A
+small study through the flips of the 1T orbit near omega = 2 at zeta = 0.01."""
+from __future__ import annotations
+
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from kernels import shoot
+from kernels.continuation import flip_function
+from scheduler.cli import main
+from scheduler.store import Store, lock_path, store_status
+from study import products as P
+from study.schema import PRODUCT_VARIABLES, stored_variables
+from study.spec import parse_study
+from tests.helpers import hertzmap_cmd, kill_client_mid_study, subprocess_env
+from tests.scheduler.test_run import assert_same_store
+
+
+BIFURCATION_STUDY = """
+[study]
+name = "bifstore"
+[grid]
+omega = {start = 1.9, stop = 2.1, num = 9}
+sigma = [0.4, 0.5, 0.6, 0.7]
+zeta = 0.01
+[products]
+outputs = ["orbits", "measures", "bifurcations"]
+"""
+
+
+pytestmark = [pytest.mark.slow]
+
+SIGMAS = [0.4, 0.5, 0.6, 0.7]
+#: the same study without the product: its hash (and so its store) is that of the code before
+#: the product existed (computed with the previous study/spec.py)
+TEXT_WITHOUT = BIFURCATION_STUDY.replace(', "bifurcations"', "")
+HASH_WITHOUT = "0cfe48319f81d93b6ac3a8eeded59da9a3ff384edd76653da99cd4cc0e0679e7"
+TASK_SECONDS = "0.01"          # one sigma line per task: 4 tasks
+
+
+@pytest.fixture(scope="module")
+def paths(tmp_path_factory):
+    d = tmp_path_factory.mktemp("bif")
+    (d / "bifstore.toml").write_text(BIFURCATION_STUDY)
+    ref = d / "ref.zarr"
+    rc = main(["run", str(d / "bifstore.toml"), "--store", str(ref), "--workers", "2",
+               "--task-seconds", TASK_SECONDS, "--error-sample", "0"])
+    assert rc == 0
+    return d, ref
+
+
+def bisect_flip(omega_a, omega_b, sigma, zeta, guess, tol=1e-11):
+    """Independent: bisection on 1 + tr M + det M of the 1T orbit from kernels.shoot."""
+    def g(w):
+        o = shoot(w, sigma, zeta, 1, guess, rtol=1e-12, max_iter=40)
+        assert o.converged
+        return flip_function(o.monodromy)
+    a, b = omega_a, omega_b
+    ga = g(a)
+    assert ga * g(b) < 0
+    while b - a > tol:
+        m = 0.5 * (a + b)
+        gm = g(m)
+        if gm * ga > 0:
+            a, ga = m, gm
+        else:
+            b = m
+    return 0.5 * (a + b)
+
+
+def test_stored_flips_match_bisection(paths):
+    _, ref = paths
+    ds = xr.open_zarr(ref).load()
+    assert ds.sizes["omega_block"] == 1 and ds.sizes["bifurcation"] == 16
+    assert ds.bifurcation_kind.attrs["flag_meanings"] == "empty fold flip grazing"
+    worst = 0.0
+    for j, s in enumerate(SIGMAS):
+        kind = ds.bifurcation_kind.values[0, j, 0]
+        per = ds.bifurcation_period.values[0, j, 0]
+        w = ds.bifurcation_omega.values[0, j, 0]
+        n = int(ds.bifurcation_count.values[0, j, 0])
+        assert n == int((kind > 0).sum()) and np.isnan(w[kind == 0]).all()
+        flips = np.sort(w[(kind == 2) & (per == 1)])
+        assert flips.size == 2, (s, w, kind)       # the two flips of the 1T orbit
+        for wf in flips:
+            x = (ds.bifurcation_q0.values[0, j, 0][w == wf][0], ds.bifurcation_v0.values[0, j, 0][w == wf][0])
+            wb = bisect_flip(wf - 1e-3, wf + 1e-3, s, 0.01, x)
+            worst = max(worst, abs(wf - wb))
+        # grazing of the 2T branch (onset of contact loss) below the lower flip
+        assert ((kind == 3) & (per == 2)).sum() == 1
+        assert np.all(np.diff(w[kind > 0]) >= 0)               # ordered by omega
+    assert worst < 1e-6, worst
+    # the published check value (docs/discovery.md): sigma 0.5 flips 1.97757924, 2.01679397
+    f = np.sort(ds.bifurcation_omega.values[0, 1, 0][ds.bifurcation_kind.values[0, 1, 0] == 2])
+    np.testing.assert_allclose(f, [1.97757924, 2.01679397], atol=2e-8)
+
+
+def test_curves_assembled_and_checked(paths):
+    _, ref = paths
+    ds = P.open_store(ref)
+    c = P.located_curves(ds)
+    flips = c.where((c.kind == 2) & (c.period == 1), drop=True)
+    segs = np.unique(flips.segment.values)
+    assert segs.size == 2                       # the left and right arms of the flip curve
+    for sgm in segs:
+        arm = flips.where(flips.segment == sgm, drop=True)
+        np.testing.assert_array_equal(arm.sigma.values, SIGMAS)
+    left = flips.where(flips.omega < 2, drop=True)
+    assert np.all(np.diff(left.omega.values) < 0)     # the flip region widens with sigma
+    prods = P.compute_products(ds)
+    assert "located_bifurcations" in prods
+    # status --check covers the new variables: a lost chunk is reported damaged
+    d, _ = paths
+    broken = d / "broken.zarr"
+    shutil.copytree(ref, broken)
+    (broken / "bifurcation_omega" / "c" / "0" / "2" / "0" / "0").unlink()
+    damaged = store_status(broken, check=True)["damaged"]
+    assert list(damaged) == ["0-2-0"] and "bifurcation_omega" in damaged["0-2-0"][0]
+
+
+def test_without_the_product_nothing_changes(tmp_path):
+    s = parse_study(TEXT_WITHOUT)
+    assert s.hash == HASH_WITHOUT
+    assert "locate" not in s.solver_kwargs()
+    assert not set(stored_variables(s)) & set(PRODUCT_VARIABLES["bifurcations"])
+    assert parse_study(BIFURCATION_STUDY).solver_kwargs()["locate"] is True
+    from study.solve.block import solve_block
+    om, sg, zt = s.axis("omega"), s.axis("sigma")[:1], s.axis("zeta")
+    a = solve_block(om, sg, zt, **s.solver_kwargs())
+    b = solve_block(om, sg, zt, locate=True, **s.solver_kwargs())
+    assert not any(k.startswith("bifurcation") for k in a)
+    for k, v in a.items():                        # the grid results do not depend on locate
+        np.testing.assert_array_equal(v, b[k], err_msg=k)
+
+
+def test_client_killed_then_rerun_identical(paths, tmp_path):
+    d, ref = paths
+    store = tmp_path / "killed.zarr"
+    cmd = hertzmap_cmd("run", str(d / "bifstore.toml"), "--store", str(store), "--workers", "2",
+                       "--task-seconds", TASK_SECONDS, "--error-sample", "0")
+    env = subprocess_env()
+    done = kill_client_mid_study(cmd, env, store, 1)
+    assert lock_path(store).exists()
+    r = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    if done < 4:
+        assert f"{done}/4 tasks already done" in r.stdout
+    assert Store(store).done_mask().all()
+    assert_same_store(store, ref)             # including the bifurcation_* variables

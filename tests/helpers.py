@@ -1,0 +1,248 @@
+"""Helpers shared by the tests: a stand-in block solver with the schema's contract (to test
+the scheduler and the store without the physics), subprocess environments, waiting.
+
+``placeholder_solve_block`` returns arrays of exactly the stored schema (study.schema
+``empty_arrays``: shapes, dtypes, empty-slot values) with made-up, deterministic values: it lets
+the scheduler and the store be tested without the real solver. Workers import it as
+``tests.helpers:placeholder_solve_block`` (the repository root is put on their path). Never used
+by the CLI unless asked for with the hidden ``--solver`` option.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from study.schema import ORBIT_VARIABLES, empty_arrays, template
+from study.spec import parse_study
+
+REPO = Path(__file__).resolve().parent.parent
+TESTS = Path(__file__).resolve().parent
+
+PLACEHOLDER = "tests.helpers:placeholder_solve_block"
+
+
+def placeholder_solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hertz",
+                            rtol=1e-10, max_solutions=4, harmonics=True):
+    """Deterministic fake with the solve_block contract (delay: $HERTZMAP_PLACEHOLDER_DELAY s/point)."""
+    omega = np.asarray(omega, dtype=np.float64)
+    sigma = np.asarray(sigma, dtype=np.float64)
+    zeta = np.asarray(zeta, dtype=np.float64)
+    delay = float(os.environ.get("HERTZMAP_PLACEHOLDER_DELAY", "0"))
+    if delay:
+        time.sleep(delay * len(omega) * len(sigma) * len(zeta))
+    w, s, z = np.meshgrid(omega, sigma, zeta, indexing="ij")
+    out = empty_arrays((len(omega), len(sigma), len(zeta)), max_solutions, ORBIT_VARIABLES)
+    amp = s / np.sqrt((1 - w**2) ** 2 + (2 * z * w) ** 2)
+    slots = []
+    if 1 in periods:
+        slots.append((1, np.ones_like(w, bool)))
+    if 2 in periods:
+        slots.append((2, (w > 1.8) & (w < 2.2) & (s > 0.2)))
+    for slot, (p, mask) in enumerate(slots[:max_solutions]):
+        a = amp * p
+        sl = (slice(None),) * 3 + (slot,)
+        out["period"][sl] = np.where(mask, p, 0)
+        out["status"][sl] = np.where(mask, np.where(a > 50, 1, 0), -1)
+        out["q0"][sl] = np.where(mask, a, np.nan)
+        out["v0"][sl] = np.where(mask, -a * w / p, np.nan)
+        out["stable"][sl] = mask & (a < 2)
+        out["min_q"][sl] = np.where(mask, -a, np.nan)
+        out["max_q"][sl] = np.where(mask, a, np.nan)
+        out["ptp"][sl] = np.where(mask, 2 * a, np.nan)
+        out["loses_contact"][sl] = mask & (a > exponent)
+        out["flight_fraction"][sl] = np.where(mask, np.clip((a - exponent) / (a + 1), 0, 1), np.nan)
+        out["max_impact_velocity"][sl] = np.where(mask, a * w, np.nan)
+        out["multipliers"][sl] = np.where(mask[..., None], np.exp(-z * p * np.pi / w)[..., None]
+                                          * np.array([1, 1j]), complex(np.nan, np.nan))
+        if harmonics:   # as solve_block: NaN unless asked for
+            out["force_harmonics"][sl] = np.where(mask[..., None], a[..., None] / np.arange(1, 5),
+                                                  np.nan)
+        out["newton_iterations"][sl] = np.where(mask, 3, 0)
+        out["residual"][sl] = np.where(mask, 1e-12, np.nan)
+    return out
+
+
+def failing_solve_block(omega, sigma, zeta, **kwargs):
+    """The placeholder, but raising for blocks with a sigma above 0.85 (a task failing for good)."""
+    if np.max(sigma) > 0.85:
+        raise FloatingPointError(f"placeholder failure at sigma = {np.max(sigma)}")
+    return placeholder_solve_block(omega, sigma, zeta, **kwargs)
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def subprocess_env(**extra) -> dict[str, str]:
+    """Environment for CLI / dask subprocesses: the repository (and so tests.helpers) importable."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(REPO), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    env.update({k: str(v) for k, v in extra.items()})
+    return env
+
+
+def hertzmap_cmd(*args: str) -> list[str]:
+    return [sys.executable, "-m", "scheduler.cli", *args]
+
+
+def done_count(store) -> int:
+    """Tasks marked done in a store (0 while it does not exist or cannot be read yet)."""
+    from scheduler.store import Store
+    try:
+        return int(Store(store).done_mask().sum())
+    except Exception:
+        return 0
+
+
+def wait_until(pred, timeout: float, what: str) -> None:
+    t0 = time.monotonic()
+    while not pred():
+        if time.monotonic() - t0 > timeout:
+            raise AssertionError(f"timed out waiting for {what}")
+        time.sleep(0.02)
+
+
+def kill_client_mid_study(cmd, env, store, tasks: int) -> int:
+    """Start `hertzmap run` (cmd) in its own process group, SIGKILL the whole group (client,
+    scheduler, workers) once ``tasks`` tasks are done, and return how many were done."""
+    import signal
+    import subprocess
+    p = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                         start_new_session=True)
+    try:
+        wait_until(lambda: done_count(store) >= tasks or p.poll() is not None, 90,
+                   f"{tasks} tasks")
+        os.killpg(p.pid, signal.SIGKILL)
+        p.wait(timeout=30)
+    finally:
+        if p.poll() is None:
+            os.killpg(p.pid, signal.SIGKILL)
+    return done_count(store)
+
+
+# -- a small study run with the placeholder solver --------------------------------------------
+
+#: A 17 x 5 x 2 study for the store and scheduler tests (the placeholder fills it in ms).
+STORE_TEST_STUDY = """
+[study]
+name = "store-test"
+[grid]
+omega = {start = 0.5, stop = 2.5, num = 17}
+sigma = [0.1, 0.3, 0.5, 0.7, 0.9]
+zeta = [0.01, 0.1]
+[products]
+outputs = ["orbits", "measures", "force_harmonics"]
+"""
+#: The same grid with every output.
+ALL_OUTPUTS_STUDY = STORE_TEST_STUDY.replace(
+    'outputs = ["orbits", "measures", "force_harmonics"]',
+    'outputs = ["orbits", "measures", "force_harmonics", "diagnostics", "bifurcations"]')
+
+#: A [rig] table (the paper's rig, section 4.1).
+RIG_TABLE = """
+[rig]
+E = 2.1e11
+nu = 0.29
+R = 0.0127
+m = 7.1
+N = 69.7
+"""
+
+
+def placeholder_study(text: str = STORE_TEST_STUDY):
+    return parse_study(text, default_name="x")
+
+
+def placeholder_run(path, client, text: str = STORE_TEST_STUDY, **kw):
+    """Run a study with the placeholder solver on ``client`` into ``path``; the summary."""
+    from scheduler.cluster import ClusterSpec
+    from scheduler.run import RunOptions, run_study
+
+    opts = RunOptions(store=path, solver=PLACEHOLDER, cluster=ClusterSpec(kind="address"),
+                      error_sample=kw.pop("error_sample", 0), **kw)
+    return run_study(placeholder_study(text), opts, client=client)
+
+
+# -- hand-built results (every value set here) -------------------------------------------------
+
+HAND_STUDY = """
+[grid]
+omega = [1.0, 1.5, 2.0]
+sigma = [0.1, 0.5]
+zeta = 0.01
+"""
+
+
+def blank_results(toml: str, name: str = "t") -> xr.Dataset:
+    """An in-memory store dataset (template) with writable arrays, every block done."""
+    study = parse_study(toml, default_name=name)
+    ds = template(study, study.shape, history="test")
+    for v in list(ds.data_vars):
+        ds[v] = ds[v].copy(data=np.array(ds[v].values))
+    ds["task_done"][...] = True
+    return ds
+
+
+def set_orbit(ds, i, j, slot, *, period, stable, loses=False, mult=(0.5, 0.4), min_q=-0.1,
+              max_q=0.1, ff=0.0, iv=0.0, k=0):
+    """Put a converged orbit with these flags and measures into one slot."""
+    idx = dict(omega=i, sigma=j, zeta=k, solution=slot)
+    ds["status"][idx] = 0
+    ds["period"][idx] = period
+    ds["stable"][idx] = stable
+    ds["q0"][idx] = 0.0
+    ds["v0"][idx] = 0.0
+    ds["multipliers"][idx] = np.asarray(mult, complex)
+    if "min_q" in ds:
+        ds["min_q"][idx] = min_q
+        ds["max_q"][idx] = max_q
+        ds["ptp"][idx] = max_q - min_q
+        ds["loses_contact"][idx] = loses
+        ds["flight_fraction"][idx] = ff
+        ds["max_impact_velocity"][idx] = iv
+
+
+def hand_built_results() -> xr.Dataset:
+    """3 omega x 2 sigma of hand-set orbits covering the classes, a duplicate and a point whose
+    data is there but whose block is not flagged done (see the comments)."""
+    ds = blank_results(HAND_STUDY)
+    # (0, 0): one stable 1T in contact
+    set_orbit(ds, 0, 0, 0, period=1, stable=True)
+    # (1, 0): stable 1T in contact + stable 2T with contact loss + unstable 2T with contact loss
+    set_orbit(ds, 1, 0, 0, period=1, stable=True)
+    set_orbit(ds, 1, 0, 1, period=2, stable=True, loses=True, min_q=-2.0, max_q=3.0, ff=0.3, iv=1.7)
+    set_orbit(ds, 1, 0, 2, period=2, stable=False, loses=True, min_q=-1.8, max_q=2.0, ff=0.2, iv=0.9)
+    # (2, 0): 1T past its flip (unstable), stable 2T in contact, unstable 2T in contact
+    set_orbit(ds, 2, 0, 0, period=1, stable=False, mult=(-1.05, -0.9))
+    set_orbit(ds, 2, 0, 1, period=2, stable=True, min_q=-0.8, max_q=0.9)
+    set_orbit(ds, 2, 0, 2, period=2, stable=False, min_q=-0.5, max_q=0.6)
+    # (0, 1): stable 1T with contact loss, and the same orbit again (its invariants within
+    # study.orbits.SAME_ORBIT_TOL): a duplicate, not a second orbit
+    mu = np.sqrt(np.exp(-2 * 0.01 * 2 * np.pi / 1.0))      # |mu1 mu2| = exp(-2 zeta T)
+    set_orbit(ds, 0, 1, 0, period=1, stable=True, loses=True, mult=(-mu, -mu), min_q=-1.6,
+              max_q=2.0, ff=0.1, iv=0.5)
+    set_orbit(ds, 0, 1, 1, period=1, stable=True, loses=True, mult=(-mu, -mu),
+              min_q=-1.6 + 1e-9, max_q=2.0, ff=0.1, iv=0.5)
+    # (1, 1): not computed (its block is not flagged) although a slot holds data
+    set_orbit(ds, 1, 1, 0, period=1, stable=True)
+    ds["task_done"][...] = True
+    return ds
+
+
+def write_results(ds: xr.Dataset, path) -> Path:
+    """A dataset written as a zarr store (as the scheduler writes one)."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=".*[Cc]onsolidated metadata.*")
+        ds.to_zarr(str(path), mode="w", consolidated=True)
+    return Path(path)

@@ -1,0 +1,312 @@
+"""scheduler.store: region writes of blocks and their flags, resume, refusal of another study
+and of paths that are not stores, the lock, consolidated metadata, products written into
+their groups without touching the main group."""
+from __future__ import annotations
+
+import json
+import socket
+
+import numpy as np
+import pytest
+import xarray as xr
+import zarr
+
+from scheduler.cli import main
+from scheduler.plan import choose_chunks, make_plan
+from scheduler.store import (Lock, Store, StoreError, list_products, lock_path, open_or_create,
+                             read_product, write_product, write_products)
+from study import products as P
+from study.schema import (VARIABLES, stored_variables)
+from study.schema import PRODUCT_GROUP
+from tests.helpers import (ALL_OUTPUTS_STUDY, STORE_TEST_STUDY, placeholder_run, placeholder_study,
+                           write_results)
+from tests.helpers import placeholder_solve_block
+
+
+def _random_block(names, shape, max_solutions, rng, empty):
+    """Arrays with the solve_block contract: random values with NaNs, or all fill (``empty``)."""
+    out = {}
+    for name in names:
+        v = VARIABLES[name]
+        lead = (1,) + tuple(shape)[1:] if v.per_block else tuple(shape) + (max_solutions,)
+        full = lead + ((v.extra_dim[1],) if v.extra_dim else ())
+        dtype = np.dtype(v.dtype)
+        if empty:
+            a = np.full(full, v.fill, dtype=dtype)
+        elif dtype.kind == "f":
+            a = rng.normal(size=full)
+            a[rng.random(full) < 0.2] = np.nan
+        elif dtype.kind == "c":
+            a = rng.normal(size=full) + 1j * rng.normal(size=full)
+            a[rng.random(full) < 0.2] = np.nan
+        elif dtype.kind == "b":
+            a = rng.random(full) < 0.5
+        else:
+            a = rng.integers(-1, 3, size=full)
+        out[name] = a.astype(dtype)
+    return out
+
+
+def _chunk_bytes(path):
+    return {str(p.relative_to(path)): p.read_bytes()
+            for p in sorted(path.rglob("*")) if p.is_file() and "/c/" in str(p.relative_to(path))}
+
+
+def test_run_writes_every_block_and_flags(tmp_path, client):
+    path = tmp_path / "a.zarr"
+    summary = placeholder_run(path, client)
+    assert summary["complete"] and summary["tasks_run"] == summary["tasks_total"]
+    ds = xr.open_zarr(path)           # opens silently: consolidated metadata
+    assert bool(ds.task_done.all())
+    s = placeholder_study()
+    ref = placeholder_solve_block(s.axis("omega"), s.axis("sigma"), s.axis("zeta"), **s.solver_kwargs())
+    for name in stored_variables(s):
+        np.testing.assert_array_equal(ds[name].values, ref[name], err_msg=name)
+        assert ds[name].dtype == np.dtype(VARIABLES[name].dtype)
+        assert ds[name].attrs["long_name"] == VARIABLES[name].long_name
+    np.testing.assert_array_equal(ds.omega.values, s.axis("omega"))
+    assert ds.omega.attrs["long_name"] == "excitation frequency"
+    # chunks are aligned with tasks: one chunk per task
+    chunks = tuple(ds.attrs["hertzmap_chunk_shape"])
+    assert ds.q0.encoding["chunks"] == chunks + (4,)
+    assert ds.task_done.size == summary["tasks_total"]
+    assert "created" in ds.attrs["history"] and "completed" in ds.attrs["history"]
+    assert not lock_path(path).exists()
+    # worked queries of docs/dataset.md
+    both = ds[["q0", "v0"]].where(ds.stable & ds.loses_contact)
+    assert int(both.q0.count()) == int((ds.stable & ds.loses_contact).sum())
+    n_coexisting = (ds.status == 0).sum("solution")
+    assert int(n_coexisting.max()) == 2
+    assert int((ds.period == 2).sum()) > 0
+
+
+def test_resume_computes_only_missing_tasks(tmp_path, client):
+    path = tmp_path / "b.zarr"
+    ref = tmp_path / "ref.zarr"
+    placeholder_run(ref, client)
+    s = placeholder_study()
+    store, resumed = open_or_create(path, s, choose_chunks(s), overwrite=False, action="t")
+    assert not resumed
+    plan = make_plan(s, store.chunks)
+    # do two tasks "by hand", leave one written-but-unflagged (client died in between)
+    names = stored_variables(s)
+    for t in plan.tasks[:3]:
+        so, ss, sz = t.slices
+        out = placeholder_solve_block(s.axis("omega")[so], s.axis("sigma")[ss], s.axis("zeta")[sz],
+                                      **s.solver_kwargs())
+        store.write_block(t.slices, out, names)
+        if t is not plan.tasks[2]:
+            store.mark_done(t.index)
+    summary = placeholder_run(path, client)
+    assert summary["tasks_done_before"] == 2
+    assert summary["tasks_run"] == len(plan.tasks) - 2
+    a, b = xr.open_zarr(path).load(), xr.open_zarr(ref).load()
+    a.attrs, b.attrs = {}, {}
+    xr.testing.assert_identical(a, b)
+    # and a third run does nothing
+    again = placeholder_run(path, client)
+    assert again["tasks_run"] == 0 and again["complete"]
+
+
+def test_another_study_is_refused_unless_overwrite(tmp_path, client, capsys):
+    path = tmp_path / "c.zarr"
+    placeholder_run(path, client)
+    other = STORE_TEST_STUDY.replace("zeta = [0.01, 0.1]", "zeta = [0.02]")
+    before = sorted(p.name for p in path.rglob("*"))
+    with pytest.raises(StoreError, match="another study"):
+        placeholder_run(path, client, text=other)
+    assert sorted(p.name for p in path.rglob("*")) == before
+    # through the CLI: exit code 2, nothing changed
+    f = tmp_path / "other.toml"
+    f.write_text(other)
+    assert main(["run", str(f), "--store", str(path), "--workers", "1"]) == 2
+    assert "another study" in capsys.readouterr().err
+    assert xr.open_zarr(path).attrs["hertzmap_study_hash"] == placeholder_study().hash
+    summary = placeholder_run(path, client, text=other, overwrite=True)
+    assert summary["complete"]
+    assert xr.open_zarr(path).attrs["hertzmap_study_hash"] == placeholder_study(other).hash
+    assert xr.open_zarr(path).sizes["zeta"] == 1
+
+
+def test_non_store_paths_are_never_touched(tmp_path, client):
+    d = tmp_path / "notastore"
+    d.mkdir()
+    (d / "precious.txt").write_text("keep me")
+    with pytest.raises(StoreError, match="not a zarr store"):
+        placeholder_run(d, client, overwrite=True)
+    assert (d / "precious.txt").read_text() == "keep me"
+    # a foreign zarr store: refused without --overwrite
+    z = tmp_path / "foreign.zarr"
+    zarr.open_group(zarr.storage.LocalStore(z), mode="w", zarr_format=3)
+    with pytest.raises(StoreError, match="not written by hertzmap"):
+        placeholder_run(z, client)
+
+
+def test_lock_refuses_a_second_live_client_and_takes_over_a_dead_one(tmp_path, client):
+    path = tmp_path / "d.zarr"
+    placeholder_run(path, client)
+    lock = lock_path(path)
+    import os
+    import socket
+    lock.write_text(json.dumps({"host": socket.gethostname(), "pid": os.getppid()}))
+    with pytest.raises(StoreError, match="in use by another hertzmap client"):
+        with Lock(path):
+            pass
+    lock.write_text(json.dumps({"host": socket.gethostname(), "pid": 2 ** 22 + 12345}))
+    with Lock(path):
+        assert json.loads(lock.read_text())["pid"] == os.getpid()
+    assert not lock.exists()
+
+
+def test_resume_with_other_solver_code_warns(tmp_path, client, capsys):
+    s = placeholder_study()
+    path = tmp_path / "g.zarr"
+    store, _ = open_or_create(path, s, choose_chunks(s), overwrite=False, action="t")
+    t = make_plan(s, store.chunks).tasks[0]
+    so, ss, sz = t.slices
+    store.write_block(t.slices, placeholder_solve_block(
+        s.axis("omega")[so], s.axis("sigma")[ss], s.axis("zeta")[sz], **s.solver_kwargs()),
+        stored_variables(s))
+    store.mark_done(t.index)
+    store._group.attrs["hertzmap_code_hash"] = "0" * 64
+    placeholder_run(path, client)
+    assert "solver code (kernels/, study/) changed" in capsys.readouterr().err
+    assert "solver code changed: 000000000000 ->" in xr.open_zarr(path).attrs["history"]
+
+
+def test_block_write_is_byte_identical_to_an_xarray_region_write(tmp_path):
+    # oracle: xarray's own region write of block_dataset, the path write_block replaced
+    from study.schema import block_dataset
+
+    s = placeholder_study(ALL_OUTPUTS_STUDY)
+    names = stored_variables(s)
+    assert any(VARIABLES[n].per_block for n in names)
+    chunks = (5, 2, 1)
+    plan = make_plan(s, chunks)
+    direct = Store.create(tmp_path / "direct.zarr", s, chunks, "test")
+    via_xr = Store.create(tmp_path / "xarray.zarr", s, chunks, "test")
+    rng = np.random.default_rng(7)
+    for i, task in enumerate(plan.tasks):
+        shape = tuple(len(range(*sl.indices(n))) for sl, n in zip(task.slices, s.shape))
+        arrays = _random_block(names, shape, s.max_solutions, rng, empty=(i % 3 == 0))
+        direct.write_block(task.slices, arrays, names)
+        region = {"omega": task.slices[0], "sigma": task.slices[1], "zeta": task.slices[2]}
+        ds = block_dataset(arrays, names)
+        if "omega_block" in ds.dims:
+            ib = task.slices[0].start // chunks[0]
+            region["omega_block"] = slice(ib, ib + 1)
+        ds.to_zarr(zarr.storage.LocalStore(via_xr.path), region=region, consolidated=False,
+                   zarr_format=3, write_empty_chunks=True)
+    a, b = _chunk_bytes(direct.path), _chunk_bytes(via_xr.path)
+    assert a.keys() == b.keys() and len(a) > 0
+    assert [k for k in a if a[k] != b[k]] == []
+    # every chunk of every written block exists, all-fill blocks included (verify relies on it)
+    assert direct.verify(plan.tasks, names) == {}
+    opened = []
+    for path in (direct.path, via_xr.path):
+        ds = xr.open_zarr(path, consolidated=False)[list(names)]
+        ds.attrs = {}       # the stores' own attrs differ (history timestamps)
+        opened.append(ds)
+    xr.testing.assert_identical(*opened)
+
+
+def test_attr_updates_keep_the_consolidated_metadata(tmp_path, monkeypatch):
+    # A reader opening the store mid-run must never find zarr.json without its consolidated
+    # metadata (xarray then falls back to listing the directory, with a warning). So the attrs
+    # write itself must keep it: with consolidate_metadata disabled, nothing may be lost.
+    import warnings
+
+    s = placeholder_study()
+    store = Store.create(tmp_path / "a.zarr", s, choose_chunks(s), "test")
+    monkeypatch.setattr(zarr, "consolidate_metadata", lambda *a, **k: None)
+    store.add_history("step one")
+    store.set_attrs(hertzmap_error_estimate='{"n": 0}')
+    doc = json.loads((store.path / "zarr.json").read_text())
+    assert doc.get("consolidated_metadata") is not None
+    assert doc["attributes"]["history"].endswith("step one")
+    assert doc["attributes"]["hertzmap_error_estimate"] == '{"n": 0}'
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ds = xr.open_zarr(store.path)
+    assert ds.attrs["history"].count("\n") == 1 and set(stored_variables(s)) <= set(ds)
+
+
+def test_a_store_appears_whole(tmp_path, monkeypatch):
+    # built next to its place and renamed into it: while the template is written nothing is at
+    # the path; a creation cut short earlier (its building folder) is cleared first
+    s = placeholder_study()
+    path = tmp_path / "w.zarr"
+    stale = tmp_path / ".w.zarr.creating"
+    stale.mkdir()
+    (stale / "junk").write_text("left by a creation cut short")
+    seen = []
+    real = xr.Dataset.to_zarr
+
+    def spy(self, *args, **kwargs):
+        seen.append(path.exists())
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(xr.Dataset, "to_zarr", spy)
+    store = Store.create(path, s, choose_chunks(s), "test")
+    assert seen == [False]
+    assert path.is_dir() and not stale.exists()
+    assert json.loads((path / "zarr.json").read_text()).get("consolidated_metadata") is not None
+    assert store.study_hash == s.hash
+
+
+def test_attr_update_restores_missing_consolidated_metadata(tmp_path):
+    # a store whose zarr.json lost its consolidated metadata (written by older code) gets it back
+    s = placeholder_study()
+    store = Store.create(tmp_path / "c.zarr", s, choose_chunks(s), "test")
+    zarr.open_group(zarr.storage.LocalStore(store.path), mode="r+", zarr_format=3,
+                    use_consolidated=False).attrs["probe"] = 1
+    assert json.loads((store.path / "zarr.json").read_text()).get("consolidated_metadata") is None
+    store.add_history("after")
+    doc = json.loads((store.path / "zarr.json").read_text())
+    assert doc.get("consolidated_metadata") is not None
+    assert doc["attributes"]["probe"] == 1 and doc["attributes"]["history"].endswith("after")
+
+
+def _digest(path) -> dict[str, str]:
+    """sha256 of every file of the store outside its products/ groups and root metadata."""
+    import hashlib
+
+    out = {}
+    for p in sorted(path.rglob("*")):
+        rel = p.relative_to(path).as_posix()
+        if p.is_file() and not rel.startswith(PRODUCT_GROUP) and rel != "zarr.json":
+            out[rel] = hashlib.sha256(p.read_bytes()).hexdigest()
+    return out
+
+
+def test_products_round_trip_and_leave_the_main_group_alone(hand, tmp_path):
+    store = write_results(hand, tmp_path / "s.zarr")
+    before = _digest(store)
+    attrs_before = xr.open_zarr(store, chunks=None).attrs
+    prods = P.compute_products(store)
+    assert {"orbit_classes", "loss_of_contact_map", "bifurcation_curves", "mms_curves",
+            "frequency_response"} <= set(prods)
+    write_products(store, prods)
+    assert set(list_products(store)) == set(prods)
+    for name, prod in prods.items():
+        back = read_product(store, name)
+        xr.testing.assert_identical(back.drop_attrs(), prod.drop_attrs())
+        assert back.attrs["title"]
+    with xr.open_zarr(store, group="products/loss_of_contact_map", chunks=None) as g:
+        assert "stable_set" in g and g["stable_set"].attrs["flag_meanings"]
+    assert _digest(store) == before
+    main = xr.open_zarr(store, chunks=None)
+    assert main.attrs == attrs_before
+    assert "products" not in main.variables
+    # rewriting replaces the group
+    write_product(store, "mms_curves", prods["mms_curves"].isel(omega=slice(0, 5)))
+    assert read_product(store, "mms_curves").sizes["omega"] == 5
+    # refused while a live run holds the lock (this process's pid: alive)
+    with Lock(store):
+        with pytest.raises(StoreError, match="locked"):
+            write_product(store, "x", prods["mms_curves"])
+    assert "x" not in list_products(store)
+    # a dead client's lock is taken over
+    lock_path(store).write_text(json.dumps({"host": socket.gethostname(), "pid": 2 ** 22 + 7}))
+    write_product(store, "x", prods["mms_curves"])
+    assert not lock_path(store).exists()

@@ -1,0 +1,132 @@
+"""study.solve.block (with study.solve.point and seeds): results do not depend on batching or
+on the eig pre-check of the flip seeds; a 2T solve landing on the 1T orbit keeps the 1T
+multipliers; the time budget cuts a block and records it."""
+from __future__ import annotations
+
+from math import pi
+import time
+
+import numpy as np
+import pytest
+
+from kernels import status
+from kernels import status as st
+from study.solve import point
+from study.solve.block import solve_block
+from study.solve.point import MAX_ITER_1T, MAX_ITER_2T, shoot_seeds
+from study.solve.seeds import FLIP_SEED_OFFSETS, flip_seeds, linear_response_seed
+
+
+W, S, Z = 1.2, 0.5, 0.01
+
+
+def _flip_seeds_always_eig(sol):
+    """study.solve.seeds.flip_seeds without the pre-check."""
+    if sol["period"] != 1 or sol["status"] != st.CONVERGED:
+        return []
+    w, V = np.linalg.eig(sol["monodromy"])
+    seeds = []
+    for k in range(2):
+        if abs(w[k].imag) < 1e-12 and w[k].real < -0.95:
+            e = np.real(V[:, k])
+            e /= np.linalg.norm(e)
+            for d in FLIP_SEED_OFFSETS:
+                seeds.append(tuple(sol["x0"] + d * e))
+                seeds.append(tuple(sol["x0"] - d * e))
+    return seeds
+
+
+def test_results_do_not_depend_on_batching():
+    for period, seeds in ((1, [linear_response_seed(W, S, Z), (0.3, -0.2), (-1.0, 0.5)]),
+                          (2, [(-3.06, -1.40), (0.5, 0.5), (-2.0, 1.0)])):
+        options = dict(max_iter=MAX_ITER_1T if period == 1 else MAX_ITER_2T)
+        batch = shoot_seeds(W, S, Z, period, seeds, options)
+        alone = [shoot_seeds(W, S, Z, period, [seed], options)[0] for seed in seeds]
+        assert any(s["status"] == st.CONVERGED for s in batch)
+        for a, b in zip(batch, alone):
+            assert a.keys() == b.keys()
+            for key in a:
+                np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+
+
+def test_flip_seed_precheck_drops_no_seed(monkeypatch):
+    with_seeds, checked = [], []
+    fast = flip_seeds
+
+    def compare(sol):
+        got = fast(sol)
+        assert got == _flip_seeds_always_eig(sol)
+        checked.append(sol["period"] == 1 and sol["status"] == st.CONVERGED)
+        with_seeds.append(bool(got))
+        return got
+
+    monkeypatch.setattr(point, "flip_seeds", compare)
+    solve_block(np.linspace(0.5, 2.5, 41), [0.2, 0.5, 0.8], [Z], harmonics=False)
+    assert sum(checked) > 50 and any(with_seeds)        # past a flip, seeds were made
+    assert sum(with_seeds) < sum(checked)                # elsewhere, none
+
+
+# (omega, sigma, zeta, period, guess, exponent, model, loses contact?)
+ORACLE_CASES = [
+    pytest.param(1.5, 0.2, 0.01, 1, (-0.16, 0.006), 1.5, "hertz", False, id="1T-contact"),
+    pytest.param(0.8, 1.5, 0.01, 1, (-7.7, 0.17), 1.5, "hertz", True, id="1T-long-flight"),
+    pytest.param(1.9, 0.5, 0.01, 2, (-0.09, 1.5), 1.5, "hertz", True, id="2T-contact-loss"),
+    pytest.param(1.9, 0.5, 0.01, 2, (0.19, 1.42), 10 / 9, "hertz", True, id="2T-n10/9"),
+    pytest.param(0.5, 0.8, 0.05, 1, (0.7, 0.0), 1.0, "hertz", True, id="1T-n1-impacts"),
+    pytest.param(1.9, 0.5, 0.01, 2, (-1.0, 0.5), 1.5, "taylor", True, id="2T-taylor"),
+]
+
+
+EXTREME = [
+    (0.05, 0.5, 0.01, 1, 1.5), (10.0, 0.5, 0.01, 1, 1.5), (1.0, 10.0, 0.01, 1, 1.5),
+    (0.3, 10.0, 0.01, 1, 1.5), (1.9, 0.5, 1e-4, 2, 1.5), (1.0, 0.5, 10.0, 1, 1.5),
+    (0.05, 5.0, 10.0, 1, 1.5), (1.9, 0.5, 0.01, 2, 1.0), (0.8, 2.0, 0.01, 1, 10 / 9),
+    (2.0, 0.5, 0.0, 2, 1.5), (1.0, 1.0, 0.01, 1, 1.5), (3.0, 9.0, 0.001, 2, 1.5),
+]
+
+
+def test_block_keeps_1t_multipliers_when_a_2t_solve_lands_on_the_1t_orbit():
+    """Regression: a 2T solve landing on the 1T orbit must not store the 2T monodromy."""
+    from study.solve.block import solve_block
+    omega = np.linspace(1.0, 2.4, 8)
+    r = solve_block(omega, np.array([0.3]), np.array([0.01]))
+    one = r["period"] == 1
+    T = 2 * pi / omega[:, None, None, None] * np.ones_like(r["q0"])
+    det = (r["multipliers"][..., 0] * r["multipliers"][..., 1]).real
+    np.testing.assert_allclose(det[one], np.exp(-2 * 0.01 * T[one]), rtol=1e-6)
+    # no duplicated 1T orbit at a point
+    for i in range(omega.size):
+        q = r["min_q"][i, 0, 0][r["period"][i, 0, 0] == 1]
+        assert np.unique(np.round(q, 8)).size == q.size
+
+
+def test_zero_budget_records_every_point_as_time_limited():
+    r = solve_block(np.linspace(0.5, 2.0, 5), np.array([0.2, 0.4]), np.array([0.01]),
+                    time_budget=0.0)
+    assert np.all(r["status"][..., 0] == status.TIME_LIMIT)
+    assert np.all(r["period"] == 0) and np.all(r["status"][..., 1:] == status.EMPTY)
+
+
+def test_budget_cuts_a_block_part_way_and_keeps_what_was_solved():
+    omega = np.linspace(0.5, 2.5, 400)
+    # a budget of a third of what the whole line takes on this machine (a fixed budget stops
+    # cutting anything once the kernels get fast enough)
+    solve_block(omega[:10], np.array([0.5]), np.array([0.01]))           # compiled and warm
+    t0 = time.perf_counter()
+    solve_block(omega, np.array([0.5]), np.array([0.01]))
+    whole = time.perf_counter() - t0
+    r = solve_block(omega, np.array([0.5]), np.array([0.01]), time_budget=whole / 3)
+    slot0 = r["status"][:, 0, 0, 0]
+    cut = slot0 == status.TIME_LIMIT
+    assert cut.any() and not cut.all()
+    # the cut is a suffix of the upward sweep: everything solved before it is kept
+    first_cut = np.argmax(cut)
+    assert np.all(cut[first_cut:]) and np.all(slot0[:first_cut] == status.CONVERGED)
+
+
+def test_generous_budget_changes_nothing():
+    omega = np.linspace(1.5, 2.2, 8)
+    a = solve_block(omega, np.array([0.5]), np.array([0.01]))
+    b = solve_block(omega, np.array([0.5]), np.array([0.01]), time_budget=600.0)
+    for name in a:
+        np.testing.assert_array_equal(a[name], b[name])

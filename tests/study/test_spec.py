@@ -1,0 +1,239 @@
+"""study.spec, the study file: parsing, defaults, canonical form and hash, validation errors,
+the scene files in studies/."""
+from __future__ import annotations
+
+import json
+import math
+
+from hypothesis import given, settings, strategies as hs
+import numpy as np
+import pytest
+
+from study.spec import (DEFAULT_PRODUCTS, MAX_GRID_POINTS, Study, StudyError, load_study,
+                        parse_study)
+from tests.helpers import REPO
+
+
+def test_scene_files_are_valid_studies():
+    root = REPO / "studies"
+    scenes = sorted(root.glob("fig*.toml"))
+    assert len(scenes) >= 10
+    for f in scenes:
+        s = load_study(f)
+        assert s.name == f.stem
+        assert s.size <= 20_000, f        # a few minutes at most on 2 cores
+
+
+MINIMAL = """
+[grid]
+omega = {start = 0.5, stop = 2.5, num = 5}
+sigma = [0.1, 0.2]
+zeta = 0.01
+"""
+
+
+def parse(text: str, name: str = "t") -> Study:
+    return parse_study(text, default_name=name)
+
+
+def with_grid(omega="[1.0]", sigma="[0.1]", zeta="[0.01]", extra="") -> str:
+    return f"[grid]\nomega = {omega}\nsigma = {sigma}\nzeta = {zeta}\n{extra}"
+
+
+# -- validation errors name the field and the allowed range ------------------------------------
+
+BAD = [
+    # (text, field in the message, words of the allowed range)
+    (with_grid(omega="[0.0]"), "grid.omega[0]", "> 0"),
+    (with_grid(omega="[-1.0, 1.0]"), "grid.omega[0]", "> 0"),
+    (with_grid(sigma="[-0.1]"), "grid.sigma[0]", ">= 0"),
+    (with_grid(zeta="-0.5"), "grid.zeta", ">= 0"),
+    (with_grid(omega="[nan]"), "grid.omega[0]", "finite"),
+    (with_grid(omega="[inf]"), "grid.omega[0]", "finite"),
+    (with_grid(sigma='["a"]'), "grid.sigma[0]", "number"),
+    (with_grid(omega="[]"), "grid.omega", "at least one"),
+    (with_grid(omega="[1.0, 2.0, 1.0]"), "grid.omega", "duplicated"),
+    (with_grid(sigma="{start = 0.1, stop = 0.1, num = 3}"), "grid.sigma", "duplicated"),
+    (with_grid(omega="{start = 0.5, stop = 2.0, num = 0}"), "grid.omega.num", ">= 1"),
+    (with_grid(omega="{start = 0.5, stop = 2.0, num = 2.5}"), "grid.omega.num", "integer"),
+    (with_grid(omega="{start = 0.5, stop = 2.0, num = 1}"), "grid.omega.num", "ambiguous"),
+    (with_grid(omega="{start = 0.5, num = 3}"), "grid.omega.stop", "missing"),
+    (with_grid(omega="{start = 0.0, stop = 2.0, num = 3}"), "grid.omega.start", "> 0"),
+    (with_grid(omega="{start = 0.5, stop = 2.0, num = 3, step = 1}"), "grid.omega.step", "unknown key"),
+    (with_grid(omega='"1.0"'), "grid.omega", "expected a number"),
+    ("[grid]\nomega = [1.0]\nsigma = [0.1]\n", "grid.zeta", "missing"),
+    ("[grid]\nomega = [1.0]\nsigma = [0.1]\nzeta = [0.1]\ntheta = [1.0]\n", "grid.theta", "unknown key"),
+    ("[study]\nname = 'x'\n", "grid", "missing required table"),
+    (with_grid(omega="{start = 0.1, stop = 10.0, num = 5000}",
+               sigma="{start = 0.1, stop = 1.0, num = 5000}"), "grid", str(MAX_GRID_POINTS)),
+    (with_grid(extra='[model]\nkind = "linear"\n'), "model.kind", "'hertz', 'taylor'"),
+    (with_grid(extra="[model]\nexponent = 0.0\n"), "model.exponent", "0 < exponent <= 3"),
+    (with_grid(extra="[model]\nexponent = 3.5\n"), "model.exponent", "0 < exponent <= 3"),
+    (with_grid(extra='[model]\nkind = "taylor"\nexponent = 1.5\n'), "model.exponent", "only allowed"),
+    (with_grid(extra="[solver]\nrtol = 1e-3\n"), "solver.rtol", "1e-13 <= rtol <= 0.0001"),
+    (with_grid(extra="[solver]\nrtol = 1e-15\n"), "solver.rtol", "1e-13 <= rtol <= 0.0001"),
+    (with_grid(extra="[solver]\nmax_solutions = 0\n"), "solver.max_solutions", "1..16"),
+    (with_grid(extra="[solver]\nmax_solutions = 17\n"), "solver.max_solutions", "1..16"),
+    (with_grid(extra="[solver]\nmax_solutions = true\n"), "solver.max_solutions", "1..16"),
+    (with_grid(extra="[solver]\natol = 1e-9\n"), "solver.atol", "unknown key"),
+    (with_grid(extra="[search]\nperiods = [3]\n"), "search.periods", "[1, 2]"),
+    (with_grid(extra="[search]\nperiods = []\n"), "search.periods", "non-empty"),
+    (with_grid(extra="[search]\nperiods = [1, 1]\n"), "search.periods", "duplicated"),
+    (with_grid(extra='[products]\noutputs = ["orbits", "movies"]\n'), "products.outputs", "measures"),
+    (with_grid(extra='[products]\noutputs = "orbits"\n'), "products.outputs", "list"),
+    (with_grid(extra='[study]\nname = "a b"\n'), "study.name", "letters, digits"),
+    (with_grid(extra='[study]\nowner = "me"\n'), "study.owner", "unknown key"),
+    (with_grid(extra="[rig]\nE = 2e11\nnu = 0.3\nR = 0.01\nm = 1.0\n"), "rig.N", "missing"),
+    (with_grid(extra="[rig]\nE = -2e11\nnu = 0.3\nR = 0.01\nm = 1.0\nN = 10\n"), "rig.E", "> 0"),
+    (with_grid(extra="[rig]\nE = 2e11\nnu = 0.6\nR = 0.01\nm = 1.0\nN = 10\n"), "rig.nu", "0.5"),
+    (with_grid(extra='[rig]\nE = 2e11\nnu = 0.3\nR = 0.01\nm = 1.0\nN = 10\ncontact = "triple"\n'),
+     "rig.contact", "'double', 'single'"),
+    (with_grid(extra="[cluster]\nworkers = 4\n"), "cluster", "unknown key"),
+    ("[grid\nomega = 1", "toml", "not valid TOML"),
+]
+
+
+# -- the CLI: exit code 2, message on stderr, nothing on disk -----------------------------------
+
+
+# -- parsing and defaults -------------------------------------------------------------------
+
+def test_minimal_study_defaults():
+    s = parse(MINIMAL)
+    assert s.name == "t" and s.description == ""
+    assert s.omega == (0.5, 1.0, 1.5, 2.0, 2.5)
+    assert s.sigma == (0.1, 0.2) and s.zeta == (0.01,)
+    assert s.shape == (5, 2, 1) and s.size == 10
+    assert (s.model, s.exponent, s.rtol, s.max_solutions) == ("hertz", 1.5, 1e-10, 4)
+    assert s.periods == (1, 2)
+    assert s.products == DEFAULT_PRODUCTS
+    assert s.rig is None
+    # force_harmonics is not among the default products: the solver skips their quadrature
+    assert s.solver_kwargs() == {"periods": (1, 2), "exponent": 1.5, "model": "hertz",
+                                 "rtol": 1e-10, "max_solutions": 4, "harmonics": False}
+
+
+def test_full_study():
+    s = parse("""
+[study]
+name = "full-1"
+description = "everything"
+[grid]
+omega = [2.0, 1.0]
+sigma = {start = 0.0, stop = 1.0, num = 3}
+zeta = [0.0, 0.5]
+[model]
+kind = "hertz"
+exponent = 1.0
+[solver]
+rtol = 1e-8
+max_solutions = 6
+[search]
+periods = [2]
+[products]
+outputs = ["force_harmonics", "diagnostics"]
+[rig]
+E = 2.1e11
+nu = 0.3
+R = 0.0127
+m = 1.2
+N = 50
+contact = "single"
+""")
+    assert s.name == "full-1" and s.description == "everything"
+    assert s.omega == (2.0, 1.0)          # order kept (a downward sweep)
+    assert s.sigma == (0.0, 0.5, 1.0)
+    assert (s.exponent, s.rtol, s.max_solutions, s.periods) == (1.0, 1e-8, 6, (2,))
+    assert s.products == ("orbits", "force_harmonics", "diagnostics")   # orbits always
+    assert s.rig_dict == {"E": 2.1e11, "nu": 0.3, "R": 0.0127, "m": 1.2, "N": 50.0,
+                          "contact": "single"}
+
+
+def test_taylor_model_has_no_exponent():
+    s = parse(with_grid(extra='[model]\nkind = "taylor"\n'))
+    assert s.model == "taylor" and s.exponent is None
+    assert s.solver_kwargs()["model"] == "taylor"
+
+
+def test_linspace_is_inclusive_and_exact_at_ends():
+    s = parse(with_grid(omega="{start = 0.1, stop = 0.7, num = 7}"))
+    assert s.omega[0] == 0.1 and s.omega[-1] == 0.7 and len(s.omega) == 7
+    np.testing.assert_allclose(s.omega, np.linspace(0.1, 0.7, 7), rtol=0, atol=1e-15)
+
+
+def test_hash_ignores_formatting_but_not_content():
+    a = parse(MINIMAL)
+    b = parse("# a comment\n[grid]\nzeta=[0.01]\nsigma=[0.1,0.2]\nomega=[0.5,1.0,1.5,2.0,2.5]\n"
+              "[solver]\nrtol=1e-10\n")
+    assert a.canonical_json() == b.canonical_json() and a.hash == b.hash
+    c = parse(MINIMAL.replace("zeta = 0.01", "zeta = 0.02"))
+    assert c.hash != a.hash
+    d = parse(MINIMAL + "[solver]\nmax_solutions = 3\n")
+    assert d.hash != a.hash
+    assert len(a.hash) == 64 and int(a.hash, 16) >= 0
+    doc = json.loads(a.canonical_json())
+    assert doc["grid"]["omega"] == [0.5, 1.0, 1.5, 2.0, 2.5]
+    assert doc["products"]["outputs"] == list(DEFAULT_PRODUCTS)
+
+
+def test_study_is_frozen_and_source_text_kept():
+    s = parse(MINIMAL)
+    with pytest.raises(Exception):
+        s.rtol = 1.0  # type: ignore[misc]
+    assert s.source_text == MINIMAL
+    assert s == parse(MINIMAL + "\n# trailing comment\n")   # text is not part of equality
+
+
+def test_load_study_name_defaults_to_stem(tmp_path):
+    p = tmp_path / "my_map.toml"
+    p.write_text(MINIMAL)
+    assert load_study(p).name == "my_map"
+    with pytest.raises(StudyError, match="^file: cannot read"):
+        load_study(tmp_path / "missing.toml")
+
+
+@settings(max_examples=60, deadline=None)
+@given(start=hs.floats(0.01, 10), span=hs.floats(0.01, 10), num=hs.integers(2, 400))
+def test_linspace_axes_are_distinct_and_hash_stable(start, span, num):
+    text = with_grid(omega=f"{{start = {start!r}, stop = {start + span!r}, num = {num}}}")
+    s = parse(text)
+    assert len(s.omega) == num and len(set(s.omega)) == num
+    assert all(math.isfinite(x) and x > 0 for x in s.omega)
+    assert parse(text).hash == s.hash
+
+
+@pytest.mark.parametrize("text,field,allowed", BAD, ids=[f"{b[1]}-{i}" for i, b in enumerate(BAD)])
+def test_validation_error_names_field_and_range(text, field, allowed):
+    with pytest.raises(StudyError) as info:
+        parse(text)
+    assert isinstance(info.value, ValueError)
+    assert info.value.field == field
+    msg = str(info.value)
+    assert msg.startswith(f"{field}: "), msg
+    assert allowed in msg, msg
+
+
+def test_shipped_studies_are_valid():
+    for path in sorted((REPO / "studies").glob("*.toml")):
+        s = load_study(path)
+        assert s.size >= 1, path
+
+
+def test_search_discover_option():
+    from study.spec import parse_study
+    base = '[grid]\nomega = [1.0, 1.5]\nsigma = [0.2]\nzeta = [0.01]\n'
+    plain = parse_study(base, default_name="s")
+    assert plain.discover is False and "discover" not in plain.solver_kwargs()
+    on = parse_study(base + '[search]\ndiscover = true\ntransients = 8\n', default_name="s")
+    assert on.solver_kwargs()["discover"] is True and on.solver_kwargs()["transients"] == 8
+    assert on.hash != plain.hash
+    # absent and explicitly false are the same study (and the hash of studies that predate the
+    # option is unchanged: the key is not in their canonical form)
+    assert parse_study(base + '[search]\ndiscover = false\n', default_name="s").hash == plain.hash
+    assert "discover" not in plain.to_dict()["search"]
+    for bad, field in [('discover = "yes"', "search.discover"), ("discover = 1", "search.discover"),
+                       ("discover = true\ntransients = 0", "search.transients"),
+                       ("discover = true\ntransients = 2.5", "search.transients"),
+                       ("transients = 4", "search.transients")]:
+        with pytest.raises(StudyError, match=field.replace(".", r"\.")):
+            parse_study(base + "[search]\n" + bad + "\n", default_name="s")

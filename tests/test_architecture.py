@@ -1,0 +1,181 @@
+"""The house: imports go scheduler -> study -> kernels and never back, no import cycle, the study
+layer and the products import neither Dask nor the scheduler, argparse only in the command
+line, zarr writes and locks only in scheduler.store, every concept defined once.
+
+The import graph is read from the source (every ``import``, at module level or inside a
+function), so a lazy import that runs backwards is caught as well.
+"""
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.helpers import REPO, subprocess_env
+
+PACKAGES = ("kernels", "study", "scheduler", "benchmarks")
+#: a package may import only packages of a lower rank (and itself)
+RANK = {"kernels": 0, "study": 1, "scheduler": 2, "benchmarks": 3}
+
+
+def _modules() -> dict[str, Path]:
+    out = {}
+    for pkg in PACKAGES:
+        for path in sorted((REPO / pkg).rglob("*.py")):
+            rel = path.relative_to(REPO).with_suffix("")
+            name = ".".join(rel.parts)
+            out[name.removesuffix(".__init__")] = path
+    return out
+
+
+MODULES = _modules()
+
+
+def _imports(path: Path) -> list[tuple[str, int]]:
+    """(imported module, line) for every import in the file, resolved to a module of the repo
+    where the name is one (``from pkg import module``), else the imported module itself."""
+    tree = ast.parse(path.read_text())
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            out += [(a.name, node.lineno) for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            subs = [f"{node.module}.{a.name}" for a in node.names]
+            found = [s for s in subs if s in MODULES]
+            out += [(s, node.lineno) for s in found] or [(node.module, node.lineno)]
+    return out
+
+
+GRAPH = {m: {i for i, _ in _imports(p) if i in MODULES and i != m} for m, p in MODULES.items()}
+
+
+def test_every_import_goes_down_the_layers():
+    wrong = []
+    for m, path in MODULES.items():
+        for target, line in _imports(path):
+            top = target.split(".")[0]
+            if top in RANK and RANK[top] > RANK[m.split(".")[0]]:
+                wrong.append(f"{path.relative_to(REPO)}:{line} imports {target}")
+    assert not wrong, "imports that run back up the layers:\n" + "\n".join(wrong)
+
+
+def test_no_import_cycle():
+    index, low, stack, on, cycles = {}, {}, [], set(), []
+
+    def visit(v):                        # Tarjan's strongly connected components
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in GRAPH[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                cycles.append(sorted(comp))
+
+    sys.setrecursionlimit(10_000)
+    for v in GRAPH:
+        if v not in index:
+            visit(v)
+    # a package's __init__ re-exporting its modules is not a cycle of knowledge: leave out the
+    # edges from a package to its own submodules
+    real = [c for c in cycles
+            if any(b in GRAPH[a] and not b.startswith(a + ".") for a in c for b in c)]
+    assert not real, f"import cycles: {real}"
+
+
+def test_kernels_are_pure_numerics():
+    allowed = {"numpy", "numba", "scipy", "kernels"} | set(sys.stdlib_module_names)
+    bad = [f"{path.relative_to(REPO)}:{line} imports {t}"
+           for m, path in MODULES.items() if m.startswith("kernels")
+           for t, line in _imports(path) if t.split(".")[0] not in allowed]
+    assert not bad, bad
+
+
+def test_argparse_only_in_the_command_line():
+    bad = [f"{p.relative_to(REPO)}:{line}" for m, p in MODULES.items()
+           if m.split(".")[0] in ("kernels", "study", "scheduler") and m != "scheduler.cli"
+           for t, line in _imports(p) if t == "argparse"]
+    assert not bad, bad
+
+
+def test_zarr_writes_and_locks_only_in_the_store_module():
+    bad = []
+    for m, path in MODULES.items():
+        if m.split(".")[0] not in ("kernels", "study", "scheduler") or m == "scheduler.store":
+            continue
+        text = path.read_text()
+        for needle in (".to_zarr(", "zarr.open_group(", "zarr.open(", "O_EXCL", ".lock\""):
+            if needle in text:
+                bad.append(f"{path.relative_to(REPO)}: {needle}")
+    assert not bad, bad
+
+
+@pytest.mark.parametrize("modules", ["study.spec, study.schema, study.orbits, study.solve.block",
+                                     "study.products, study.plots, study.analytic.rig"])
+def test_study_layer_imports_neither_dask_nor_the_scheduler(modules):
+    code = (f"import sys, {modules}; "
+            "bad = [m for m in sys.modules if m.split('.')[0] in "
+            "('dask', 'distributed', 'scheduler', 'zarr')]; "
+            "print(bad); sys.exit(1 if bad else 0)")
+    r = subprocess.run([sys.executable, "-c", code], env=subprocess_env(), capture_output=True,
+                       text=True, timeout=120)
+    assert r.returncode == 0, r.stdout + r.stderr
+
+
+#: the concepts defined once: each name is assigned at module level in exactly this module
+ONE_DEFINITION = {
+    "N_HARMONICS": "kernels.integrate",
+    "TAYLOR_CONTACT_LOSS": "kernels.model",
+    "VARIABLES": "study.schema",
+    "BIFURCATION_SLOTS": "study.schema",
+    "BIFURCATION_KINDS": "study.schema",
+    "PRODUCT_GROUP": "study.schema",
+    "ORBIT_CLASSES": "study.orbits",
+    "SAME_ORBIT_TOL": "study.orbits",
+    "LOCK_SUFFIX": "scheduler.store",
+}
+
+
+def _assigned(path: Path) -> set[str]:
+    names = set()
+    for node in ast.parse(path.read_text()).body:
+        targets = node.targets if isinstance(node, ast.Assign) else (
+            [node.target] if isinstance(node, ast.AnnAssign) else [])
+        for t in targets:
+            for n in ast.walk(t):
+                if isinstance(n, ast.Name):
+                    names.add(n.id)
+    return names
+
+
+def test_every_concept_is_defined_once():
+    where: dict[str, list[str]] = {name: [] for name in ONE_DEFINITION}
+    for m, path in MODULES.items():
+        for name in _assigned(path) & set(ONE_DEFINITION):
+            where[name].append(m)
+    assert where == {name: [m] for name, m in ONE_DEFINITION.items()}
+
+
+def test_numbers_of_one_concept_are_not_written_twice():
+    """The Taylor model's threshold (-1.3479...) is written once, in kernels.model; the paper's
+    printed -1.348 only in study.analytic.paper (a published value, kept to compare with)."""
+    for m, path in MODULES.items():
+        text = path.read_text()
+        if m != "kernels.model":
+            assert "1.3479" not in text.replace("-1.3479...", ""), m
+        if m != "study.analytic.paper":
+            assert "1.348 " not in text and "1.348)" not in text and "= -1.348" not in text, m
