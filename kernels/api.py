@@ -131,21 +131,52 @@ def shoot_batch(omega, sigma, zeta, period, q_guess, v_guess, *, exponent: float
     return {name: out[:, i].reshape(shape) for i, name in enumerate(FIELDS)}
 
 
+def section_times(T: float, t_end: float, samples_per_period: int = 1) -> np.ndarray:
+    """Sampling times k T / samples_per_period, k = 0..K, for a transient over [0, t_end].
+
+    K is t_end / (T / samples_per_period) rounded to the nearest integer when it is one to
+    within 1e-9 (relative): t_end = periods T carries a rounding error of either sign, and
+    ceil() of a quotient one ulp above an integer added a sample off the section (issue 21).
+    Otherwise K is the quotient's floor. Each time is computed as (k T) / samples_per_period
+    from k, never accumulated, so that with samples_per_period = 1 every sample is on the
+    stroboscopic section tau = 0 mod T to the rounding of one product.
+    """
+    s = int(samples_per_period)
+    x = float(t_end) * s / T
+    K = int(round(x))
+    if abs(x - K) > 1e-9 * max(1.0, abs(x)):
+        K = int(np.floor(x))
+    K = max(K, 0)
+    t = np.arange(K + 1, dtype=float) * T / s
+    # (K T) / s and t_end = periods T may differ by an ulp: no sample beyond the end
+    t[-1] = min(t[-1], float(t_end))
+    return t
+
+
 def simulate(omega: float, sigma: float, zeta: float, x0=(0.0, 0.0), *, t_end: float | None = None,
              periods: float = 50.0, t_eval=None, samples_per_period: int = 64,
              exponent: float = 1.5, model: str = "hertz", rtol: float = DEFAULT_RTOL,
              atol: float | None = None, max_steps: int = 10_000_000) -> dict[str, np.ndarray]:
     """Transient from x0 = (q, q') at tau = 0 to t_end (default ``periods`` excitation periods).
 
-    Returns {"t", "q", "v", "force", "status"}: force is the contact force F(q) / N, so
+    Returns {"t", "q", "v", "force", "status", "final"}: force is the contact force F(q) / N, so
     F_exp = force - 1 (paper Eq. 30). Outputs are on the integrator's continuous extension
-    (7th order) in contact and on the closed form in flight.
+    (7th order) in contact and on the closed form in flight. "final" is the state at t_end.
+
+    Without ``t_eval`` the samples are at tau_k = k T / samples_per_period (T = 2 pi / omega),
+    k = 0, 1, ... while tau_k <= t_end: with samples_per_period = 1 they lie on the
+    stroboscopic section tau = 0 mod T, and a whole number of periods gives periods + 1 of them.
     """
+    if not (np.isfinite(omega) and omega > 0.0):
+        raise ValueError(f"omega must be a finite number > 0, got {omega!r}")
     T = 2.0 * pi / omega
     if t_end is None:
         t_end = periods * T
     if t_eval is None:
-        t_eval = np.linspace(0.0, t_end, int(np.ceil(t_end / T * samples_per_period)) + 1)
+        if int(samples_per_period) < 1:
+            raise ValueError(f"samples_per_period must be an integer >= 1, got "
+                             f"{samples_per_period!r}")
+        t_eval = section_times(T, t_end, int(samples_per_period))
     t_eval = np.ascontiguousarray(np.asarray(t_eval, float))
     if t_eval.size and (np.any(np.diff(t_eval) < 0) or t_eval[0] < 0
                          or t_eval[-1] > t_end * (1 + 1e-12)):

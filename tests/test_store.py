@@ -68,10 +68,10 @@ def test_template_schema_and_attrs():
     for name in list(ds.data_vars) + list(ds.coords):
         assert ds[name].attrs.get("long_name"), name
         assert "units" in ds[name].attrs, name
-    assert list(ds.status.attrs["flag_values"]) == [-1, 0, 1, 2, 3, 4, 5, 6]
+    assert list(ds.status.attrs["flag_values"]) == [-1, 0, 1, 2, 3, 4, 5, 6, 7, 8]
     assert ds.status.attrs["flag_meanings"].split() == [
         "empty", "converged", "not_converged", "diverged", "step_limit", "step_size", "singular",
-        "time_limit"]
+        "time_limit", "unsettled", "unconfirmed"]
     assert ds.attrs["hertzmap_study_hash"] == s.hash
     assert ds.attrs["hertzmap_study_toml"] == TEXT
     assert json.loads(ds.attrs["hertzmap_study_json"]) == s.to_dict()
