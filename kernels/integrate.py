@@ -377,6 +377,7 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
         h = min(span, 0.1)
     h_t = h                     # the t-step to resume with after a w-mode
     height_ok = True            # until the next contact switch, after an approach in x gave up
+    t_zero = -np.inf            # where a crossing was last located at the very start of a step
     while t < t1:
         work += 1
         if work > max_steps:
@@ -495,6 +496,19 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
             # inside): locate the crossing now and approach it in w = -sqrt(t_stop - t).
             s, err_s = _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma,
                                         zeta, n, model, rtol, atol, t_ref, 0.0, stats[S_PARTIAL:])
+            if s == 0.0:
+                if t == t_zero:
+                    # On the surface with q' > 0 (a grazing recontact) and a step longer than
+                    # the short contact excursion that follows: the crossing out is located at
+                    # the step start (the surface itself), a zero-length contact follows, and
+                    # the same step from the same state would repeat it forever. Shrink the
+                    # step until it ends inside the excursion (as a rejected step).
+                    stats[S_REJECTED] += 1
+                    h *= 0.2
+                    if h < h_min:
+                        return st.STEP_SIZE
+                    continue
+                t_zero = t
             t_stop = _time(mode, x + s, t_ref)
             if mode == MODE_T:
                 h_t = h
