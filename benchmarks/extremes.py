@@ -1,4 +1,5 @@
-"""The extreme-case table of tests/test_extremes.py, as markdown (for BENCHMARKS.md).
+"""The extreme-case table of benchmarks/extreme_cases.py (tested by tests/kernels/test_extremes.py),
+as markdown (for BENCHMARKS.md).
 
     .venv/bin/python benchmarks/extremes.py        (about 10-20 s with a warm numba cache)
 
@@ -12,13 +13,12 @@ unstable), contact switches per orbit, flight fraction, integrator steps of one 
 """
 from __future__ import annotations
 
-import os
+from pathlib import Path
 import sys
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "tests"))
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from test_extremes import CASES, ROUTES, RTOL, case_args, solve_case  # noqa: E402
+from benchmarks.extreme_cases import CASES, ROUTES, RTOL, case_args, solve_case  # noqa: E402
 
 
 def fmt(x, spec=".1e"):

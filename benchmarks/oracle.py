@@ -1,6 +1,8 @@
 """The independent reference of hertzmap: scipy solve_ivp with the contact switches as terminal
-events and restarts, scipy's root finder, finite-difference monodromy. The one scipy oracle:
-the tests and the benchmarks (``hertzmap bench``, bench_kernels.py) use it.
+events and restarts, scipy's root finder, finite-difference monodromy; and from these its own
+bifurcation points (``flip_omega``: brentq on 1 + tr M + det M; ``fold_point``: the fixed point
+and 1 - tr M + det M = 0 solved together for (q, v, omega)). The one scipy oracle: the tests and
+the benchmarks (``hertzmap bench``, bench_kernels.py) use it.
 
 It shares no code with kernels/ (not even the force law), so agreement is evidence. Paper Eq. 7
 (Hertz, contact lost at q = -n) and Eq. 11 (Taylor, no contact loss), dimensionless.
@@ -11,7 +13,7 @@ from math import pi
 
 import numpy as np
 from scipy.integrate import solve_ivp
-from scipy.optimize import root
+from scipy.optimize import brentq, root
 
 
 def force(q, n=1.5, model="hertz"):
@@ -195,3 +197,83 @@ def shoot_period(guess, omega, sigma, zeta, m, n=1.5, rtol=1e-12, tol=1e-11, max
             return x, M
         x = x + np.linalg.solve(M - np.eye(2), -r)
     raise RuntimeError("period-m shooting did not converge")
+
+
+# -- bifurcation points located by the oracle itself ------------------------------------------
+# Each is the oracle's own root: its fixed point (scipy root on its own period map) and its own
+# finite-difference monodromy, no value from kernels/. The tests compare hertzmap's located
+# points with these.
+
+def checked_fixed_point(guess, omega, sigma, zeta, m=1, *, n=1.5, model="hertz", rtol=1e-12):
+    """The m T orbit's start point near ``guess`` (``fixed_point`` at rtol = atol = ``rtol``),
+    checked by its residual: raises ArithmeticError unless |Phi(x) - x| <= 1e3 rtol (1 + |x|).
+    (hybr's own success flag is not used: its xtol can be below what the integration noise
+    allows while the residual is at the tolerance.)"""
+    kw = dict(rtol=rtol, atol=rtol, n=n, model=model)
+    x, _ = fixed_point(np.asarray(guess, float), omega, sigma, zeta, m, **kw)
+    residual = np.abs(period_map(x, omega, sigma, zeta, m, **kw) - x).max()
+    if not residual <= 1e3 * rtol * (1.0 + np.abs(x).max()):
+        raise ArithmeticError(f"oracle fixed point at omega = {omega!r}: residual {residual:.2e}")
+    return x
+
+
+def flip_function_at(omega, sigma, zeta, guess, m=1, *, n=1.5, model="hertz", rtol=1e-12,
+                     delta=1e-5):
+    """(1 + tr M + det M, x): the flip function of the oracle's m T orbit near ``guess`` at
+    ``omega``, M its central-difference monodromy (step ``delta``; at rtol 1e-12 and delta 1e-5
+    the noise in M is ~1e-10 for orbits of size ~1)."""
+    x = checked_fixed_point(guess, omega, sigma, zeta, m, n=n, model=model, rtol=rtol)
+    M = monodromy_fd(x, omega, sigma, zeta, m, delta=delta, rtol=rtol, atol=rtol, n=n,
+                     model=model)
+    return flip_function(M), x
+
+
+def flip_omega(bracket, sigma, zeta, guess, m=1, *, n=1.5, model="hertz", rtol=1e-12,
+               delta=1e-5, xtol=1e-10):
+    """(omega, x): the frequency in ``bracket`` = (omega_a, omega_b) where the oracle's m T orbit
+    has a Floquet multiplier -1 (a flip, period doubling): scipy.optimize.brentq on
+    ``flip_function_at``, each fixed point started from the previous one (the first from
+    ``guess``). The flip function must change sign over the bracket (brentq raises otherwise).
+    Cost: ~10 brentq steps of ~6 period maps (about 0.15 s each for a 1T orbit in contact)."""
+    state = {"x": np.asarray(guess, float)}
+
+    def g(w):
+        value, state["x"] = flip_function_at(w, sigma, zeta, state["x"], m, n=n, model=model,
+                                             rtol=rtol, delta=delta)
+        return value
+
+    omega = brentq(g, bracket[0], bracket[1], xtol=xtol)
+    x = checked_fixed_point(state["x"], omega, sigma, zeta, m, n=n, model=model, rtol=rtol)
+    return omega, x
+
+
+def fold_point(guess, omega, sigma, zeta, m=2, *, n=1.5, model="hertz", rtol=1e-12,
+               delta=1e-3, xtol=1e-10):
+    """(x, omega, residuals): the point (q, v, omega) where the oracle's m T orbit has a Floquet
+    multiplier +1 (a fold, saddle-node), as the root of the three equations
+
+        Phi_mT(x; omega) - x = 0,    fold_function(M(x; omega)) = 0
+
+    by scipy.optimize.root (hybr, forward-difference Jacobian with relative steps 1e-4) from
+    (``guess``, ``omega``), M the central-difference monodromy with step ``delta``.
+    ``residuals`` = (max |Phi(x) - x|, |fold function|) at the root: the caller checks them
+    (hybr may report "no progress" once the equations are at their noise level).
+
+    The step ``delta`` = 1e-3 suits orbits with |q| up to ~100 (the event restarts leave errors
+    ~rtol |x| in the map, so M has noise ~rtol |x| / delta); the fold's omega barely feels that
+    noise: along the branch omega - omega_fold grows like the square of the distance to the
+    fold, so an error e in the fold function moves omega by O(e^2). At rtol 1e-12 the omega of
+    the folds of the tests agrees with hertzmap's to 1e-9. Cost: 25-35 evaluations of 5 period
+    maps (1-3 s)."""
+    kw = dict(rtol=rtol, atol=rtol, n=n, model=model)
+
+    def equations(u):
+        x, w = u[:2], u[2]
+        r = period_map(x, w, sigma, zeta, m, **kw) - x
+        M = monodromy_fd(x, w, sigma, zeta, m, delta=delta, **kw)
+        return np.r_[r, fold_function(M)]
+
+    sol = root(equations, np.r_[np.asarray(guess, float), omega], method="hybr",
+               options={"xtol": xtol, "eps": 1e-8})
+    f = equations(sol.x)
+    return sol.x[:2].copy(), float(sol.x[2]), (float(np.abs(f[:2]).max()), float(abs(f[2])))

@@ -1,4 +1,4 @@
-"""Helpers shared by the tests: a stand-in block solver with the schema's contract (to test
+"""Helpers shared by the tests: Liouville's formula for an orbit, a stand-in block solver with the schema's contract (to test
 the scheduler and the store without the physics), subprocess environments, waiting.
 
 ``placeholder_solve_block`` returns arrays of exactly the stored schema (study.schema
@@ -10,6 +10,7 @@ by the CLI unless asked for with the hidden ``--solver`` option.
 
 from __future__ import annotations
 
+from math import exp, pi
 import os
 import socket
 import sys
@@ -74,6 +75,20 @@ def failing_solve_block(omega, sigma, zeta, **kwargs):
     if np.max(sigma) > 0.85:
         raise FloatingPointError(f"placeholder failure at sigma = {np.max(sigma)}")
     return placeholder_solve_block(omega, sigma, zeta, **kwargs)
+
+
+# -- independent checks of an orbit ------------------------------------------------------------
+
+def assert_liouville(orbit, tol=1e-6):
+    """det M = exp(-2 zeta P) for every converged orbit (P = period * 2 pi / omega), to the
+    precision a 2x2 determinant can have: relative to |m11 m22| + |m12 m21| when that is larger
+    (heavy damping makes det M ~ 1e-55 from entries ~ 1e-2)."""
+    if orbit.converged:
+        P = orbit.period * 2 * pi / orbit.omega
+        expected = exp(-2 * orbit.zeta * P)
+        M = orbit.monodromy
+        scale = max(expected, abs(M[0, 0] * M[1, 1]) + abs(M[0, 1] * M[1, 0]))
+        assert abs(np.linalg.det(M) - expected) <= tol * scale, (orbit, expected)
 
 
 def free_port() -> int:

@@ -8,25 +8,6 @@ import pytest
 from kernels import shoot, shoot_batch, status
 
 
-# (omega, sigma, zeta, period, guess, exponent, model, loses contact?)
-ORACLE_CASES = [
-    pytest.param(1.5, 0.2, 0.01, 1, (-0.16, 0.006), 1.5, "hertz", False, id="1T-contact"),
-    pytest.param(0.8, 1.5, 0.01, 1, (-7.7, 0.17), 1.5, "hertz", True, id="1T-long-flight"),
-    pytest.param(1.9, 0.5, 0.01, 2, (-0.09, 1.5), 1.5, "hertz", True, id="2T-contact-loss"),
-    pytest.param(1.9, 0.5, 0.01, 2, (0.19, 1.42), 10 / 9, "hertz", True, id="2T-n10/9"),
-    pytest.param(0.5, 0.8, 0.05, 1, (0.7, 0.0), 1.0, "hertz", True, id="1T-n1-impacts"),
-    pytest.param(1.9, 0.5, 0.01, 2, (-1.0, 0.5), 1.5, "taylor", True, id="2T-taylor"),
-]
-
-
-EXTREME = [
-    (0.05, 0.5, 0.01, 1, 1.5), (10.0, 0.5, 0.01, 1, 1.5), (1.0, 10.0, 0.01, 1, 1.5),
-    (0.3, 10.0, 0.01, 1, 1.5), (1.9, 0.5, 1e-4, 2, 1.5), (1.0, 0.5, 10.0, 1, 1.5),
-    (0.05, 5.0, 10.0, 1, 1.5), (1.9, 0.5, 0.01, 2, 1.0), (0.8, 2.0, 0.01, 1, 10 / 9),
-    (2.0, 0.5, 0.0, 2, 1.5), (1.0, 1.0, 0.01, 1, 1.5), (3.0, 9.0, 0.001, 2, 1.5),
-]
-
-
 def test_batch_equals_single_calls():
     om = np.array([1.5, 0.8])
     r = shoot_batch(om, [0.2, 1.5], 0.01, 1, [-0.16, -7.7], [0.006, 0.17])

@@ -3,7 +3,7 @@
 the T-shift of 2T orbits, bounded failure on extreme cases."""
 from __future__ import annotations
 
-from math import exp, pi
+from math import pi
 import time
 
 import numpy as np
@@ -11,18 +11,7 @@ import pytest
 
 from benchmarks import oracle
 from kernels import shoot, simulate, status
-
-
-def assert_liouville(orbit, tol=1e-6):
-    """det M = exp(-2 zeta P) for every converged orbit (P = period * 2 pi / omega), to the
-    precision a 2x2 determinant can have: relative to |m11 m22| + |m12 m21| when that is larger
-    (heavy damping makes det M ~ 1e-55 from entries ~ 1e-2)."""
-    if orbit.converged:
-        P = orbit.period * 2 * pi / orbit.omega
-        expected = exp(-2 * orbit.zeta * P)
-        M = orbit.monodromy
-        scale = max(expected, abs(M[0, 0] * M[1, 1]) + abs(M[0, 1] * M[1, 0]))
-        assert abs(np.linalg.det(M) - expected) <= tol * scale, (orbit, expected)
+from tests.helpers import assert_liouville
 
 
 # (omega, sigma, zeta, period, guess, exponent, model, loses contact?)

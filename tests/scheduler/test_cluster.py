@@ -11,23 +11,7 @@ from scheduler.cluster import ClusterSpec
 from scheduler.store import Store
 
 
-E2E_STUDY = """
-[study]
-name = "e2e"
-[grid]
-omega = {start = 0.6, stop = 2.4, num = 19}
-sigma = [0.1, 0.4, 0.7, 1.0]
-zeta = [0.01, 0.05]
-[products]
-outputs = ["orbits", "measures", "force_harmonics", "diagnostics"]
-"""
-
-
 pytestmark = pytest.mark.slow
-
-# 8 tasks (one omega line each, ~0.2-0.5 s of solver time), 1T and 2T searches
-TASK_SECONDS = "0.1"     # one (sigma, zeta) line per task
-
 
 # -- without the real solver (placeholder with the same contract) ------------------------------
 

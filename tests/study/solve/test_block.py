@@ -7,7 +7,6 @@ from math import pi
 import time
 
 import numpy as np
-import pytest
 
 from kernels import status
 from kernels import status as st
@@ -64,25 +63,6 @@ def test_flip_seed_precheck_drops_no_seed(monkeypatch):
     solve_block(np.linspace(0.5, 2.5, 41), [0.2, 0.5, 0.8], [Z], harmonics=False)
     assert sum(checked) > 50 and any(with_seeds)        # past a flip, seeds were made
     assert sum(with_seeds) < sum(checked)                # elsewhere, none
-
-
-# (omega, sigma, zeta, period, guess, exponent, model, loses contact?)
-ORACLE_CASES = [
-    pytest.param(1.5, 0.2, 0.01, 1, (-0.16, 0.006), 1.5, "hertz", False, id="1T-contact"),
-    pytest.param(0.8, 1.5, 0.01, 1, (-7.7, 0.17), 1.5, "hertz", True, id="1T-long-flight"),
-    pytest.param(1.9, 0.5, 0.01, 2, (-0.09, 1.5), 1.5, "hertz", True, id="2T-contact-loss"),
-    pytest.param(1.9, 0.5, 0.01, 2, (0.19, 1.42), 10 / 9, "hertz", True, id="2T-n10/9"),
-    pytest.param(0.5, 0.8, 0.05, 1, (0.7, 0.0), 1.0, "hertz", True, id="1T-n1-impacts"),
-    pytest.param(1.9, 0.5, 0.01, 2, (-1.0, 0.5), 1.5, "taylor", True, id="2T-taylor"),
-]
-
-
-EXTREME = [
-    (0.05, 0.5, 0.01, 1, 1.5), (10.0, 0.5, 0.01, 1, 1.5), (1.0, 10.0, 0.01, 1, 1.5),
-    (0.3, 10.0, 0.01, 1, 1.5), (1.9, 0.5, 1e-4, 2, 1.5), (1.0, 0.5, 10.0, 1, 1.5),
-    (0.05, 5.0, 10.0, 1, 1.5), (1.9, 0.5, 0.01, 2, 1.0), (0.8, 2.0, 0.01, 1, 10 / 9),
-    (2.0, 0.5, 0.0, 2, 1.5), (1.0, 1.0, 0.01, 1, 1.5), (3.0, 9.0, 0.001, 2, 1.5),
-]
 
 
 def test_block_keeps_1t_multipliers_when_a_2t_solve_lands_on_the_1t_orbit():
