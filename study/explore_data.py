@@ -105,9 +105,9 @@ def units_of(ds: xr.Dataset, rig: Any = None) -> Units:
             physical=False,
             freq=Scale(1.0, "1", "omega (excitation / natural frequency)"),
             amp=Scale(1.0, "1", "sigma (excitation amplitude / preload)"),
-            disp=Scale(1.0, "1", "q (displacement, n (z - z_s) / z_s)"),
+            disp=Scale(1.0, "1", "q = n (z - z_s) / z_s"),
             vel=Scale(1.0, "1", "dq/dtau"),
-            time=Scale(1.0, "1", "tau (Omega t)"),
+            time=Scale(1.0, "1", "tau = Omega t"),
             force=Scale(1.0, "1", "contact force F / N"),
         )
     to_m = rig.z_s / rig.n          # paper Eq. 5: z - z_s = q z_s / n
@@ -483,32 +483,37 @@ def refine_study(ds: xr.Dataset, omega_range: tuple[float, float],
         base = parse_study(text, default_name=ds.attrs.get("hertzmap_study_name", "study"))
     except StudyError as exc:
         raise ValueError(f"the store's recorded study is invalid: {exc}") from None
-    om, sg = ds["omega"].values, ds["sigma"].values
-    o0, o1 = sorted(float(x) for x in omega_range)
-    s0, s1 = sorted(float(x) for x in sigma_range)
-    o0, o1 = _round(max(o0, float(om.min()))), _round(min(o1, float(om.max())))
-    s0, s1 = _round(max(s0, float(sg.min()))), _round(min(s1, float(sg.max())))
-    if not (o0 < o1):
-        raise ValueError(f"window: omega {o0:g}..{o1:g} is empty inside the store's grid "
-                         f"({om.min():g}..{om.max():g})")
-    if not (s0 < s1):
-        raise ValueError(f"window: sigma {s0:g}..{s1:g} is empty inside the store's grid "
-                         f"({sg.min():g}..{sg.max():g}); a map needs a sigma range")
-    for name, n in (("omega", num_omega), ("sigma", num_sigma)):
-        if int(n) != n or n < 2:
-            raise ValueError(f"points along {name}: need an integer >= 2, got {n}")
-    n_pts = int(num_omega) * int(num_sigma)
+    axes = {}
+    for name, rng, num in (("omega", omega_range, num_omega), ("sigma", sigma_range, num_sigma)):
+        grid = ds[name].values
+        if grid.size == 1:
+            # a line study: this axis stays its one value (a finer line along the other)
+            axes[name] = (float(grid[0]), 1)
+            continue
+        lo, hi = sorted(float(x) for x in rng)
+        lo, hi = _round(max(lo, float(grid.min()))), _round(min(hi, float(grid.max())))
+        if not lo < hi:
+            raise ValueError(f"window: {name} {lo:g}..{hi:g} is empty inside the store's grid "
+                             f"({grid.min():g}..{grid.max():g})")
+        if int(num) != num or num < 2:
+            raise ValueError(f"points along {name}: need an integer >= 2, got {num}")
+        axes[name] = ({"start": lo, "stop": hi, "num": int(num)}, int(num))
+    n_pts = axes["omega"][1] * axes["sigma"][1]
+    num_omega, num_sigma = axes["omega"][1], axes["sigma"][1]
     if n_pts > max_points:
         raise ValueError(f"{num_omega} x {num_sigma} = {n_pts} points: more than the "
                          f"{max_points} a refine may compute here; narrow the window, lower "
                          "the points, or run the study text with hertzmap run")
     z = float(ds["zeta"].values[np.argmin(np.abs(ds["zeta"].values - zeta))])
     d = base.to_dict()
-    grid = {"omega": {"start": o0, "stop": o1, "num": int(num_omega)},
-            "sigma": {"start": s0, "stop": s1, "num": int(num_sigma)}, "zeta": z}
-    d["study"]["description"] = (f"refinement of {base.name}: omega {o0:g}..{o1:g} "
-                                 f"({int(num_omega)}), sigma {s0:g}..{s1:g} ({int(num_sigma)}), "
-                                 f"zeta {z:g} (hertzmap explore)")
+    grid = {"omega": axes["omega"][0], "sigma": axes["sigma"][0], "zeta": z}
+
+    def describe(name):
+        g = grid[name]
+        return f"{name} {g['start']:g}..{g['stop']:g} ({g['num']})" if isinstance(g, dict) \
+            else f"{name} {g:g}"
+    d["study"]["description"] = (f"refinement of {base.name}: {describe('omega')}, "
+                                 f"{describe('sigma')}, zeta {z:g} (hertzmap explore)")
     # the name carries a hash of the rest, so it cannot be part of what is hashed
     probe = parse_study(_study_toml(d, grid), default_name=base.name)
     tag = hashlib.sha256(probe.canonical_json().encode()).hexdigest()[:8]

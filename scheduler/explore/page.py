@@ -138,13 +138,15 @@ class Page:
         # the frequency-response slice
         self.resp_src = ColumnDataSource(_empty("x", "y", "color", "label", "size"))
         r = figure(width=LEFT_W, height=280, name="response", tools="pan,box_zoom,wheel_zoom,reset,save",
-                   x_axis_label=u.freq.label, y_axis_label=f"peak-to-peak {u.disp.label}",
+                   x_axis_label=u.freq.label,
+                   y_axis_label="peak-to-peak " + ("z - z_s [um]" if u.physical else "q"),
                    toolbar_location="above")
         r.scatter("x", "y", source=self.resp_src, color="color", size="size",
                   legend_field="label")
         r.legend.label_text_font_size = "8pt"
         r.legend.spacing = 0
         r.add_layout(r.legend[0], "right")
+        r.legend.visible = False        # until a point is clicked (an empty box otherwise)
         r.title.text_font_size = "13px"
         r.title.text = "Frequency response along the clicked sigma (click a point of the map)"
         self.resp_span = Span(location=float("nan"), dimension="height", line_color="#444444",
@@ -153,9 +155,9 @@ class Page:
         self.resp = r
 
         # refine
-        self.n_omega = Spinner(title="omega points", low=2, high=2000, step=1, value=20,
+        self.n_omega = Spinner(title="omega points", low=1, high=2000, step=1, value=20,
                                width=120, name="refine_omega")
-        self.n_sigma = Spinner(title="sigma points", low=2, high=2000, step=1, value=20,
+        self.n_sigma = Spinner(title="sigma points", low=1, high=2000, step=1, value=20,
                                width=120, name="refine_sigma")
         self.refine_button = Button(label="Refine visible window", button_type="primary",
                                     width=200, name="refine_button")
@@ -216,7 +218,7 @@ class Page:
         self.harm_src = ColumnDataSource(_empty("x", "top", "color", "label", "width"))
         self.harm_store_src = ColumnDataSource(_empty("x", "y"))
         hm = figure(width=SMALL_W, height=270, name="harmonics",
-                    title="force harmonics (o: the store's)", x_range=Range1d(0, 4.3),
+                    title="force harmonics (o: store)", x_range=Range1d(0, 4.3),
                     x_axis_label="frequency / excitation frequency",
                     y_axis_label="force amplitude " + ("[N]" if u.physical else "(F / N)"),
                     tools="pan,wheel_zoom,reset,save")
@@ -269,7 +271,7 @@ class Page:
 
     def draw_map(self, reset_window: bool) -> None:
         v, u = self.view, self.view.units
-        cols = E.map_columns(v.ds, v.lcm, self.zeta, u)
+        cols = v.map_columns(self.zeta)
         self.map_src.data = {k: list(c) if c.dtype == object else c for k, c in cols.items()
                              if k != "computed"}
         om = v.ds["omega"].values
@@ -507,6 +509,7 @@ class Page:
         self.resp_src.data = {"x": sl["x"], "y": sl["y"], "color": list(sl["color"]),
                               "label": list(sl["label"]),
                               "size": np.where(sl["stable"], 6.0, 4.0)}
+        self.resp.legend.visible = bool(len(sl["x"]))
         s_line = float(sl["line"][0])
         where = f" ({u.amp(s_line):.4g} N)" if u.physical else ""
         self.resp.title.text = (f"Frequency response at sigma = {s_line:.5g}{where}, zeta = "
@@ -528,6 +531,13 @@ class Page:
         n_o = int(((ds["omega"] >= o0) & (ds["omega"] <= o1)).sum())
         n_s = int(((ds["sigma"] >= s0) & (ds["sigma"] <= s1)).sum())
         a, b = max(6, 2 * n_o - 1), max(6, 2 * n_s - 1)
+        # a line study: its single axis stays one value
+        if ds.sizes["omega"] == 1:
+            a = 1
+        if ds.sizes["sigma"] == 1:
+            b = 1
+        self.n_omega.disabled = ds.sizes["omega"] == 1
+        self.n_sigma.disabled = ds.sizes["sigma"] == 1
         cap = self.state.max_refine_points
         if a * b > cap:
             f = (cap / (a * b)) ** 0.5
@@ -540,15 +550,22 @@ class Page:
         if job is not None and job.state in ("starting", "running"):
             return
         (o0, o1), (s0, s1) = self.window()
+        om, sg = self.view.ds["omega"].values, self.view.ds["sigma"].values
+        # as the refine will: the window clipped to the store's grid
+        o0, o1 = max(o0, float(om.min())), min(o1, float(om.max()))
+        s0, s1 = max(s0, float(sg.min())), min(s1, float(sg.max()))
         n = int(self.n_omega.value or 0) * int(self.n_sigma.value or 0)
         cap = self.state.max_refine_points
         over = n > cap
+        u = self.view.units
+        phys = (f" ({u.freq(o0):.5g}..{u.freq(o1):.5g} Hz, {u.amp(s0):.4g}..{u.amp(s1):.4g} N)"
+                if u.physical else "")
         self.refine_div.text = (
-            f"<b>Refine this window</b>: omega {o0:.5g}..{o1:.5g}, sigma {s0:.5g}..{s1:.5g} "
-            f"(clipped to the grid), zeta = {self.zeta:g}: {n} points"
+            f"<div id='refine_plan'><b>Refine this window</b>: omega {o0:.5g}..{o1:.5g}, sigma "
+            f"{s0:.5g}..{s1:.5g}{phys}, zeta = {self.zeta:g}: {n} points"
             + (f" <span class='err'>(more than the {cap} a refine may compute here)</span>"
                if over else f" (at most {cap})")
-            + "<br><span class='muted'>computed by the job queue of this server into a new "
+            + "</div><span class='muted'>computed by the job queue of this server into a new "
             "store next to the first, then shown here</span>" + self._last_job_text())
 
     def _last_job_text(self) -> str:

@@ -69,6 +69,15 @@ class StoreView:
     units: E.Units
     flags: np.ndarray
 
+    _columns: dict = field(default_factory=dict, repr=False)
+
+    def map_columns(self, zeta: float) -> dict[str, np.ndarray]:
+        """The map's cells at ``zeta`` (``explore_data.map_columns``), computed once per store
+        state for every page (about 1 s per 12,000 points with the hover summaries)."""
+        if zeta not in self._columns:
+            self._columns[zeta] = E.map_columns(self.ds, self.lcm, zeta, self.units)
+        return self._columns[zeta]
+
     @property
     def done(self) -> tuple[int, int]:
         return int(self.flags.sum()), int(self.flags.size)

@@ -245,6 +245,16 @@ def test_refine_study_is_the_recorded_study_on_the_window():
         E.refine_study(ds, (1.4, 1.8), (0.2, 0.55), 6, 6, 0.01)
 
 
+def test_refine_of_a_line_study_refines_along_its_line():
+    toml = "[grid]\nomega = { start = 0.5, stop = 2.5, num = 21 }\nsigma = 0.5\nzeta = 0.01\n"
+    ds = P.open_store(_blank(toml, "line"))
+    ds.attrs["hertzmap_study_toml"] = toml
+    _, study = E.refine_study(ds, (1.8, 2.1), (0.49, 0.51), 61, 1, 0.01)
+    assert study.sigma == (0.5,) and study.shape == (61, 1, 1)
+    np.testing.assert_allclose(study.omega, np.linspace(1.8, 2.1, 61))
+    assert "sigma 0.5," in study.description
+
+
 def test_task_progress(hand):
     hand["task_done"][...] = False
     assert E.task_progress(hand) == (0, hand["task_done"].size)
