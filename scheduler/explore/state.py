@@ -180,6 +180,8 @@ class ExploreState:
     _client: Any = None
     _cluster_obj: Any = None
     _lock: threading.Lock = field(default_factory=threading.Lock)
+    # its own lock: starting a cluster takes seconds and must not hold up the pages' reads
+    _client_lock: threading.Lock = field(default_factory=threading.Lock)
 
     def stores(self) -> list[Path]:
         """The first store and the refines next to it (``<stem>.refine-*.zarr``), oldest first."""
@@ -208,7 +210,7 @@ class ExploreState:
         """One Dask client for every refine of this server: the embedded LocalCluster (started
         at the first refine, not before: it costs memory and a few seconds) or the scheduler
         given with --scheduler."""
-        with self._lock:
+        with self._client_lock:
             if self._client is None:
                 self._client, self._cluster_obj = make_client(self.cluster)
             return self._client

@@ -308,7 +308,14 @@ def test_click_gives_the_orbits_and_a_refine_recomputes_the_window(map_store, br
                                         ".filter(e => e.textContent.includes('Refine'))[0]")
         t0 = time.monotonic()
         button.click()
-        shown = _wait(lambda: _text(browser, "#refined_store"), 120, "the refined store")
+        progress = set()             # what the page said while the refine ran
+
+        def refined():
+            tasks = _text(browser, "#refine_tasks")
+            if tasks:
+                progress.add(tasks)
+            return _text(browser, "#refined_store")
+        shown = _wait(refined, 120, "the refined store")
         refine_seconds = time.monotonic() - t0
         new = map_store.parent / shown
         assert new.name.startswith("explore_e2e.refine-") and new.suffix == ".zarr"
@@ -319,6 +326,9 @@ def test_click_gives_the_orbits_and_a_refine_recomputes_the_window(map_store, br
         assert study.omega[-1] == pytest.approx(w + 0.035, abs=0.004)
         assert study.sigma[0] == pytest.approx(s - 0.055, abs=0.004)
         assert study.sigma[-1] == pytest.approx(s + 0.055, abs=0.004)
+        total = Store(new).done_mask().size
+        # progress was on the page (done/total tasks of the new store) before the new map
+        assert progress and all(p.endswith(f"/{total}") for p in progress), progress
         refined = P.open_store(new)
         assert refined.attrs["hertzmap_study_hash"] == study.hash
         assert int((refined["status"] == 0).any("solution").sum()) == 36
