@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import errno
 import importlib.util
+import json
 import signal
 import socket
 import sys
@@ -57,16 +58,24 @@ def _port_in_use(port: int) -> str | None:
     return None
 
 
+def _is_hertzmap_store(path: Path) -> bool:
+    """A zarr group with a hertzmap study hash in its attrs (read with json alone: bad input
+    is answered before the numerical stack is imported)."""
+    try:
+        doc = json.loads((path / "zarr.json").read_text())
+    except (OSError, ValueError):
+        return False
+    return (isinstance(doc, dict) and doc.get("node_type") == "group"
+            and "hertzmap_study_hash" in (doc.get("attributes") or {}))
+
+
 def explore_command(args: argparse.Namespace) -> int:
     """``hertzmap explore``: returns the exit code (0 on Ctrl-C or SIGTERM; 2 on bad input,
     with nothing started or written)."""
-    from study import explore_data as E
-
     store: Path = args.store
     if not store.exists():
         return _error(f"{store}: no such store (give the path of a store written by hertzmap run)")
-    from scheduler.explore.state import is_store
-    if not is_store(store):
+    if not _is_hertzmap_store(store):
         what = "a zarr store not written by hertzmap" if (store / "zarr.json").is_file() else \
             "not a zarr store (no zarr.json)"
         return _error(f"{store} is {what}; give a store written by hertzmap run")
@@ -94,6 +103,7 @@ def explore_command(args: argparse.Namespace) -> int:
         return _error(str(exc))
 
     from scheduler.explore.state import ExploreState
+    from study import explore_data as E
     state = ExploreState(base=store.resolve(), cluster=spec,
                          max_refine_points=args.max_refine_points or E.MAX_REFINE_POINTS)
     try:

@@ -435,9 +435,13 @@ class Page:
             self.strobe_src.data = {"q": u.disp(pts[:, 0]), "v": u.vel(pts[:, 1])}
         else:
             self.strobe_src.data = {"q": [], "v": []}
-        self.phase.title.text = ("phase portrait" + ("" if stable_any else
-                                 ": no stable periodic orbit stored, stroboscopic points of 200 "
-                                 "periods after 100"))
+        self.phase.title.text = "phase portrait" + ("" if stable_any else " + stroboscopic")
+        if not stable_any:
+            self.point_div.text += (
+                "<br><span class='err'>no stable periodic orbit stored here</span>: the grey dots "
+                "of the phase portrait are the stroboscopic points (q, q' at tau = m T) of 200 "
+                "forcing periods after 100, from " + ("orbit #0's start point" if n_orb else
+                                                       "rest (0, 0)") + ": where the motion goes")
         self.qt.title.text = "q over the orbit's period (red: contact loss)"
         self.table_div.text = self.orbit_table(rows, u)
         self.draw_response(s)
@@ -619,10 +623,9 @@ class Page:
             return
         if job.state in ("starting", "running"):
             self.refine_button.disabled = True
-            prog = job.progress()
-            done, total = prog if prog else (0, 0)
+            done, total = job.progress()
             bar = (f"<progress value='{done}' max='{total}'></progress> "
-                   f"<span id='refine_tasks'>{done}/{total}</span> tasks" if prog else "")
+                   f"<span id='refine_tasks'>{done}/{total}</span> tasks")
             self.refine_div.text = (f"<b>refine running</b>: {html.escape(job.store.name)}: "
                                     f"{html.escape(job.message)} {bar} "
                                     f"({time.monotonic() - job.started:.0f} s)")

@@ -17,6 +17,7 @@ import numpy as np
 import xarray as xr
 
 from scheduler.cluster import ClusterError, ClusterSpec, make_client
+from scheduler.plan import DEFAULT_TASK_SECONDS, choose_chunks, make_plan
 from scheduler.run import RunError, RunOptions, run_study
 from scheduler.store import StoreError, lock_path, read_attrs
 from study import explore_data as E
@@ -126,19 +127,23 @@ class RefineJob:
         self.log = io.StringIO()
         self.started = time.monotonic()
         self.seconds: float | None = None
+        # tasks of the store the run will create (its chunking), for the progress shown
+        # before the store exists
+        self.total = len(make_plan(study, choose_chunks(study, DEFAULT_TASK_SECONDS)).tasks)
         self.thread = threading.Thread(target=self._run, name="hertzmap-refine", daemon=True)
 
     def start(self) -> "RefineJob":
         self.thread.start()
         return self
 
-    def progress(self) -> tuple[int, int] | None:
+    def progress(self) -> tuple[int, int]:
+        """(tasks done, total) of the refine's store: its flags once it exists."""
         if not is_store(self.store):
-            return None
+            return 0, self.total
         try:
             f = read_flags(self.store)
         except Exception:       # the store is being created: not readable yet
-            return None
+            return 0, self.total
         return int(f.sum()), int(f.size)
 
     def _run(self) -> None:
