@@ -390,7 +390,7 @@ def test_a_store_being_written_shows_done_over_total_and_follows(map_store, brow
         _wait(lambda: "complete" in browser.execute_script(
             DEEP + "return deep(document, 'div', []).map(e => e.textContent).join(' ')"),
             10, "complete")
-        _screenshot(browser, _shots(tmp_path) / "explore_followed.png")
+        _screenshot(browser, tmp_path / "explore_followed.png")     # not a gallery image
     finally:
         rc, _, err = server.stop()
     assert rc == 0 and "Traceback" not in err, err
