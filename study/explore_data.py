@@ -38,6 +38,8 @@ __all__ = [
     "map_columns",
     "map_legend",
     "map_curves",
+    "MAP_CURVES",
+    "MMS_CURVE",
     "nearest_point",
     "point_orbits",
     "orbit_history",
@@ -262,6 +264,8 @@ MAP_CURVES = (
     ("grazing_2T", "#d62728", "dashed", "grazing of stable 2T"),
     ("isola", "#ff00ff", "dotted", "isola (heuristic)"),
 )
+#: The multiple-scales flip curve over the map, same form.
+MMS_CURVE = ("mms_sigma2", "#1f77b4", "solid", "MMS sigma2 (flip)")
 
 
 def map_curves(curves: xr.Dataset, mms: xr.Dataset | None, zeta: float, units: Units,
@@ -284,8 +288,9 @@ def map_curves(curves: xr.Dataset, mms: xr.Dataset | None, zeta: float, units: U
         if omega_range is not None:
             keep &= (w >= omega_range[0]) & (w <= omega_range[1])
         if keep.any():
-            out.append({"name": "mms_sigma2", "label": "MMS sigma2 (flip)", "color": "#1f77b4",
-                        "dash": "solid", "xs": [units.freq(w[keep]).tolist()],
+            name, color, dash, label = MMS_CURVE
+            out.append({"name": name, "label": label, "color": color,
+                        "dash": dash, "xs": [units.freq(w[keep]).tolist()],
                         "ys": [units.amp(s2[keep]).tolist()]})
     return out
 

@@ -22,6 +22,7 @@ from bokeh.plotting import figure
 from study import explore_data as E
 
 from scheduler.explore.state import ExploreState, StoreView
+from scheduler.explore.table import orbit_table
 
 POLL_MS = 1000
 LEFT_W, RIGHT_W = 860, 730
@@ -49,21 +50,6 @@ def _div(text: str = "", width: int | None = None, name: str | None = None) -> D
     return Div(text=text, width=width, name=name, stylesheets=[InlineStyleSheet(css=CSS)])
 
 
-def _fmt(x, digits: int = 7) -> str:
-    try:
-        x = float(x)
-    except (TypeError, ValueError):
-        return html.escape(str(x))
-    return "-" if not np.isfinite(x) else f"{x:.{digits}g}"
-
-
-def _complex(z: complex) -> str:
-    if not np.isfinite(z.real):
-        return "-"
-    sign = "+" if z.imag >= 0 else "-"
-    return f"{z.real:.5g} {sign} {abs(z.imag):.5g}i"
-
-
 def _empty(*names) -> dict[str, list]:
     return {n: [] for n in names}
 
@@ -80,7 +66,7 @@ class Page:
         self.point: tuple[float, float] | None = None
         self.seen_job = None
         self._build()
-        self.show_store(self.path, keep_window=False)
+        self.show_store(self.path)
         doc.add_periodic_callback(self.poll, POLL_MS)
         doc.title = f"hertzmap explore: {self.state.base.name}"
 
@@ -113,8 +99,7 @@ class Page:
         p.add_tools(HoverTool(renderers=[self.cells], tooltips=tips))
         self.curve_srcs = {}
         self.curve_items = {}
-        for name, color, dash, label in E.MAP_CURVES + (("mms_sigma2", "#1f77b4", "solid",
-                                                         "MMS sigma2 (flip)"),):
+        for name, color, dash, label in E.MAP_CURVES + (E.MMS_CURVE,):
             src = ColumnDataSource({"xs": [], "ys": []})
             r = p.multi_line("xs", "ys", source=src, line_color=color, line_dash=dash,
                              line_width=2 if name == "flip_1T" else 1.6)
@@ -247,7 +232,8 @@ class Page:
         if [o[0] for o in opts] != [o[0] for o in self.store_select.options]:
             self.store_select.options = opts
 
-    def show_store(self, path: Path, keep_window: bool = True) -> None:
+    def show_store(self, path: Path) -> None:
+        """Show the store at ``path``: its map over its whole grid, the clicked point again."""
         self.path = Path(path)
         self.view = self.state.view(self.path)
         self.refresh_store_options()
@@ -275,13 +261,12 @@ class Page:
         self.map_src.data = {k: list(c) if c.dtype == object else c for k, c in cols.items()
                              if k != "computed"}
         om = v.ds["omega"].values
-        for c in E.map_curves(v.curves, v.mms, self.zeta, u, (float(om.min()), float(om.max()))):
-            self.curve_srcs[c["name"]].data = {"xs": c["xs"], "ys": c["ys"]}
-        drawn = {c["name"] for c in E.map_curves(v.curves, v.mms, self.zeta, u,
-                                                  (float(om.min()), float(om.max())))}
+        curves = E.map_curves(v.curves, v.mms, self.zeta, u, (float(om.min()), float(om.max())))
+        drawn = {c["name"]: c for c in curves}
         for name, src in self.curve_srcs.items():
-            if name not in drawn:
-                src.data = {"xs": [], "ys": []}
+            c = drawn.get(name)
+            src.data = {"xs": c["xs"], "ys": c["ys"]} if c else {"xs": [], "ys": []}
+        self.draw_windows()
         # legend: one entry per stable-response combination present (the first cell of each),
         # then the curves drawn
         items = []
@@ -295,7 +280,6 @@ class Page:
         if len(self.windows_src.data["left"]):
             items.append(LegendItem(label="refined windows", renderers=[self.windows_r]))
         self.map_legend.items = items
-        self.draw_windows()
         if reset_window:
             x0, x1 = float(np.min(cols["left"])), float(np.max(cols["right"]))
             y0, y1 = float(np.min(cols["bottom"])), float(np.max(cols["top"]))
@@ -443,59 +427,8 @@ class Page:
                 "forcing periods after 100, from " + ("orbit #0's start point" if n_orb else
                                                        "rest (0, 0)") + ": where the motion goes")
         self.qt.title.text = "q over the orbit's period (red: contact loss)"
-        self.table_div.text = self.orbit_table(rows, u)
+        self.table_div.text = orbit_table(rows, u)
         self.draw_response(s)
-
-    def orbit_table(self, rows, u) -> str:
-        if not rows:
-            return "<p class='muted'>no converged periodic orbit stored at this point</p>"
-        du = "" if not u.physical else u.disp.unit
-        vu = "" if not u.physical else u.vel.unit
-
-        def line(label, unit, field, values, fmt=_fmt):
-            tds = "".join(f"<td data-orbit='{k}' data-field='{field}'>{fmt(val)}</td>"
-                          for k, val in values)
-            return f"<tr><td class='q'>{label}</td><td class='u'>{unit}</td>{tds}</tr>"
-
-        head = "".join(
-            f"<th><span class='swatch' style='background:{color}'></span>#{int(orb['slot'].values[k])}</th>"
-            for k, orb, h, closure, c, color, clabel in rows)
-        get = lambda name: [(k, orb[name].values[k]) for k, orb, *_ in rows]  # noqa: E731
-        sim_min = [(k, u.disp(np.min(h["q"]))) for k, orb, h, *_ in rows]
-        mults = [(k, orb["multipliers"].values[k]) for k, orb, *_ in rows]
-        body = [
-            line("class", "", "class", [(k, cl) for k, _, _, _, _, _, cl in rows],
-                 fmt=html.escape),
-            line("period", "T", "period", get("period"), fmt=lambda p: f"{int(p)}"),
-            line("stable", "", "stable", get("stable"), fmt=lambda b: "yes" if b else "no"),
-            line("largest |multiplier|", "", "max_abs_mu",
-                 [(k, np.max(np.abs(m))) for k, m in mults]),
-            line("multiplier 1", "", "mu1", [(k, m[0]) for k, m in mults], fmt=_complex),
-            line("multiplier 2", "", "mu2", [(k, m[1]) for k, m in mults], fmt=_complex),
-        ]
-        if "min_q" in rows[0][1]:
-            body += [
-                line("min q (store)", du, "min_q", [(k, u.disp(x)) for k, x in get("min_q")]),
-                line("min q (simulated)", du, "min_q_sim", sim_min),
-                line("max q (store)", du, "max_q", [(k, u.disp(x)) for k, x in get("max_q")]),
-                line("peak-to-peak", du, "ptp", [(k, u.disp(x)) for k, x in get("ptp")]),
-                line("loses contact", "", "loses_contact", get("loses_contact"),
-                     fmt=lambda b: "yes" if b else "no"),
-                line("flight fraction", "%", "flight_fraction",
-                     [(k, 100 * x) for k, x in get("flight_fraction")]),
-                line("largest impact velocity", vu, "max_impact_velocity",
-                     [(k, u.vel(x)) for k, x in get("max_impact_velocity")]),
-            ]
-        else:
-            body.append(line("min q (simulated)", du, "min_q_sim", sim_min))
-        body += [
-            line("start point q(0)", du, "q0", [(k, u.disp(x)) for k, x in get("q0")]),
-            line("start point q'(0)", vu, "v0", [(k, u.vel(x)) for k, x in get("v0")]),
-            line("closure |x(P) - x(0)|", "", "closure",
-                 [(k, closure) for k, _, _, closure, *_ in rows], fmt=lambda x: f"{x:.1e}"),
-        ]
-        return ("<table class='orbits' id='orbit_table'><tr><th class='q'>orbit</th><th></th>"
-                + head + "</tr>" + "".join(body) + "</table>")
 
     def clear_point(self, message: str, keep_header: bool = False) -> None:
         if not keep_header:
