@@ -571,8 +571,8 @@ class Page:
                 self.refine_div.text = (
                     f"<span class='ok'>refine done</span>: showing "
                     f"<span id='refined_store'>{html.escape(job.store.name)}</span> "
-                    f"({html.escape(job.message)}; {job.seconds:.1f} s with the start of the "
-                    "workers); the first store stays in the selector")
+                    f"({html.escape(job.message)}; {job.seconds:.1f} s from the click, workers "
+                    "started and warmed up); the first store stays in the selector")
             else:
                 self.refine_div.text = (f"<span class='err'>refine failed</span>: "
                                         f"{html.escape(job.message)}")

@@ -238,8 +238,9 @@ class ExploreState:
         return self.job
 
     def close(self) -> None:
+        # bounded: a scheduler that went away first must not hold up Ctrl-C
         for obj in (self._client, self._cluster_obj):
             if obj is not None:
                 with contextlib.suppress(Exception):
-                    obj.close()
+                    obj.close(timeout=5)
         self._client = self._cluster_obj = None
