@@ -428,7 +428,7 @@ class Page:
                                                        "rest (0, 0)") + ": where the motion goes")
         self.qt.title.text = "q over the orbit's period (red: contact loss)"
         self.table_div.text = orbit_table(rows, u)
-        self.draw_response(s)
+        self.draw_response(s, w)
 
     def clear_point(self, message: str, keep_header: bool = False) -> None:
         if not keep_header:
@@ -440,7 +440,8 @@ class Page:
         if not keep_header:
             self.mark_src.data = {"x": [], "y": []}
 
-    def draw_response(self, sigma: float) -> None:
+    def draw_response(self, sigma: float, omega: float) -> None:
+        """The omega line through the shown point (omega, sigma) of the store."""
         v, u = self.view, self.view.units
         sl = E.response_slice(v.ds, sigma, self.zeta, u)
         self.resp_src.data = {"x": sl["x"], "y": sl["y"], "color": list(sl["color"]),
@@ -451,8 +452,7 @@ class Page:
         where = f" ({u.amp(s_line):.4g} N)" if u.physical else ""
         self.resp.title.text = (f"Frequency response at sigma = {s_line:.5g}{where}, zeta = "
                                 f"{self.zeta:g}: the store's orbits (dotted: the clicked omega)")
-        if self.point is not None:
-            self.resp_span.location = float(u.freq(self.point[0]))
+        self.resp_span.location = float(u.freq(omega))
 
     # -- refine ---------------------------------------------------------------------------
     def window(self) -> tuple[tuple[float, float], tuple[float, float]]:
