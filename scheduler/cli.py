@@ -253,6 +253,20 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return subprocess.call(cmd)
 
 
+# -- explore (scheduler/explore/) --------------------------------------------------------------
+
+def _explore_args(p: argparse.ArgumentParser) -> None:
+    from scheduler.explore import add_arguments
+    add_arguments(p)
+
+
+@subcommand("explore", "the map of a store in the browser: click a point for its orbits, "
+            "refine a window (pip install 'hertzmap[explore]')")(_explore_args)
+def cmd_explore(args: argparse.Namespace) -> int:
+    from scheduler.explore import explore_command
+    return explore_command(args)
+
+
 # -- entry point ------------------------------------------------------------------------------
 
 def build_parser() -> argparse.ArgumentParser:
