@@ -6,7 +6,7 @@
   With z = z_s (1 + q/n) the law k z^n gives this form for any n > 0 (n = 1: linear impact
   oscillator, n = 10/9: line contact). Contact is lost at q = -n.
 * ``TAYLOR`` (paper Eq. 10-11): F(q) = 1 + q + q^2/6 - q^3/54, the third-order expansion of the
-  n = 3/2 law about the static load; it never loses contact (valid for q >= TAYLOR_CONTACT_LOSS = -1.3479..., Eq. 12).
+  n = 3/2 law about the static load; it never loses contact (valid for q >= TAYLOR_CONTACT_LOSS = 6 - 3 sqrt(6), Eq. 12).
 
 All quantities are dimensionless: q displacement (Eq. 5), tau = Omega t (Eq. 6), omega the
 excitation frequency over Omega (Eq. 8), sigma the force amplitude over the static load N,
@@ -24,10 +24,12 @@ HERTZ = 0
 TAYLOR = 1
 MODELS = {"hertz": HERTZ, "taylor": TAYLOR}
 
-#: Paper Eq. 12: the Taylor force 1 + q + q^2/6 - q^3/54 of Eq. 10 vanishes at this q, the
-#: Taylor model's "loss of contact" (its only real root, to double precision; the paper prints
-#: it to four digits, study.analytic.paper). Every threshold of the Taylor model is this one.
-TAYLOR_CONTACT_LOSS = -1.3479253168228557
+#: Paper Eq. 12: the Taylor force 1 + q + q^2/6 - q^3/54 of Eq. 10 vanishes here, the Taylor
+#: model's "loss of contact". The cubic factors exactly, -54 F = (q + 3)(q^2 - 12 q - 18), so
+#: its roots are -3 and 6 -+ 3 sqrt(6); the first one met going down from the static point is
+#: 6 - 3 sqrt(6) = -1.3484692... (the paper prints it to four digits, study.analytic.paper).
+#: Every threshold of the Taylor model is this one.
+TAYLOR_CONTACT_LOSS = 6.0 - 3.0 * sqrt(6.0)
 
 
 def contact_loss_level(model: str, exponent: float) -> float:

@@ -256,8 +256,19 @@ def cmd_bench(args: argparse.Namespace) -> int:
 # -- explore (scheduler/explore/) --------------------------------------------------------------
 
 def _explore_args(p: argparse.ArgumentParser) -> None:
-    from scheduler.explore import add_arguments
-    add_arguments(p)
+    p.add_argument("store", type=Path, help="a store written by hertzmap run (it may still be "
+                   "being written: the page follows it)")
+    p.add_argument("--port", type=int, default=5006,
+                   help="port of the page, http://localhost:PORT/ (default 5006)")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                       help="run refines on this Dask scheduler (e.g. the one that computed the "
+                       "store, tcp://host:8786) instead of an embedded local cluster")
+    where.add_argument("--workers", type=int, default=None, metavar="N",
+                       help="worker processes of the embedded local cluster that runs refines "
+                       "(default one per core; started at the first refine)")
+    p.add_argument("--max-refine-points", type=int, default=None, metavar="N",
+                   help="most grid points one refine may compute (default 20000)")
 
 
 @subcommand("explore", "the map of a store in the browser: click a point for its orbits, "

@@ -67,11 +67,26 @@ class Plan:
         return self.study.size * seconds_per_point(self.study)
 
 
+#: Solver seconds per initial state of the attractor census at a point whose transients do not
+#: settle (the full budget of 500 + 128 periods; measured 60-80 ms for 16 states at zeta 0.01,
+#: sigma 2-3); settling ones take a tenth of it.
+SECONDS_PER_CENSUS_STATE = 4.5e-3
+#: Share of grid points assumed to need the census when search.attractors is
+#: "where-none-stable" (those without a stable orbit are not known before the run: a planning
+#: guess, for task sizes and the dry run's estimate only).
+CENSUS_SHARE = 0.05
+
+
 def seconds_per_point(study: Study) -> float:
     """Estimated solver seconds per grid point for this study."""
-    seconds = sum(SECONDS_PER_POINT[p] for p in study.periods)
+    seconds = sum(SECONDS_PER_POINT.get(p, SECONDS_PER_POINT[2]) for p in study.periods)
     if getattr(study, "discover", False):
         seconds += SECONDS_PER_POINT_DISCOVER
+    mode = getattr(study, "attractors", "never")
+    if mode != "never":
+        share = 1.0 if mode == "always" else CENSUS_SHARE
+        seconds += share * study.initial_states * SECONDS_PER_CENSUS_STATE \
+            * (study.transient_periods + study.record_periods) / 628
     return seconds
 
 

@@ -66,6 +66,15 @@ def read_attrs(path: str | Path) -> dict[str, Any] | None:
     return doc.get("attributes", {})
 
 
+def read_done_flags(path: str | Path) -> np.ndarray:
+    """The task_done flags of a store, read only (cheap: for a page or a client polling a store
+    that another process writes)."""
+    with _quiet():
+        group = zarr.open_group(zarr.storage.LocalStore(Path(path), read_only=True), mode="r",
+                                zarr_format=3, use_consolidated=False)
+        return np.asarray(group["task_done"][...], bool)
+
+
 class Store:
     """An existing hertzmap store (opened for writing by the single client)."""
 
@@ -215,7 +224,7 @@ class Store:
         for name in names:
             v = VARIABLES[name]
             arr = self._writable(name)
-            lead = (slice(ib, ib + 1), slices[1], slices[2]) if v.per_block else tuple(slices)
+            lead = (slice(ib, ib + 1), slices[1], slices[2]) if v.layout == "line" else tuple(slices)
             sel = lead + (slice(None),) * (arr.ndim - 3)
             data = np.ascontiguousarray(np.asarray(arrays[name]).astype(v.dtype, copy=False))
             jobs.append(arr.async_array.setitem(sel, data))

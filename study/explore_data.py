@@ -27,6 +27,7 @@ import numpy as np
 import xarray as xr
 
 from study import products as P
+from study.orbits import CLASS_LABELS
 
 __all__ = [
     "MAX_REFINE_POINTS",
@@ -143,13 +144,11 @@ def class_colors() -> dict[int, tuple[str, str]]:
 
 def _set_styles() -> tuple[dict[int, str], dict[int, str]]:
     from study import plots
-    # the loss-of-contact map's colours and labels of the stable_set combinations
-    return ({c: _hex(v) for c, v in plots._SET_COLOR.items()}, dict(plots._SET_LABEL))
+    # the loss-of-contact map's colours and labels of its classes (map_class)
+    return ({c: _hex(v) for c, v in plots.SET_COLORS.items()}, dict(plots.SET_LABELS))
 
 
-_CLASS_SHORT = {1: "1T stable", 2: "2T stable", 3: "2T stable, contact loss",
-                4: "2T unstable", 5: "2T unstable, contact loss", 6: "1T stable, contact loss",
-                7: "1T unstable", 8: "1T unstable, contact loss"}
+_CLASS_SHORT = CLASS_LABELS      # study.orbits: one label per class
 
 
 # ---------------------------------------------------------------------------------------------
@@ -206,7 +205,7 @@ def map_columns(ds: xr.Dataset, lcm: xr.Dataset, zeta: float, units: Units,
                 *, summaries: bool | None = None) -> dict[str, np.ndarray]:
     """Columns of the map's cells at the nearest ``zeta``: one per grid point (omega-major),
     ``left right bottom top`` (page units), ``omega sigma`` (dimensionless), ``x y`` (page
-    units), ``code`` (stable_set, 0 where not computed), ``color``, ``label``, ``n_orbits``,
+    units), ``code`` (map_class, 0 where not computed), ``color``, ``label``, ``n_orbits``,
     ``n_stable``, ``computed`` and ``summary`` (HTML, one line per orbit; omitted beyond
     :data:`MAX_HOVER_POINTS` unless ``summaries`` says otherwise). ``ds`` and ``lcm`` come from
     ``products.open_store`` and ``products.loss_of_contact_map``."""
@@ -217,7 +216,8 @@ def map_columns(ds: xr.Dataset, lcm: xr.Dataset, zeta: float, units: Units,
     slo, shi = _edges(sg)
     W, S = np.meshgrid(om, sg, indexing="ij")
     computed = m["computed"].transpose("omega", "sigma").values.astype(bool)
-    code = np.where(computed, m["stable_set"].transpose("omega", "sigma").values.astype(int), 0)
+    field = "map_class" if "map_class" in m else "stable_set"
+    code = np.where(computed, m[field].transpose("omega", "sigma").values.astype(int), 0)
     set_color, set_label = _set_styles()
     label = np.array([set_label[c] for c in code.ravel()], dtype=object).reshape(code.shape)
     label = np.where(computed, label, "not computed yet")
@@ -251,7 +251,7 @@ def map_columns(ds: xr.Dataset, lcm: xr.Dataset, zeta: float, units: Units,
 
 
 def map_legend(codes) -> list[tuple[int, str, str]]:
-    """(code, hex colour, label) of the stable_set combinations present in ``codes``."""
+    """(code, hex colour, label) of the map classes present in ``codes``."""
     set_color, set_label = _set_styles()
     return [(int(c), set_color[int(c)], set_label[int(c)]) for c in sorted(set(np.asarray(codes)
                                                                                 .ravel().tolist()))]

@@ -8,7 +8,8 @@ Classes
 -------
 Codes 1-5 are paper Fig. 6's classes I-V; 6-8 extend them to the 1T orbits the paper does not
 label (the primary resonance with contact loss, and the unstable 1T orbits between folds or past a
-flip). Code 0 is an empty slot, a failed solve or a point not computed.
+flip); 9-10 are the orbits of longer periods m >= 3 (4T from a 2T flip, 3T, 6T ... found by the
+attractor census). Code 0 is an empty slot, a failed solve or a point not computed.
 
 Identity
 --------
@@ -48,13 +49,16 @@ ORBIT_CLASSES: tuple[tuple[int, str, str], ...] = (
     (6, "1T_stable_contact_loss", "1T stable with loss of contact (primary resonance impacts)"),
     (7, "1T_unstable_contact", "1T unstable, in contact"),
     (8, "1T_unstable_contact_loss", "1T unstable with loss of contact"),
+    (9, "mT_stable", "stable, period m >= 3 (m T, T = 2 pi / omega)"),
+    (10, "mT_unstable", "unstable, period m >= 3"),
 )
 #: Code -> description.
 CLASS_NAMES = {code: desc for code, _, desc in ORBIT_CLASSES}
 #: Code -> short label (legends of figures).
 CLASS_LABELS = {1: "I: 1T stable", 2: "II: 2T stable, contact", 3: "III: 2T stable, contact loss",
                 4: "IV: 2T unstable, contact", 5: "V: 2T unstable, contact loss",
-                6: "1T stable, contact loss", 7: "1T unstable", 8: "1T unstable, contact loss"}
+                6: "1T stable, contact loss", 7: "1T unstable", 8: "1T unstable, contact loss",
+                9: "period m >= 3, stable", 10: "period m >= 3, unstable"}
 
 #: Relative tolerance of the identity rule (see the module docstring).
 SAME_ORBIT_TOL = 1e-6
@@ -78,6 +82,9 @@ def class_codes(ok, period, stable, loses_contact) -> np.ndarray:
     code[p1 & s & lc] = 6
     code[p1 & ~s & ~lc] = 7
     code[p1 & ~s & lc] = 8
+    longer = ok & (period >= 3)
+    code[longer & s] = 9
+    code[longer & ~s] = 10
     return code
 
 

@@ -46,6 +46,8 @@ __all__ = [
     "plot_frequency_response",
     "plot_force_harmonics",
     "plot_time_histories",
+    "plot_lyapunov_map",
+    "plot_bifurcation_diagram",
     "paper_fig02",
     "paper_fig03",
     "paper_fig04",
@@ -55,15 +57,17 @@ __all__ = [
 DPI = 100
 
 #: Figures of :func:`plot_store` ("auto": those the store supports).
-WHICH = ("map", "measures", "bifurcation", "response", "harmonics", "histories")
+WHICH = ("map", "measures", "bifurcation", "response", "harmonics", "histories", "lyapunov",
+         "strobe")
 
 #: Colour and legend label of each orbit class (study.orbits codes 1..8).
 _CLASS_COLORS = {1: "tab:blue", 2: "tab:green", 3: "tab:red", 4: "#9ecae1", 5: "#fcae91",
-                 6: "tab:purple", 7: "#c6c6c6", 8: "#dadaeb"}
+                 6: "tab:purple", 7: "#c6c6c6", 8: "#dadaeb", 9: "#e7298a", 10: "#fbb4d9"}
 CLASS_STYLE = {code: (color, CLASS_LABELS[code]) for code, color in _CLASS_COLORS.items()}
 
-#: Colours of the stable_set bit-mask combinations (loss-of-contact map).
-_SET_LABEL = {
+#: Labels and colours of the loss-of-contact map's classes (``map_class``, study.products.maps:
+#: 0-15 the stable_set combinations, 16-19 longer periods and the census's attractors).
+SET_LABELS = {
     0: "no stable response",
     1: "1T in contact",
     2: "1T, contact loss",
@@ -80,11 +84,16 @@ _SET_LABEL = {
     13: "1T / 2T / 2T loss",
     14: "1T loss / 2T / 2T loss",
     15: "all four",
+    16: "stable period m >= 3",
+    17: "non-periodic (chaotic)",
+    18: "unsettled transients",
+    19: "chaotic beside stable orbits",
 }
-_SET_COLOR = {
+SET_COLORS = {
     0: "#ffffff", 1: "#deebf7", 2: "#6a51a3", 3: "#9e9ac8", 4: "#a1d99b", 5: "#41ab5d",
     6: "#807dba", 7: "#54278f", 8: "#de2d26", 9: "#fcbba1", 10: "#a50f15", 11: "#fb6a4a",
     12: "#fd8d3c", 13: "#fdae6b", 14: "#7f2704", 15: "#000000",
+    16: "#e7298a", 17: "#ffd92f", 18: "#b3b3b3", 19: "#a6761d",
 }
 
 _CURVE_STYLE = {
@@ -138,15 +147,17 @@ def plot_loss_of_contact_map(lcm, curves, path, *, zeta=None, mms=None, title=No
     isolas) and the MMS flip curve."""
     zeta = float(lcm["zeta"].values[0] if zeta is None else zeta)
     m = lcm.sel(zeta=zeta, method="nearest")
-    codes = m["stable_set"].transpose("sigma", "omega").values.astype(int)
+    field = "map_class" if "map_class" in m else "stable_set"
+    codes = m[field].transpose("sigma", "omega").values.astype(int)
     codes = np.where(m["computed"].transpose("sigma", "omega").values, codes, 0)
     present = sorted(set(np.unique(codes).tolist()))
-    cmap = ListedColormap([_SET_COLOR[c] for c in range(16)])
-    norm = BoundaryNorm(np.arange(-0.5, 16.5), 16)
+    n = len(SET_COLORS)
+    cmap = ListedColormap([SET_COLORS[c] for c in range(n)])
+    norm = BoundaryNorm(np.arange(-0.5, n + 0.5), n)
     fig, ax = plt.subplots(figsize=(8.2, 4.8), layout="constrained")
     ax.pcolormesh(m["omega"], m["sigma"], codes, cmap=cmap, norm=norm, shading="nearest",
                   rasterized=True)
-    handles = [Patch(facecolor=_SET_COLOR[c], edgecolor="0.6", label=_SET_LABEL[c]) for c in present]
+    handles = [Patch(facecolor=SET_COLORS[c], edgecolor="0.6", label=SET_LABELS[c]) for c in present]
     _draw_curves(ax, curves, zeta, ("flip_1T", "grazing_1T", "grazing_2T", "isola"))
     _draw_mms(ax, mms, zeta, sigma1=False)
     ax.set_xlim(float(m["omega"].min()), float(m["omega"].max()))
@@ -192,6 +203,62 @@ def plot_map_measures(lcm, path, *, zeta=None, curves=None) -> Path:
     axes[0].set_ylabel("sigma")
     fig.suptitle(f"Multistability and contact loss of the stable responses, {_zlabel(zeta)}",
                  fontsize=10)
+    return _save(fig, path)
+
+
+def plot_lyapunov_map(lcm, path, *, zeta=None, title=None) -> Path:
+    """The largest Lyapunov exponent of each point's attractors over (omega, sigma): negative
+    where a stable orbit attracts (its decay rate), positive where the motion is chaotic."""
+    zeta = float(lcm["zeta"].values[0] if zeta is None else zeta)
+    m = lcm.sel(zeta=zeta, method="nearest")
+    lam = m["lyapunov_exponent"].transpose("sigma", "omega").values.astype(float)
+    lam = np.where(m["computed"].transpose("sigma", "omega").values, lam, np.nan)
+    fig, ax = plt.subplots(figsize=(8.2, 4.8), layout="constrained")
+    finite = lam[np.isfinite(lam)]
+    top = float(np.nanmax(np.abs(finite))) if finite.size else 1.0
+    from matplotlib.colors import TwoSlopeNorm
+    lo = float(finite.min()) if finite.size and finite.min() < 0 else -top
+    hi = float(finite.max()) if finite.size and finite.max() > 0 else top
+    pc = ax.pcolormesh(m["omega"], m["sigma"], lam, cmap="RdBu_r",
+                       norm=TwoSlopeNorm(0.0, min(lo, -1e-6), max(hi, 1e-6)), shading="nearest",
+                       rasterized=True)
+    fig.colorbar(pc, ax=ax, label="largest Lyapunov exponent (per unit tau)")
+    chaotic = np.isfinite(lam) & (lam > 0)
+    if chaotic.any():
+        ax.contour(m["omega"], m["sigma"], chaotic.astype(float), levels=[0.5], colors="k",
+                   linewidths=0.6)
+    ax.set_xlabel("omega")
+    ax.set_ylabel("sigma")
+    ax.set_title(title or f"Largest Lyapunov exponent of the attractors, {_zlabel(zeta)} "
+                 "(black: chaos)", fontsize=10)
+    return _save(fig, path)
+
+
+def plot_bifurcation_diagram(diag, path, *, title=None) -> Path:
+    """The brute-force bifurcation diagram (study.products.stroboscopic_diagram): stroboscopic q
+    of every attractor against omega, with the stored orbits' start points over it."""
+    fig, ax = plt.subplots(figsize=(8.2, 4.6), layout="constrained")
+    kind = diag["strobe_kind"].values
+    styles = {1: ("k", "periodic attractor"), 2: ("tab:red", "non-periodic (chaotic)"),
+              3: ("0.55", "unsettled transient")}
+    for k, (color, label) in styles.items():
+        sel = kind == k
+        if sel.any():
+            ax.plot(diag["strobe_omega"].values[sel], diag["strobe_q"].values[sel], ",",
+                    color=color, alpha=0.8)
+            ax.plot([], [], "s", ms=4, color=color, label=label)
+    st = diag["orbit_stable"].values
+    for sel, marker, label in ((st, "o", "stored orbit, stable"),
+                               (~st, ".", "stored orbit, unstable")):
+        if sel.any():
+            ax.plot(diag["orbit_omega"].values[sel], diag["orbit_q0"].values[sel], marker, ms=2.5,
+                    mfc="none" if marker == "o" else None, color="tab:blue", alpha=0.7,
+                    label=label)
+    ax.set_xlabel("omega")
+    ax.set_ylabel("q at tau = 0 mod T")
+    ax.set_title(title or f"Stroboscopic bifurcation diagram, sigma = {diag.attrs['sigma']:g}, "
+                 f"zeta = {diag.attrs['zeta']:g}", fontsize=10)
+    ax.legend(fontsize=7, loc="best", markerscale=2)
     return _save(fig, path)
 
 
@@ -530,6 +597,9 @@ def plot_results(ds, prods, out: str | Path = "results", which: Sequence[str] = 
                                               sigma_range=(float(ds["sigma"].min()),
                                                            float(ds["sigma"].max())),
                                               located=prods.get("located_bifurcations")))
+        if is_map and (auto or "lyapunov" in which) and "lyapunov_exponent" in lcm \
+                and np.isfinite(lcm["lyapunov_exponent"].values).any():
+            paths.append(plot_lyapunov_map(lcm, out / f"{name}_lyapunov{zs}.png", zeta=z))
     few = ds.sizes["omega"] <= 8        # a scene of named frequencies: time histories only
     if "frequency_response" in prods and (auto and nlines <= 8 and not few or "response" in which):
         fr = prods["frequency_response"]
@@ -548,6 +618,16 @@ def plot_results(ds, prods, out: str | Path = "results", which: Sequence[str] = 
                 tag = f"_sigma{s:g}" + (f"_zeta{z:g}" if multi_z else "") if nlines > 1 else ""
                 paths.append(plot_force_harmonics(fh, out / f"{name}_harmonics{tag}.png",
                                                   sigma=s, zeta=z))
+    if "strobe_q" in ds and (auto or "strobe" in which):
+        sigmas = ds["sigma"].values
+        picks = sigmas if sigmas.size <= 4 else sigmas[np.round(np.linspace(
+            0, sigmas.size - 1, 4)).astype(int)]
+        for s in picks:
+            for z in zetas[:2]:
+                diag = P.stroboscopic_diagram(ds, float(s), float(z))
+                if diag.sizes["point"]:
+                    tag = f"_sigma{s:g}" + (f"_zeta{z:g}" if multi_z else "")
+                    paths.append(plot_bifurcation_diagram(diag, out / f"{name}_strobe{tag}.png"))
     th = prods.get("time_histories")
     if th is not None and th.sizes["case"]:
         paths.append(plot_time_histories(th, out / f"{name}_histories.png"))

@@ -72,6 +72,22 @@ BIFURCATION_SLOTS = 16
 BIFURCATION_KINDS = {"fold": 1, "flip": 2, "grazing": 3}
 BIFURCATION_FLAGS = ((0, "empty"),) + tuple((c, k) for k, c in BIFURCATION_KINDS.items())
 CHUNK_DIMS = ("omega_chunk", "sigma_chunk", "zeta_chunk")
+#: Dims of the per-point variables (the attractor census, the orbit count).
+POINT_DIMS = ("omega", "sigma", "zeta")
+#: Attractors kept per grid point (the census); more are merged into the last.
+ATTRACTOR_SLOTS = 4
+#: Stroboscopic points (q, q' at tau = 0 mod T) kept per attractor: the last ones of its window.
+STROBE_POINTS = 32
+#: Codes of ``attractor_kind`` (0: empty slot).
+ATTRACTOR_KINDS = {"periodic": 1, "non_periodic": 2, "unsettled": 3, "failed": 4}
+ATTRACTOR_FLAGS = ((0, "empty"),) + tuple((c, k) for k, c in ATTRACTOR_KINDS.items())
+#: flag values/meanings of the period variables: 0 empty, m: an orbit of period m T
+PERIOD_FLAGS = ((0, "empty"),) + tuple((m, f"period_{m}T") for m in range(1, 17))
+
+
+#: Leading dims of a variable by its layout: one value per orbit slot, per grid point, or per
+#: (omega block, sigma, zeta) line.
+LAYOUTS = {"slot": GRID_DIMS, "point": POINT_DIMS, "line": BLOCK_DIMS}
 
 
 @dataclass(frozen=True)
@@ -82,14 +98,28 @@ class VarSpec:
     long_name: str
     units: str
     description: str
-    extra_dim: tuple[str, int] | None = None    # trailing dim (name, length)
+    extra: tuple[tuple[str, int], ...] = ()     # trailing dims (name, length)
     flags: tuple[tuple[int, str], ...] | None = None
-    per_block: bool = False    # dims BLOCK_DIMS (+ extra) instead of GRID_DIMS (+ extra)
+    layout: str = "slot"       # "slot" (GRID_DIMS), "point" (POINT_DIMS), "line" (BLOCK_DIMS)
+
+    @property
+    def per_block(self) -> bool:
+        return self.layout == "line"
 
     @property
     def dims(self) -> tuple[str, ...]:
-        lead = BLOCK_DIMS if self.per_block else GRID_DIMS
-        return lead + ((self.extra_dim[0],) if self.extra_dim else ())
+        return LAYOUTS[self.layout] + tuple(d for d, _ in self.extra)
+
+    @property
+    def trailing(self) -> tuple[int, ...]:
+        return tuple(n for _, n in self.extra)
+
+    def block_shape(self, shape: tuple[int, int, int], max_solutions: int) -> tuple[int, ...]:
+        """Shape of the variable in one block of ``shape`` = (omega, sigma, zeta) points (a
+        line variable: one omega block)."""
+        lead = {"slot": tuple(shape) + (int(max_solutions),), "point": tuple(shape),
+                "line": (1,) + tuple(shape[1:])}[self.layout]
+        return lead + self.trailing
 
     def attrs(self) -> dict[str, Any]:
         a: dict[str, Any] = {"long_name": self.long_name, "units": self.units,
@@ -106,8 +136,8 @@ VARIABLES: dict[str, VarSpec] = {v.name: v for v in [
     # -- orbits (always stored) ----------------------------------------------------------
     VarSpec("period", "int8", 0, "period of the orbit", "1",
             "period of the periodic response in forcing periods T = 2 pi / omega "
-            "(1: 1T orbit, 2: 2T orbit, 0: empty slot)",
-            flags=((0, "empty"), (1, "period_1T"), (2, "period_2T"))),
+            "(1: 1T orbit, 2: 2T orbit, ..., 16; 0: empty slot)",
+            flags=PERIOD_FLAGS),
     VarSpec("status", "int8", _status.EMPTY, "solver status", "1",
             "outcome of the solve for this slot (kernels/status.py); only status 0 "
             "(converged) slots hold a periodic orbit", flags=_STATUS_FLAGS),
@@ -119,7 +149,7 @@ VARIABLES: dict[str, VarSpec] = {v.name: v for v in [
     VarSpec("multipliers", "complex128", complex(math.nan, 0.0), "Floquet multipliers", "1",
             "the two eigenvalues of the monodromy matrix over the orbit's period "
             "(their product is exp(-2 zeta P) for an orbit of period P = period * T)",
-            extra_dim=("multiplier", 2)),
+            extra=(("multiplier", 2),)),
     VarSpec("stable", "bool", False, "orbit is stable", "1",
             "True when both Floquet multipliers lie inside the unit circle"),
     # -- measures ----------------------------------------------------------------------------
@@ -139,7 +169,7 @@ VARIABLES: dict[str, VarSpec] = {v.name: v for v in [
     VarSpec("force_harmonics", "float64", math.nan, "contact force harmonic amplitudes", "1",
             "amplitude of the contact force F(q) (in units of the static preload) at the "
             f"frequencies k omega / period, k = 1..{N_HARMONICS}",
-            extra_dim=("harmonic", N_HARMONICS)),
+            extra=(("harmonic", N_HARMONICS),)),
     # -- diagnostics --------------------------------------------------------------------------
     VarSpec("newton_iterations", "int16", 0, "Newton iterations", "1",
             "number of Newton (shooting) iterations used for this slot"),
@@ -150,32 +180,98 @@ VARIABLES: dict[str, VarSpec] = {v.name: v for v in [
             "excitation frequency of a fold, flip or grazing point located on a branch along the "
             "omega line (sigma, zeta), within the omega range of the block; refined to a zero of "
             "the test function (|g| ~ 1e-14) by kernels.continuation; ordered by omega; NaN: "
-            "empty slot", extra_dim=("bifurcation", BIFURCATION_SLOTS), per_block=True),
+            "empty slot", extra=(("bifurcation", BIFURCATION_SLOTS),), layout="line"),
     VarSpec("bifurcation_kind", "int8", 0, "kind of the located bifurcation point", "1",
             "1 fold (a multiplier +1: zero of 1 - tr M + det M), 2 flip (a multiplier -1: zero "
             "of 1 + tr M + det M), 3 grazing (onset of contact loss: zero of min q + n), "
-            "0 empty slot", extra_dim=("bifurcation", BIFURCATION_SLOTS),
-            flags=BIFURCATION_FLAGS, per_block=True),
+            "0 empty slot", extra=(("bifurcation", BIFURCATION_SLOTS),),
+            flags=BIFURCATION_FLAGS, layout="line"),
     VarSpec("bifurcation_period", "int8", 0, "period of the orbit at the point", "1",
             "period of the branch the point lies on, in forcing periods (1: 1T, 2: 2T; 0 empty)",
-            extra_dim=("bifurcation", BIFURCATION_SLOTS),
-            flags=((0, "empty"), (1, "period_1T"), (2, "period_2T")), per_block=True),
+            extra=(("bifurcation", BIFURCATION_SLOTS),),
+            flags=PERIOD_FLAGS, layout="line"),
     VarSpec("bifurcation_q0", "float64", math.nan, "displacement at tau = 0 at the point", "1",
             "start point q(0) of the periodic orbit at the located point",
-            extra_dim=("bifurcation", BIFURCATION_SLOTS), per_block=True),
+            extra=(("bifurcation", BIFURCATION_SLOTS),), layout="line"),
     VarSpec("bifurcation_v0", "float64", math.nan, "velocity at tau = 0 at the point", "1",
             "start point dq/dtau(0) of the periodic orbit at the located point",
-            extra_dim=("bifurcation", BIFURCATION_SLOTS), per_block=True),
+            extra=(("bifurcation", BIFURCATION_SLOTS),), layout="line"),
     VarSpec("bifurcation_count", "int16", -1, "number of located bifurcation points", "1",
             "points located along the line in the block's omega range; more than the "
             f"{BIFURCATION_SLOTS} slots means the extra ones (highest omega) were dropped; "
-            "-1: not located (block not computed, or its time budget ran out)", per_block=True),
+            "-1: not located (block not computed, or its time budget ran out)", layout="line"),
+    # -- the orbit count (always stored) --------------------------------------------------------
+    VarSpec("orbits_found", "int16", -1, "distinct periodic orbits found at the point", "1",
+            "distinct converged orbits (all periods searched, stable or not) the solver found at "
+            "the point; more than the solution slots means the extra ones (unstable first, then "
+            "the longest periods) were not stored; -1: point not computed", layout="point"),
+    # -- the attractor census (per point and attractor slot) ---------------------------------------
+    VarSpec("attractor_count", "int8", -1, "attractors found by the census", "1",
+            "distinct long-time responses reached by the transients from the study's initial "
+            "states (search.initial_states); -1: the census did not run at this point "
+            "(search.attractors = where-none-stable and a stable orbit was found, or not "
+            "computed)", layout="point"),
+    VarSpec("attractor_kind", "int8", 0, "kind of attractor", "1",
+            "1 periodic (a stable orbit, stored in the slot attractor_solution), 2 non_periodic "
+            "(no period <= 16 within the budget and a positive largest Lyapunov exponent beyond "
+            "three standard errors, with no stable orbit found at the point: chaotic), "
+            "3 unsettled (the transients did not settle within search.transient_periods and the "
+            "response is not shown chaotic: a longer period, a long transient, or a point with "
+            "a stable orbit that these transients did not reach), 4 failed (integration "
+            "failure); 0 empty slot", extra=(("attractor", ATTRACTOR_SLOTS),),
+            flags=ATTRACTOR_FLAGS, layout="point"),
+    VarSpec("attractor_period", "int8", 0, "period of a periodic attractor", "1",
+            "m of a periodic attractor (its orbit has period m T), 0 otherwise",
+            extra=(("attractor", ATTRACTOR_SLOTS),), flags=PERIOD_FLAGS, layout="point"),
+    VarSpec("attractor_solution", "int8", -1, "solution slot of a periodic attractor", "1",
+            "index along the solution dim of the stored orbit a periodic attractor is; -1: not "
+            "periodic, or its orbit did not fit in the slots",
+            extra=(("attractor", ATTRACTOR_SLOTS),), layout="point"),
+    VarSpec("basin_fraction", "float64", math.nan, "basin fraction", "1",
+            "fraction of the study's initial states whose transient ends on this attractor "
+            "(a measure of the basin over the box of initial states)",
+            extra=(("attractor", ATTRACTOR_SLOTS),), layout="point"),
+    VarSpec("lyapunov_exponent", "float64", math.nan, "largest Lyapunov exponent", "1",
+            "per unit dimensionless time tau: Benettin's method with the variational equations "
+            "(exact across contact loss) over the record window (non-periodic and unsettled "
+            "attractors), or log|mu_max| / (m T) from the orbit's multipliers (periodic)",
+            extra=(("attractor", ATTRACTOR_SLOTS),), layout="point"),
+    VarSpec("lyapunov_error", "float64", math.nan, "uncertainty of the Lyapunov exponent", "1",
+            "one standard error of the exponent over 8 blocks of the record window (NaN for a "
+            "periodic attractor, whose exponent is exact to the solver's accuracy)",
+            extra=(("attractor", ATTRACTOR_SLOTS),), layout="point"),
+    VarSpec("attractor_flight_fraction", "float64", math.nan, "flight fraction on the attractor", "1",
+            "fraction of the time out of contact over the attractor's window",
+            extra=(("attractor", ATTRACTOR_SLOTS),), layout="point"),
+    VarSpec("attractor_max_impact_velocity", "float64", math.nan,
+            "largest impact velocity on the attractor", "1",
+            "largest |dq/dtau| at recontact over the attractor's window",
+            extra=(("attractor", ATTRACTOR_SLOTS),), layout="point"),
+    VarSpec("attractor_min_q", "float64", math.nan, "minimum displacement on the attractor", "1",
+            "minimum of q over the attractor's window", extra=(("attractor", ATTRACTOR_SLOTS),),
+            layout="point"),
+    VarSpec("attractor_peak_force", "float64", math.nan, "peak contact force on the attractor", "1",
+            "largest contact force F/N over the attractor's window (F of its largest q)",
+            extra=(("attractor", ATTRACTOR_SLOTS),), layout="point"),
+    VarSpec("attractor_rms_force", "float64", math.nan, "rms contact force on the attractor", "1",
+            "root mean square of the contact force F/N over the attractor's window",
+            extra=(("attractor", ATTRACTOR_SLOTS),), layout="point"),
+    VarSpec("strobe_q", "float64", math.nan, "stroboscopic displacement on the attractor", "1",
+            "q at tau = 0 mod T of the last periods of the attractor's window (the points of a "
+            "brute-force bifurcation diagram); NaN beyond those recorded",
+            extra=(("attractor", ATTRACTOR_SLOTS), ("strobe", STROBE_POINTS)), layout="point"),
+    VarSpec("strobe_v", "float64", math.nan, "stroboscopic velocity on the attractor", "1",
+            "dq/dtau at tau = 0 mod T of the same points as strobe_q",
+            extra=(("attractor", ATTRACTOR_SLOTS), ("strobe", STROBE_POINTS)), layout="point"),
 ]}
 
 #: Per-slot variables of an orbit (dims GRID_DIMS + extra), in schema order.
-ORBIT_VARIABLES: tuple[str, ...] = tuple(n for n, v in VARIABLES.items() if not v.per_block)
+ORBIT_VARIABLES: tuple[str, ...] = tuple(n for n, v in VARIABLES.items() if v.layout == "slot")
 #: Per-line variables (dims BLOCK_DIMS + extra): the located bifurcation points.
-LINE_VARIABLES: tuple[str, ...] = tuple(n for n, v in VARIABLES.items() if v.per_block)
+LINE_VARIABLES: tuple[str, ...] = tuple(n for n, v in VARIABLES.items() if v.layout == "line")
+#: Per-point variables of the attractor census (dims POINT_DIMS + extra).
+ATTRACTOR_VARIABLES: tuple[str, ...] = tuple(
+    n for n, v in VARIABLES.items() if v.layout == "point" and n != "orbits_found")
 
 
 def empty_arrays(shape: tuple[int, int, int], max_solutions: int,
@@ -186,19 +282,18 @@ def empty_arrays(shape: tuple[int, int, int], max_solutions: int,
     out = {}
     for name in (tuple(VARIABLES) if names is None else names):
         v = VARIABLES[name]
-        lead = (1,) + tuple(shape[1:]) if v.per_block else tuple(shape) + (int(max_solutions),)
-        trail = (v.extra_dim[1],) if v.extra_dim else ()
-        out[name] = np.full(lead + trail, v.fill, dtype=v.dtype)
+        out[name] = np.full(v.block_shape(shape, max_solutions), v.fill, dtype=v.dtype)
     return out
 
 
 PRODUCT_VARIABLES: dict[str, tuple[str, ...]] = {
-    "orbits": ("period", "status", "q0", "v0", "multipliers", "stable"),
+    "orbits": ("period", "status", "q0", "v0", "multipliers", "stable", "orbits_found"),
     "measures": ("min_q", "max_q", "ptp", "loses_contact", "flight_fraction", "max_impact_velocity"),
     "force_harmonics": ("force_harmonics",),
     "diagnostics": ("newton_iterations", "residual"),
     "bifurcations": ("bifurcation_omega", "bifurcation_kind", "bifurcation_period",
                      "bifurcation_q0", "bifurcation_v0", "bifurcation_count"),
+    "attractors": ATTRACTOR_VARIABLES,
 }
 
 _COORD_ATTRS = {
@@ -216,6 +311,13 @@ _COORD_ATTRS = {
                    "description": "index of the multiplier (order as returned by the block solver)"},
     "harmonic": {"long_name": "harmonic order", "units": "1",
                  "description": "k: the component at frequency k omega / period"},
+    "attractor": {"long_name": "attractor slot", "units": "1",
+                  "description": "index of a distinct long-time response found by the attractor "
+                                 "census at a grid point (largest basin first); empty slots have "
+                                 "attractor_kind 0"},
+    "strobe": {"long_name": "stroboscopic point index", "units": "1",
+               "description": "k-th of the last stroboscopic points (tau = 0 mod T) of an "
+                              "attractor's window, in time order"},
     "bifurcation": {"long_name": "bifurcation point slot", "units": "1",
                     "description": "index of a located bifurcation point along the line "
                                    "(ordered by omega); empty slots have bifurcation_kind 0"},
@@ -241,8 +343,8 @@ def bytes_per_point(study: Study) -> int:
     for name in stored_variables(study):
         v = VARIABLES[name]
         # a per-block variable: one line per (sigma, zeta), spread over the line's omega points
-        n = (1.0 / len(study.omega) if v.per_block else study.max_solutions) \
-            * (v.extra_dim[1] if v.extra_dim else 1)
+        n = {"slot": study.max_solutions, "point": 1.0, "line": 1.0 / len(study.omega)}[v.layout] \
+            * math.prod(v.trailing)
         total += n * np.dtype(v.dtype).itemsize
     return int(math.ceil(total))
 
@@ -323,14 +425,16 @@ def template(study: Study, chunks: tuple[int, int, int], *, history: str) -> xr.
     counts = chunk_counts(study.shape, chunks)
     for name in stored_variables(study):
         v = VARIABLES[name]
-        if v.per_block:
+        if v.layout == "line":
             shape = (counts[0],) + study.shape[1:]
             vchunks = (1,) + chunks[1:]
+        elif v.layout == "point":
+            shape = tuple(study.shape)
+            vchunks = tuple(chunks)
         else:
             shape = study.shape + (ns,)
             vchunks = chunks + (ns,)
-        if v.extra_dim:
-            dim, n = v.extra_dim
+        for dim, n in v.extra:
             shape += (n,)
             vchunks += (n,)
             if dim not in coords:
@@ -376,8 +480,7 @@ def check_block(arrays: Mapping[str, np.ndarray], names: tuple[str, ...],
             raise ValueError(f"solve_block result lacks variable {name!r}")
         v = VARIABLES[name]
         a = np.asarray(arrays[name])
-        lead = (1,) + tuple(shape)[1:] if v.per_block else tuple(shape) + (max_solutions,)
-        want = lead + ((v.extra_dim[1],) if v.extra_dim else ())
+        want = v.block_shape(shape, max_solutions)
         if a.shape != want:
             raise ValueError(f"solve_block variable {name!r} has shape {a.shape}, expected {want}")
         if not np.can_cast(a.dtype, np.dtype(v.dtype), casting="same_kind"):

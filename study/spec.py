@@ -41,7 +41,8 @@ MAX_GRID_POINTS = 20_000_000
 AXES = ("omega", "sigma", "zeta")
 
 #: Output groups a study can ask for; the variables of each group are defined in study/dataset.py.
-PRODUCTS = ("orbits", "measures", "force_harmonics", "diagnostics", "bifurcations")
+PRODUCTS = ("orbits", "measures", "force_harmonics", "diagnostics", "bifurcations",
+            "attractors")
 #: "orbits" is always stored (period, q0, v0, status, multipliers, stable).
 CORE_PRODUCT = "orbits"
 DEFAULT_PRODUCTS = ("orbits", "measures")
@@ -50,7 +51,16 @@ MODEL_KINDS = ("hertz", "taylor")
 EXPONENT_RANGE = (0.0, 3.0)           # exclusive, inclusive
 RTOL_RANGE = (1e-13, 1e-4)            # inclusive
 MAX_SOLUTIONS_RANGE = (1, 16)         # inclusive
-PERIODS_ALLOWED = (1, 2)
+PERIODS_ALLOWED = tuple(range(1, 17))     # any m in 1..16 (periods in forcing periods)
+#: Where the attractor census runs transients: at the points where shooting found no stable
+#: orbit, at every point (basins everywhere), or nowhere.
+ATTRACTOR_MODES = ("where-none-stable", "always", "never")
+INITIAL_STATES_RANGE = (1, 64)
+TRANSIENT_PERIODS_RANGE = (10, 100_000)
+RECORD_PERIODS_RANGE = (32, 10_000)
+DEFAULT_INITIAL_STATES = 16
+DEFAULT_TRANSIENT_PERIODS = 500
+DEFAULT_RECORD_PERIODS = 128
 CONTACTS = ("double", "single")
 
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$")
@@ -100,6 +110,10 @@ class Study:
     periods: tuple[int, ...] = (1, 2)
     discover: bool = False
     transients: int = 16
+    attractors: str = "where-none-stable"
+    initial_states: int = DEFAULT_INITIAL_STATES
+    transient_periods: int = DEFAULT_TRANSIENT_PERIODS
+    record_periods: int = DEFAULT_RECORD_PERIODS
     products: tuple[str, ...] = DEFAULT_PRODUCTS
     rig: tuple[tuple[str, Any], ...] | None = None
     source_text: str = field(default="", compare=False, repr=False)
@@ -139,8 +153,13 @@ class Study:
         if "bifurcations" in self.products:
             kw["locate"] = True     # only then: other studies call the solver as before
         if self.discover:
-            kw["discover"] = True   # transients + continuation per line (study.discovery)
+            kw["discover"] = True   # transients + continuation per line (study.solve.discovery)
             kw["transients"] = int(self.transients)
+        kw["attractors"] = self.attractors
+        if self.attractors != "never":
+            kw["initial_states"] = int(self.initial_states)
+            kw["transient_periods"] = int(self.transient_periods)
+            kw["record_periods"] = int(self.record_periods)
         return kw
 
     def to_dict(self) -> dict[str, Any]:
@@ -151,14 +170,22 @@ class Study:
             "grid": {ax: [float(x) for x in getattr(self, ax)] for ax in AXES},
             "model": {"kind": self.model, "exponent": self.exponent},
             "solver": {"rtol": self.rtol, "max_solutions": self.max_solutions},
-            # discovery enters the canonical form only when asked for: studies without it keep
-            # the hash they had before the option existed
-            "search": ({"periods": list(self.periods)} if not self.discover else
-                       {"periods": list(self.periods), "discover": True,
-                        "transients": int(self.transients)}),
+            "search": self._search_dict(),
             "products": {"outputs": list(self.products)},
             "rig": self.rig_dict,
         }
+
+    def _search_dict(self) -> dict[str, Any]:
+        """The [search] table with the keys that apply (a key a study file may not give in this
+        configuration is left out, so that the dict reads back as a valid study file)."""
+        out: dict[str, Any] = {"periods": list(self.periods), "attractors": self.attractors}
+        if self.discover:
+            out.update(discover=True, transients=int(self.transients))
+        if self.attractors != "never":
+            out.update(initial_states=int(self.initial_states),
+                       transient_periods=int(self.transient_periods),
+                       record_periods=int(self.record_periods))
+        return out
 
     def canonical_json(self) -> str:
         """Canonical JSON: sorted keys, no whitespace, floats in shortest round-trip form.
@@ -376,7 +403,8 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
 
     # [search]
     se = _table(doc, "search")
-    _refuse_unknown(se, "search", ("periods", "discover", "transients"))
+    _refuse_unknown(se, "search", ("periods", "discover", "transients", "attractors",
+                                   "initial_states", "transient_periods", "record_periods"))
     discover = se.get("discover", False)
     if not isinstance(discover, bool):
         raise StudyError("search.discover", f"expected true or false, got {_r(discover)}")
@@ -388,15 +416,36 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
         raise StudyError("search.transients", "only meaningful with search.discover = true")
     periods = se.get("periods", [1, 2])
     if not isinstance(periods, list) or not periods:
-        raise StudyError("search.periods", f"expected a non-empty list, a subset of {list(PERIODS_ALLOWED)}, "
-                         f"got {_r(periods)}")
+        raise StudyError("search.periods", "expected a non-empty list of periods, integers "
+                         f"1..{PERIODS_ALLOWED[-1]} (e.g. [1, 2, 4]), got {_r(periods)}")
     for p in periods:
         if not isinstance(p, int) or isinstance(p, bool) or p not in PERIODS_ALLOWED:
-            raise StudyError("search.periods", f"each period must be one of {list(PERIODS_ALLOWED)}, "
-                             f"got {_r(p)}")
+            raise StudyError("search.periods", f"each period must be an integer "
+                             f"1..{PERIODS_ALLOWED[-1]} (in forcing periods), got {_r(p)}")
     if len(set(periods)) != len(periods):
         raise StudyError("search.periods", f"duplicated period in {_r(periods)}")
     periods_t = tuple(sorted(int(p) for p in periods))
+    # the attractor census: a 1T-only scene (a flip curve, say) pays nothing for it by default
+    attractors = se.get("attractors", "where-none-stable" if max(periods_t) >= 2 else "never")
+    if attractors not in ATTRACTOR_MODES:
+        raise StudyError("search.attractors", f"must be one of "
+                         f"{', '.join(map(repr, ATTRACTOR_MODES))}, got {_r(attractors)}")
+    census = {}
+    for key, (lo, hi), default, what in (
+            ("initial_states", INITIAL_STATES_RANGE, DEFAULT_INITIAL_STATES,
+             "initial states of the transients per grid point"),
+            ("transient_periods", TRANSIENT_PERIODS_RANGE, DEFAULT_TRANSIENT_PERIODS,
+             "forcing periods a transient may run before it counts as unsettled"),
+            ("record_periods", RECORD_PERIODS_RANGE, DEFAULT_RECORD_PERIODS,
+             "forcing periods of the window the exponent and measures are taken over")):
+        value = se.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+            raise StudyError(f"search.{key}", f"expected an integer {lo}..{hi} ({what}), "
+                             f"got {_r(value)}")
+        if key in se and attractors == "never":
+            raise StudyError(f"search.{key}", 'only meaningful with search.attractors other '
+                             'than "never"')
+        census[key] = value
 
     # [products]
     pr = _table(doc, "products")
@@ -410,7 +459,12 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
             raise StudyError("products.outputs", f"unknown product {_r(o)}; allowed: {', '.join(PRODUCTS)}")
     if len(set(outputs)) != len(outputs):
         raise StudyError("products.outputs", f"duplicated product in {_r(outputs)}")
-    products = tuple(p for p in PRODUCTS if p in outputs or p == CORE_PRODUCT)
+    if "attractors" in outputs and attractors == "never":
+        raise StudyError("products.outputs", '"attractors" needs search.attractors other than '
+                         '"never"')
+    # the census's results are stored whenever it runs
+    products = tuple(p for p in PRODUCTS if p in outputs or p == CORE_PRODUCT
+                     or (p == "attractors" and attractors != "never"))
 
     # [rig]
     rig = None
@@ -445,6 +499,8 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
         periods=periods_t,
         discover=discover,
         transients=transients,
+        attractors=attractors,
+        **census,
         products=products,
         rig=rig,
         source_text=text,

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from study.schema import ORBIT_VARIABLES, empty_arrays, template
+from study.schema import ATTRACTOR_VARIABLES, ORBIT_VARIABLES, empty_arrays, template
 from study.spec import parse_study
 
 REPO = Path(__file__).resolve().parent.parent
@@ -30,7 +30,7 @@ PLACEHOLDER = "tests.helpers:placeholder_solve_block"
 
 
 def placeholder_solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hertz",
-                            rtol=1e-10, max_solutions=4, harmonics=True):
+                            rtol=1e-10, max_solutions=4, harmonics=True, **census):
     """Deterministic fake with the solve_block contract (delay: $HERTZMAP_PLACEHOLDER_DELAY s/point)."""
     omega = np.asarray(omega, dtype=np.float64)
     sigma = np.asarray(sigma, dtype=np.float64)
@@ -39,7 +39,8 @@ def placeholder_solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5,
     if delay:
         time.sleep(delay * len(omega) * len(sigma) * len(zeta))
     w, s, z = np.meshgrid(omega, sigma, zeta, indexing="ij")
-    out = empty_arrays((len(omega), len(sigma), len(zeta)), max_solutions, ORBIT_VARIABLES)
+    out = empty_arrays((len(omega), len(sigma), len(zeta)), max_solutions,
+                       ORBIT_VARIABLES + ("orbits_found",))
     amp = s / np.sqrt((1 - w**2) ** 2 + (2 * z * w) ** 2)
     slots = []
     if 1 in periods:
@@ -67,6 +68,11 @@ def placeholder_solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5,
                                                   np.nan)
         out["newton_iterations"][sl] = np.where(mask, 3, 0)
         out["residual"][sl] = np.where(mask, 1e-12, np.nan)
+    out["orbits_found"][...] = (out["status"] == 0).sum(axis=-1)
+    if census.get("attractors", "never") != "never":      # the census found nothing here
+        out.update(empty_arrays((len(omega), len(sigma), len(zeta)), max_solutions,
+                                ATTRACTOR_VARIABLES))
+        out["attractor_count"][...] = 0
     return out
 
 

@@ -10,7 +10,6 @@ docs/explore.md describes the panels, a cluster store through an ssh tunnel, and
 """
 from __future__ import annotations
 
-import argparse
 import errno
 import importlib.util
 import json
@@ -20,25 +19,9 @@ import sys
 from functools import partial
 from pathlib import Path
 
-DEFAULT_PORT = 5006
+DEFAULT_PORT = 5006     # the command line's default (scheduler/cli.py)
 ADDRESS = "127.0.0.1"     # local only: reach a remote one through an ssh tunnel (docs/explore.md)
 BOKEH_MIN = (3, 1)
-
-
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("store", type=Path, help="a store written by hertzmap run (it may still be "
-                   "being written: the page follows it)")
-    p.add_argument("--port", type=int, default=DEFAULT_PORT,
-                   help=f"port of the page, http://localhost:PORT/ (default {DEFAULT_PORT})")
-    where = p.add_mutually_exclusive_group()
-    where.add_argument("--scheduler", metavar="ADDRESS", default=None,
-                       help="run refines on this Dask scheduler (e.g. the one that computed the "
-                       "store, tcp://host:8786) instead of an embedded local cluster")
-    where.add_argument("--workers", type=int, default=None, metavar="N",
-                       help="worker processes of the embedded local cluster that runs refines "
-                       "(default one per core; started at the first refine)")
-    p.add_argument("--max-refine-points", type=int, default=None, metavar="N",
-                   help="most grid points one refine may compute (default 20000)")
 
 
 def _error(msg: str) -> int:
@@ -69,7 +52,7 @@ def _is_hertzmap_store(path: Path) -> bool:
             and "hertzmap_study_hash" in (doc.get("attributes") or {}))
 
 
-def explore_command(args: argparse.Namespace) -> int:
+def explore_command(args) -> int:
     """``hertzmap explore``: returns the exit code (0 on Ctrl-C or SIGTERM; 2 on bad input,
     with nothing started or written)."""
     store: Path = args.store

@@ -18,8 +18,9 @@ import xarray as xr
 
 from scheduler.cluster import ClusterError, ClusterSpec, make_client
 from scheduler.plan import DEFAULT_TASK_SECONDS, choose_chunks, make_plan
-from scheduler.run import RunError, RunOptions, run_study
-from scheduler.store import StoreError, lock_path, read_attrs
+from scheduler.errors import RunError, StoreError
+from scheduler.run import RunOptions, run_study
+from scheduler.store import lock_path, read_attrs, read_done_flags
 from study import explore_data as E
 from study import products as P
 
@@ -39,11 +40,7 @@ def is_store(path: Path) -> bool:
 
 def read_flags(path: Path) -> np.ndarray:
     """The task_done flags of a store (read alone: cheap, for polling)."""
-    import zarr
-    with _quiet():
-        group = zarr.open_group(zarr.storage.LocalStore(path, read_only=True), mode="r",
-                                zarr_format=3, use_consolidated=False)
-        return np.asarray(group["task_done"][...], bool)
+    return read_done_flags(path)
 
 
 def read_snapshot(path: Path) -> xr.Dataset:

@@ -17,7 +17,8 @@ One module per topic (docs/products.md has the reference):
   (located points linked across sigma lines), :func:`contour_lines`, :func:`curve_segments`;
 * ``multiple_scales``: :func:`mms_curves`, :func:`mms_response` (paper Eq. 19-27);
 * ``response``: :func:`frequency_response`, :func:`force_harmonics`, :func:`time_histories`;
-* ``paper_numbers``: :func:`flip_minimum`, :func:`branch_end` (VALIDATION.md).
+* ``paper_numbers``: :func:`flip_minimum`, :func:`branch_end` (VALIDATION.md);
+* ``attractors``: :func:`stroboscopic_diagram` (the brute-force bifurcation diagram).
 
 numpy / xarray / contourpy / scipy.ndimage only: no Dask, no scheduler, no writes.
 """
@@ -29,10 +30,11 @@ import numpy as np
 import xarray as xr
 
 from kernels.model import TAYLOR_CONTACT_LOSS
+from study.products.attractors import stroboscopic_diagram
 from study.products.classes import orbit_classes, valid_orbits
 from study.products.curves import (CURVES, LOCATED_KINDS, bifurcation_curves, contour_lines,
                                    curve_segments, located_curves)
-from study.products.maps import STABLE_SET_FLAGS, isola_mask, loss_of_contact_map
+from study.products.maps import MAP_CLASSES, STABLE_SET_FLAGS, isola_mask, loss_of_contact_map
 from study.products.multiple_scales import MMS_HALF_WIDTH, mms_curves, mms_response
 from study.products.paper_numbers import branch_end, flip_minimum
 from study.products.response import force_harmonics, frequency_response, time_histories
@@ -45,7 +47,7 @@ __all__ = [
     "valid_orbits", "orbit_classes", "loss_of_contact_map", "isola_mask",
     "contour_lines", "bifurcation_curves", "located_curves", "curve_segments",
     "mms_curves", "mms_response", "frequency_response", "force_harmonics", "time_histories",
-    "flip_minimum", "branch_end", "compute_products",
+    "flip_minimum", "branch_end", "compute_products", "stroboscopic_diagram", "MAP_CLASSES",
 ]
 
 

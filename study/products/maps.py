@@ -7,6 +7,7 @@ import numpy as np
 import xarray as xr
 
 from study.orbits import ORBIT_CLASSES
+from study.schema import ATTRACTOR_KINDS
 from study.products.classes import orbit_classes, valid_orbits
 from study.products.results import (var_attrs, coord_attrs, quiet, source_attrs,
                                     contact_threshold, open_store)
@@ -17,6 +18,28 @@ STABLE_SET_FLAGS: tuple[tuple[int, str], ...] = (
     (2, "stable_1T_contact_loss"),
     (4, "stable_2T_contact"),
     (8, "stable_2T_contact_loss"),
+)
+
+
+#: Codes of ``map_class`` beyond the 16 combinations of the stable_set bits (1T/2T, in contact or
+#: not): what the contact does where longer periods or no periodic attractor are involved.
+MAP_CLASS_LONGER = 16
+MAP_CLASS_CHAOTIC = 17
+MAP_CLASS_UNSETTLED = 18
+MAP_CLASS_CHAOTIC_COEXISTING = 19
+MAP_CLASSES: tuple[tuple[int, str, str], ...] = tuple(
+    (c, "stable_" + "_".join(m.removeprefix("stable_") for b, m in STABLE_SET_FLAGS if c & b)
+     if c else "none",
+     "stable: " + ", ".join(m for b, m in STABLE_SET_FLAGS if c & b) if c else
+     "no stable response found (or not computed)") for c in range(16)) + (
+    (MAP_CLASS_LONGER, "stable_period_m_ge_3",
+     "a stable orbit of period m >= 3 (with or without 1T / 2T ones)"),
+    (MAP_CLASS_CHAOTIC, "non_periodic",
+     "no stable orbit; the census's transients are chaotic (positive Lyapunov exponent)"),
+    (MAP_CLASS_UNSETTLED, "unsettled",
+     "no stable orbit; the census's transients did not settle and are not shown chaotic"),
+    (MAP_CLASS_CHAOTIC_COEXISTING, "non_periodic_and_stable",
+     "a non-periodic attractor beside stable orbits"),
 )
 
 
@@ -175,7 +198,61 @@ def loss_of_contact_map(ds: xr.Dataset) -> xr.Dataset:
         "heuristic: the point lies in a contiguous omega run of 2T responses (at fixed sigma, "
         "zeta) that contains no point past the 1T flip and has a 2T orbit with contact loss "
         "(study.products.isola_mask)"))
+    _add_attractors(out, ds, ok, stable, loses, bits)
     out.attrs = source_attrs(ds, "loss-of-contact map")
-    out = out.drop_vars([c for c in ("solution", "multiplier") if c in out.coords])
+    out = out.drop_vars([c for c in ("solution", "multiplier", "attractor", "strobe")
+                         if c in out.coords])
     return coord_attrs(out, ds)
+
+
+def _add_attractors(out: xr.Dataset, ds: xr.Dataset, ok, stable, loses, bits) -> None:
+    """What the contact does at each point (``map_class``), from the stable orbits and the
+    attractor census; the largest Lyapunov exponent of the point's attractors; the impact
+    severity over every attractor (non-periodic ones included)."""
+    longer = (stable & (ds["period"] >= 3)).any("solution").values
+    census = ds["attractor_count"].values >= 0 if "attractor_count" in ds else np.zeros(
+        longer.shape, bool)
+    kinds = ds["attractor_kind"].values if "attractor_kind" in ds else np.zeros(
+        longer.shape + (1,), np.int8)
+    chaotic = (kinds == ATTRACTOR_KINDS["non_periodic"]).any(-1)
+    unsettled = (kinds == ATTRACTOR_KINDS["unsettled"]).any(-1)
+    has_stable = stable.any("solution").values
+    code = np.where(longer, MAP_CLASS_LONGER, bits.values.astype(np.int8)).astype(np.int8)
+    code = np.where(~has_stable & chaotic, MAP_CLASS_CHAOTIC, code)
+    code = np.where(~has_stable & ~chaotic & unsettled, MAP_CLASS_UNSETTLED, code)
+    code = np.where(has_stable & chaotic, MAP_CLASS_CHAOTIC_COEXISTING, code)
+    code = np.where(out["computed"].values, code, 0).astype(np.int8)
+    out["map_class"] = xr.DataArray(code, dims=("omega", "sigma", "zeta")).assign_attrs(var_attrs(
+        "what the contact does", "1",
+        "the kinds of stable response at the point (codes 0-15: the stable_set bits of the 1T "
+        "and 2T responses), or: " + "; ".join(f"{c}: {d}" for c, _, d in MAP_CLASSES[16:]),
+        flag_values=np.array([c for c, _, _ in MAP_CLASSES], np.int8),
+        flag_meanings=" ".join(n for _, n, _ in MAP_CLASSES)))
+    # the exponent of every attractor: the census's, else those of the stable orbits
+    T = 2.0 * np.pi / ds["omega"]
+    with np.errstate(all="ignore"):
+        rho = np.abs(ds["multipliers"]).max("multiplier")
+        orbit_exp = (np.log(rho) / (ds["period"] * T)).where(stable)
+        lam = orbit_exp.max("solution")
+        if "lyapunov_exponent" in ds:
+            lam_c = ds["lyapunov_exponent"].where(ds["attractor_kind"] > 0).max("attractor")
+            lam = xr.where(xr.DataArray(census, dims=lam.dims), lam_c, lam)
+    out["lyapunov_exponent"] = lam.where(out["computed"]).assign_attrs(var_attrs(
+        "largest Lyapunov exponent of the point's attractors", "1",
+        "per unit tau: the largest over the attractors the census found (Benettin over the "
+        "record window for a non-periodic one), or, where it did not run, over the stable "
+        "orbits (log|mu_max| / (m T)); positive: chaos"))
+    if "attractor_max_impact_velocity" in ds:
+        iv_a = ds["attractor_max_impact_velocity"].where(ds["attractor_kind"] > 0).max("attractor")
+        base = out["max_impact_velocity"] if "max_impact_velocity" in out else xr.full_like(
+            iv_a, np.nan)
+        out["max_impact_velocity"] = np.fmax(base, iv_a).assign_attrs(var_attrs(
+            "largest impact velocity of the point's attractors", "1",
+            "largest |dq/dtau| at recontact over the stable orbits and the attractors the "
+            "census found (non-periodic ones included) at the point (0: all in contact)"))
+        pf = ds["attractor_peak_force"].where(ds["attractor_kind"] > 0).max("attractor")
+        out["peak_contact_force"] = pf.assign_attrs(var_attrs(
+            "largest peak contact force of the census's attractors", "1",
+            "largest F/N over the windows of the attractors the census found at the point "
+            "(NaN where it did not run)"))
 

@@ -24,18 +24,17 @@ This module is physics and numpy only: the scheduler ships ``solve_block`` witho
 """
 from __future__ import annotations
 
-import math
 import time
 
 import numpy as np
 
 from kernels import status as st
 from kernels.model import MODELS
-from study.schema import (BIFURCATION_KINDS, BIFURCATION_SLOTS, LINE_VARIABLES,
-                          ORBIT_VARIABLES, empty_arrays)
+from study.schema import (ATTRACTOR_VARIABLES, BIFURCATION_KINDS, BIFURCATION_SLOTS,
+                          LINE_VARIABLES, ORBIT_VARIABLES, empty_arrays)
+from study.solve.census import record_attractors
 from study.solve.discovery import discover_line
-from study.solve.point import merge_new_orbits, solve_point
-from study.solve.seeds import mms_seeds
+from study.solve.line import LINEAR_SEED_STRIDE, MMS_SEED_STRIDE, LineSearch
 
 
 def _record(arrays, points, j, k, slots, sols):
@@ -50,6 +49,14 @@ def _record(arrays, points, j, k, slots, sols):
             arrays[name][cells] = starts[:, 1]
         else:
             arrays[name][cells] = np.array([s[name] for s in sols])
+
+
+def slot_order(orbits, max_solutions):
+    """The orbits a point's slots hold, in slot order: where there are more orbits than slots,
+    the stable ones are kept first (then by period and ptp); the kept ones are ordered by
+    (period, ptp), so that slot 0 holds the 1T orbit of smallest ptp."""
+    kept = sorted(orbits, key=lambda s: (not s["stable"], s["period"], s["ptp"]))[:max_solutions]
+    return sorted(kept, key=lambda s: (s["period"], s["ptp"]))
 
 
 def line_bifurcations(special, omega_lo, omega_hi) -> list[dict]:
@@ -75,12 +82,15 @@ def _record_bifurcations(arrays, j, k, points):
 
 def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hertz", rtol=1e-10,
                 max_solutions=4, discover=False, transients=16, locate=False,
-                harmonics=True, time_budget=None, seeds=()) -> dict[str, np.ndarray]:
+                harmonics=True, time_budget=None, seeds=(), turn_folds=True,
+                attractors="never", initial_states=16, transient_periods=500,
+                record_periods=128, seed_strides=(LINEAR_SEED_STRIDE, MMS_SEED_STRIDE)
+                ) -> dict[str, np.ndarray]:
     """Every periodic response at each point of the block omega x sigma x zeta.
 
     ``seeds``: more initial guesses ``(period, q0, q'0)``, shot at every point of the block on
-    its first visit with the automatic ones (1T: after the linear seed; 2T: last), so an orbit
-    they reach that another seed also reaches is kept once. The error estimate re-solves a
+    its first visit before the automatic ones (at their own period, searched or not), so an
+    orbit they reach that another seed also reaches is kept once, with their start point. The error estimate re-solves a
     stored orbit from its own start point with them, so that it finds that orbit again without
     its neighbours.
 
@@ -122,47 +132,26 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
     if not (np.isfinite(exponent) and exponent > 0):
         raise ValueError(f"exponent must be a finite number > 0, got {exponent!r}")
     options = dict(exponent=float(exponent), model=model, rtol=float(rtol),
+                   linear_stride=int(seed_strides[0]), mms_stride=int(seed_strides[1]),
                    harmonics=bool(harmonics),
                    seeds=tuple((int(p), float(q), float(v)) for p, q, v in seeds))
-    names = ORBIT_VARIABLES + (LINE_VARIABLES if locate else ())
+    names = ORBIT_VARIABLES + ("orbits_found",) + (LINE_VARIABLES if locate else ()) \
+        + (ATTRACTOR_VARIABLES if attractors != "never" else ())
     arrays = empty_arrays((omega.size, sigma.size, zeta.size), int(max_solutions), names)
-    order = np.argsort(omega, kind="stable")
     deadline = None if time_budget is None else time.monotonic() + float(time_budget)
     for j in range(sigma.size):
         for k in range(zeta.size):
             if deadline is not None and time.monotonic() > deadline:
                 arrays["status"][:, j, k, 0] = st.TIME_LIMIT
                 continue
-            per_point = [[] for _ in range(omega.size)]
-            best_1t = [None] * omega.size
-            visited = np.zeros(omega.size, bool)
-            mms = mms_seeds(omega, sigma[j], zeta[k]) if 2 in periods else None
-            # Up the omega axis, then down. Going down, only the orbits that the way up did not
-            # reach by continuation are continued (the others would lead back to orbits already
-            # known): this finds the branches that end in a fold towards higher omega.
-            for first_visit, sweep in ((True, order), (False, order[::-1])):
-                prev = []
-                for i in sweep:
-                    if deadline is not None and time.monotonic() > deadline:
-                        break
-                    found, tries = solve_point(omega[i], sigma[j], zeta[k], periods, prev,
-                                               options, first_visit,
-                                               mms[i] if mms is not None else ())
-                    visited[i] = True
-                    merge_new_orbits(per_point[i], found)
-                    if tries and best_1t[i] is None:
-                        best_1t[i] = min(tries, key=lambda s: (s["status"] != st.CONVERGED,
-                                                               s["residual"]
-                                                               if math.isfinite(s["residual"])
-                                                               else math.inf))
-                    if first_visit:
-                        prev = per_point[i]
-                    else:
-                        prev = [s for s in per_point[i] if not s.get("continued_up")]
-                if first_visit:
-                    for sols in per_point:
-                        for s in sols:
-                            s["continued_up"] = bool(s.get("continued"))
+            search = LineSearch(omega, float(sigma[j]), float(zeta[k]), periods, options,
+                                deadline)
+            search.sweep()
+            if turn_folds:
+                search.turn_folds()
+            search.run_census(attractors, int(initial_states), int(transient_periods),
+                              int(record_periods))
+            per_point = search.per_point
             line = None
             if discover and (deadline is None or time.monotonic() <= deadline):
                 line = discover_line(omega, sigma[j], zeta[k], periods=periods,
@@ -179,17 +168,22 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
                     line.special, float(omega.min()), float(omega.max())))
             points, slots, recorded = [], [], []
             for i in range(omega.size):
-                sols = per_point[i]
-                one = sorted([s for s in sols if s["period"] == 1], key=lambda s: s["ptp"])
-                two = sorted([s for s in sols if s["period"] == 2], key=lambda s: s["ptp"])
-                ordered = one + two
-                if not one and best_1t[i] is not None and 1 in periods:
-                    ordered = [best_1t[i]] + two     # record why the 1T solve failed
+                if search.visited[i]:
+                    arrays["orbits_found"][i, j, k] = len(per_point[i])
+                ordered = slot_order(per_point[i], max_solutions)
+                if 1 in periods and not any(s["period"] == 1 for s in ordered) \
+                        and search.best_1t[i] is not None:
+                    ordered = [search.best_1t[i]] + ordered     # record why the 1T solve failed
                 for slot, sol in enumerate(ordered[:max_solutions]):
                     points.append(i)
                     slots.append(slot)
                     recorded.append(sol)
+                if i in search.attractors:
+                    stored = ordered[:max_solutions]
+                    record_attractors(
+                        arrays, i, j, k, float(omega[i]), search.attractors[i], initial_states,
+                        lambda orbit: next((n for n, s in enumerate(stored) if s is orbit), -1))
             if recorded:
                 _record(arrays, points, j, k, slots, recorded)
-            arrays["status"][~visited, j, k, 0] = st.TIME_LIMIT
+            arrays["status"][~search.visited, j, k, 0] = st.TIME_LIMIT
     return arrays

@@ -33,29 +33,9 @@ from kernels import simulate
 from kernels import continuation as cont
 from kernels import status as st
 from study.orbits import ORBIT_CLASSES, class_code
+from study.solve.line import grid_crossings
 from study.solve.point import is_known, merge_new_orbits, shoot_seeds_minimal, solve_point
-from study.solve.seeds import mms_seeds
-
-TRANSIENT_BOX = ((-6.0, 4.0), (-5.0, 5.0))
-
-
-def _halton(i, base):
-    f, r = 1.0, 0.0
-    while i > 0:
-        f /= base
-        r += f * (i % base)
-        i //= base
-    return r
-
-
-def initial_states(count: int) -> list[tuple[float, float]]:
-    """The static point and count - 1 Halton points (bases 2, 3) in TRANSIENT_BOX."""
-    (q0, q1), (v0, v1) = TRANSIENT_BOX
-    out = [(0.0, 0.0)]
-    for i in range(1, count):
-        out.append((q0 + (q1 - q0) * _halton(i, 2), v0 + (v1 - v0) * _halton(i, 3)))
-    return out[:max(count, 0)]
-
+from study.solve.seeds import initial_states, mms_seeds
 
 def transient_periods(omega, zeta, min_periods=40, max_periods=400):
     """An even number of forcing periods lasting about 3 / zeta (transients decay like
@@ -109,20 +89,6 @@ def _near(sol, guesses, tol=1e-3):
 
 def _covered(sol, sols):
     return is_known(sol, sols)
-
-
-def _grid_crossings(branch, omega_grid):
-    """(grid index, guess x) where the branch crosses a grid omega."""
-    w = branch.points["omega"]
-    q, v = branch.points["q0"], branch.points["v0"]
-    out = []
-    for k in range(len(w) - 1):
-        a, b = w[k], w[k + 1]
-        lo, hi = min(a, b), max(a, b)
-        for i in np.nonzero((omega_grid >= lo) & (omega_grid <= hi))[0]:
-            th = 0.0 if b == a else (omega_grid[i] - a) / (b - a)
-            out.append((int(i), (q[k] + th * (q[k + 1] - q[k]), v[k] + th * (v[k + 1] - v[k]))))
-    return out
 
 
 def _same_special(a, b):
@@ -194,7 +160,7 @@ def discover_line(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="he
     def absorb(branch):
         result.branches.append(branch)
         by_point = {}
-        for i, x in _grid_crossings(branch, omega):
+        for i, x in grid_crossings(branch, omega):
             by_point.setdefault(i, []).append(x)
             guesses[i].append((branch.period, np.asarray(x)))
         for i, xs in by_point.items():

@@ -39,8 +39,6 @@ def shoot_seeds(omega, sigma, zeta, period, seeds, options):
 
     Calls the numba batch entry point directly with preallocated arrays: the generic
     kernels.shoot_batch wrapper (broadcasting, a dict of arrays per call) cost ~15 % of a block.
-    The rows are converted a batch at a time (numpy indexing per row, for each field, was most
-    of the time spent outside the kernel) and the scalar fields read as Python floats.
     """
     if not seeds:
         return []
@@ -56,6 +54,14 @@ def shoot_seeds(omega, sigma, zeta, period, seeds, options):
                      MODELS[options.get("model", "hertz")], rtol, rtol,
                      int(options.get("max_iter", DEFAULT_MAX_ITER)), DEFAULT_MAX_STEPS,
                      bool(options.get("harmonics", True)), rows)
+    return solutions_from_rows(rows, period)
+
+
+def solutions_from_rows(rows: np.ndarray, period: int) -> list[dict]:
+    """Solution dicts from kernel result rows (kernels.shooting.FIELDS) of solves of ``period``.
+    The rows are converted a batch at a time (numpy indexing per row, for each field, was most
+    of the time spent outside the kernel) and the scalar fields read as Python floats."""
+    n = rows.shape[0]
     picked = rows.take(_ARRAY_COLUMNS, axis=1)
     starts = picked[:, _START]
     multipliers = picked[:, _MULTIPLIERS].view(np.complex128)
@@ -83,15 +89,17 @@ def shoot_seeds(omega, sigma, zeta, period, seeds, options):
 
 
 def shoot_seeds_minimal(omega, sigma, zeta, period, seeds, options):
-    """shoot_seeds; a solve that landed on an orbit of a lower period (a 2T solve on the 1T
-    orbit: its monodromy is then M^2) is re-solved as 1T from its start point, so that it
-    carries the 1T multipliers."""
+    """shoot_seeds; a solve that landed on an orbit of a lower minimal period (a 2T solve on the
+    1T orbit: its monodromy is then M^2) is re-solved at that period from its start point, so
+    that it carries that period's multipliers."""
     out = shoot_seeds(omega, sigma, zeta, period, seeds, options)
-    low = [i for i, s in enumerate(out) if s["period"] < period and s["status"] == st.CONVERGED]
-    if low:
-        again = shoot_seeds(omega, sigma, zeta, 1, [tuple(out[i]["x0"]) for i in low], options)
-        for i, s in zip(low, again):
-            out[i] = s
+    for low in sorted({s["period"] for s in out if s["period"] < period}):
+        idx = [i for i, s in enumerate(out) if s["period"] == low and s["status"] == st.CONVERGED]
+        if idx:
+            again = shoot_seeds(omega, sigma, zeta, low, [tuple(out[i]["x0"]) for i in idx],
+                                options)
+            for i, s in zip(idx, again):
+                out[i] = s
     return out
 
 
@@ -130,40 +138,60 @@ def given_seeds(options, period):
     return [(q, v) for p, q, v in options.get("seeds", ()) if p == period]
 
 
-def solve_point(omega, sigma, zeta, periods, prev, options, first_visit, mms=()):
+def solve_point(omega, sigma, zeta, periods, prev, options, first_visit, mms=(),
+                explore=True):
     """Solutions at one point from continuation of the previous point's solutions ``prev``
-    and, on the first visit of the point, from the linear, multiple-scales and flip seeds.
+    and, on the first visit of the point, from the seeds: the flip eigenvectors of the orbits
+    of half the period (2T from 1T, 4T from 2T, ...), the caller's own, the multiple-scales 2T
+    seeds ``mms`` given, and, where ``explore``, the linear response (1T). The linear seed is
+    also shot wherever no 1T orbit is continued into the point.
 
     Returns (distinct converged orbits, every 1T try). The seeds of one period share a
     Newton budget and go to the kernel in one batch (the results do not depend on batching).
+    Periods are searched in increasing order, so that flip seeds come from orbits found first.
     """
     found, tries_1t = [], []
-    if 1 in periods:
-        parents = [s for s in prev if s["period"] == 1]
+    # the caller's own seeds are shot at their period even when it is not searched (an orbit
+    # the census found, re-solved by the error estimate)
+    extra = {p for p, _, _ in options.get("seeds", ())} if first_visit else set()
+    for period in sorted(set(periods) | extra):
+        parents = [s for s in prev if s["period"] == period]
         seeds = [continuation_seed(p, omega) for p in parents]
-        if first_visit:     # first: of two tries landing on one orbit, the merge keeps the first
-            seeds[:0] = [linear_response_seed(omega, sigma, zeta)] + given_seeds(options, 1)
-        tries_1t = shoot_seeds(omega, sigma, zeta, 1, seeds, dict(options, max_iter=MAX_ITER_1T))
-        mark_continued(tries_1t[len(seeds) - len(parents):], parents, omega)
-        merge_new_orbits(found, tries_1t)
-    if 2 in periods:
-        parents = [s for s in prev if s["period"] == 2]
-        seeds = [continuation_seed(p, omega) for p in parents]
+        if period == 1:
+            if first_visit:     # first: of two tries landing on one orbit, the merge keeps the first
+                linear = [linear_response_seed(omega, sigma, zeta)] if explore or not parents \
+                    else []
+                seeds[:0] = given_seeds(options, 1) + linear
+            tries_1t = shoot_seeds(omega, sigma, zeta, 1, seeds,
+                                   dict(options, max_iter=MAX_ITER_1T))
+            mark_continued(tries_1t[len(seeds) - len(parents):], parents, omega)
+            merge_new_orbits(found, tries_1t)
+            continue
+        explorers = []
         if first_visit:
-            seeds += mms
-            for s in found:
-                seeds += flip_seeds(s)
-            seeds += given_seeds(options, 2)
-        sols = shoot_seeds(omega, sigma, zeta, 2, seeds, dict(options, max_iter=MAX_ITER_2T))
-        mark_continued(sols, parents, omega)
-        merge_new_orbits(found, [s for s in sols if s["period"] == 2])
-        # A 2T solve with minimal period 1 landed on a 1T orbit. Its monodromy is that of two
-        # periods (multipliers squared), so the orbit is re-solved as 1T from its start point
-        # (one Newton step) and kept only as that.
-        landed = [tuple(s["x0"]) for s in sols
-                  if s["period"] == 1 and s["status"] == st.CONVERGED]
-        if landed and 1 in periods:
-            merge_new_orbits(found, shoot_seeds(omega, sigma, zeta, 1, landed, options))
+            if period == 2:
+                explorers += mms
+            if period % 2 == 0:
+                for s in found:
+                    if s["period"] == period // 2:
+                        explorers += flip_seeds(s)
+        # the caller's seeds first: of two tries landing on one orbit (its start point or a
+        # T-shifted one) the merge keeps the first, so the error estimate finds the start
+        # point it sampled
+        given = given_seeds(options, period) if first_visit else []
+        sols = shoot_seeds(omega, sigma, zeta, period, given + seeds + explorers,
+                           dict(options, max_iter=MAX_ITER_2T))
+        mark_continued(sols[len(given):], parents, omega)
+        merge_new_orbits(found, [s for s in sols if s["period"] == period])
+        # A solve whose orbit has a smaller minimal period landed on an orbit of that period.
+        # Its monodromy is that of the longer map (multipliers raised to the ratio), so the
+        # orbit is re-solved at its own period from its start point (one Newton step) and kept
+        # only as that, where that period is searched.
+        for low in sorted({s["period"] for s in sols if s["period"] < period}):
+            landed = [tuple(s["x0"]) for s in sols
+                      if s["period"] == low and s["status"] == st.CONVERGED]
+            if landed and low in periods:
+                merge_new_orbits(found, shoot_seeds(omega, sigma, zeta, low, landed, options))
     for s in found:
         s.setdefault("omega", omega)
     return found, tries_1t

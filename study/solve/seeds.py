@@ -17,6 +17,30 @@ import numpy as np
 
 from kernels import status as st
 
+#: Initial states of transients are spread over this box of (q, q'), which holds the orbits of
+#: the paper's maps at moderate sigma (a state outside it decays into it within a few periods).
+TRANSIENT_BOX = ((-6.0, 4.0), (-5.0, 5.0))
+
+
+def _halton(i, base):
+    """The i-th element of the van der Corput sequence in ``base`` (a Halton coordinate)."""
+    f, r = 1.0, 0.0
+    while i > 0:
+        f /= base
+        r += f * (i % base)
+        i //= base
+    return r
+
+
+def initial_states(count: int) -> list[tuple[float, float]]:
+    """The static point and count - 1 Halton points (bases 2, 3) in TRANSIENT_BOX."""
+    (q0, q1), (v0, v1) = TRANSIENT_BOX
+    out = [(0.0, 0.0)]
+    for i in range(1, count):
+        out.append((q0 + (q1 - q0) * _halton(i, 2), v0 + (v1 - v0) * _halton(i, 3)))
+    return out[:max(count, 0)]
+
+
 #: Distances d along the flip eigenvector at which 2T seeds are placed (both signs).
 FLIP_SEED_OFFSETS = (0.05, 0.3)
 
@@ -29,6 +53,9 @@ def linear_response_seed(omega, sigma, zeta):
         return 0.0, 0.0
     X = sigma / den
     return X.real, (1j * omega * X).real
+
+
+MMS_WINDOW = None
 
 
 def mms_seeds(omega, sigma, zeta):
@@ -48,14 +75,17 @@ def mms_seeds(omega, sigma, zeta):
             q = np.broadcast_to(np.asarray(q, float), omega.shape)
             v = np.broadcast_to(np.asarray(v, float), omega.shape)
             for i in range(omega.size):
+                if MMS_WINDOW is not None and abs(omega[i] - 2.0) > MMS_WINDOW:
+                    continue
                 if np.isfinite(q[i]) and np.isfinite(v[i]):
                     seeds[i].append((float(q[i]), float(v[i])))
     return seeds
 
 
 def flip_seeds(sol):
-    """2T seeds along the eigenvector of a 1T multiplier below -1 (past a flip)."""
-    if sol["period"] != 1 or sol["status"] != st.CONVERGED:
+    """Seeds of twice the orbit's period along the eigenvector of a multiplier below -1 (past a
+    flip: 2T seeds from a 1T orbit, 4T seeds from a 2T orbit, ...)."""
+    if sol["status"] != st.CONVERGED:
         return []
     M = sol["monodromy"]
     # np.linalg.eig is most of this function's cost and gives no seed unless a multiplier is

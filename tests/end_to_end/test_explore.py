@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import REPO, free_port, hertzmap_cmd, subprocess_env
+from tests.helpers import REPO, free_port, hertzmap_cmd, subprocess_env
 
 CHROMIUM = os.environ.get("HERTZMAP_CHROMIUM", "/usr/bin/chromium")
 CHROMEDRIVER = os.environ.get("HERTZMAP_CHROMEDRIVER", "/usr/bin/chromedriver")

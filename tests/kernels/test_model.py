@@ -63,8 +63,6 @@ def test_taylor_contact_loss_rounds_to_the_printed_value():
     assert round(TAYLOR_ROOT_CLOSED_FORM, 3) == TAYLOR_CONTACT_LOSS_PRINTED
 
 
-@pytest.mark.xfail(strict=True, reason="kernels.model.TAYLOR_CONTACT_LOSS = -1.3479253 is not "
-                   "the root of the Taylor force (6 - 3 sqrt 6 = -1.3484692); F(it) = 2.4e-4")
 def test_taylor_contact_loss_is_the_root_of_the_taylor_force():
     """The threshold kernels.model documents as "the Taylor force ... vanishes at this q"."""
     assert TAYLOR_CONTACT_LOSS == pytest.approx(TAYLOR_ROOT_CLOSED_FORM, abs=1e-14)

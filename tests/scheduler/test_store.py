@@ -28,8 +28,7 @@ def _random_block(names, shape, max_solutions, rng, empty):
     out = {}
     for name in names:
         v = VARIABLES[name]
-        lead = (1,) + tuple(shape)[1:] if v.per_block else tuple(shape) + (max_solutions,)
-        full = lead + ((v.extra_dim[1],) if v.extra_dim else ())
+        full = v.block_shape(tuple(shape), max_solutions)
         dtype = np.dtype(v.dtype)
         if empty:
             a = np.full(full, v.fill, dtype=dtype)

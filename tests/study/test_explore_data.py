@@ -15,7 +15,7 @@ import xarray as xr
 
 from study import explore_data as E
 from study import products as P
-from study.dataset import template
+from study.schema import template
 from study.spec import parse_study
 
 REPO = Path(__file__).resolve().parents[2]
@@ -82,9 +82,9 @@ def hand():
     _put(ds, 2, 2, 0, 0, period=1, stable=False, mult=(-1.3, -0.7))
     _put(ds, 2, 2, 0, 1, period=2, stable=True, loses=True, min_q=-1.9, max_q=2.1, ff=0.25,
          iv=0.8, mult=(0.3, 0.2))
-    # (1.5, 0.3, zeta 0.01): the same 1T orbit twice (a 2T solve that landed on it, with the
-    # squared multipliers): one orbit
-    _put(ds, 1, 1, 0, 1, period=1, stable=True, mult=(0.25, 0.16))
+    # (1.5, 0.3, zeta 0.01): the same 1T orbit twice (its invariants within the identity rule
+    # of study.orbits): one orbit
+    _put(ds, 1, 1, 0, 1, period=1, stable=True, mult=(0.5, 0.4), min_q=-0.1 + 1e-9)
     return ds
 
 

@@ -22,14 +22,18 @@ def test_template_schema_and_attrs():
     s = placeholder_study()
     ds = template(s, (17, 1, 1), history="h")
     names = stored_variables(s)
+    # the census's variables come with every study whose search.attractors is not "never"
+    assert s.attractors == "where-none-stable"
     assert set(names) == set(PRODUCT_VARIABLES["orbits"] + PRODUCT_VARIABLES["measures"]
-                             + PRODUCT_VARIABLES["force_harmonics"])
+                             + PRODUCT_VARIABLES["force_harmonics"]
+                             + PRODUCT_VARIABLES["attractors"])
     assert "residual" not in ds and "newton_iterations" not in ds
     assert set(ds.data_vars) == set(names) | {"task_done"}
     assert ds.sizes["omega"] == 17 and ds.sizes["solution"] == 4
     assert ds.multipliers.dims[-1] == "multiplier" and ds.sizes["multiplier"] == 2
     assert list(ds.harmonic.values) == [1, 2, 3, 4]
     assert ds.task_done.shape == (1, 5, 2)
+    assert ds.strobe_q.dims == ("omega", "sigma", "zeta", "attractor", "strobe")
     for name in list(ds.data_vars) + list(ds.coords):
         assert ds[name].attrs.get("long_name"), name
         assert "units" in ds[name].attrs, name
@@ -43,7 +47,10 @@ def test_template_schema_and_attrs():
     assert np.isnan(ds.q0.values).all() and not ds.stable.values.any()
     assert (ds.status.values == -1).all() and (ds.period.values == 0).all()
     assert ds.q0.variable._data.base is not None or ds.q0.values.strides[0] == 0
-    assert bytes_per_point(s) == 4 * (7 * 8 + 2 * 16 + 4 * 1 + 4 * 8)
+    # 4 slots x (7 float64, 2 complex128, 4 bool/int8, 4 harmonics), the orbit count (int16),
+    # and the census: count (int8), 3 int8 x 4 attractors, 8 float64 x 4, 2 x 4 x 32 strobe points
+    assert bytes_per_point(s) == (4 * (7 * 8 + 2 * 16 + 4 * 1 + 4 * 8) + 2
+                                  + 1 + 3 * 4 + 8 * 4 * 8 + 2 * 4 * 32 * 8)
 
 
 # -- the schema, a store, the products and docs/dataset.md say the same -------------------------
@@ -105,15 +112,15 @@ def test_bifurcation_kinds_in_store_products_and_docs(hand):
     assert dict(zip(flags["flag_values"].tolist(), flags["flag_meanings"].split())) \
         == {0: "empty", **{c: k for k, c in BIFURCATION_KINDS.items()}}
     assert P.LOCATED_KINDS == {c: k for k, c in BIFURCATION_KINDS.items()}
-    assert VARIABLES["bifurcation_omega"].extra_dim == ("bifurcation", BIFURCATION_SLOTS)
+    assert VARIABLES["bifurcation_omega"].extra == (("bifurcation", BIFURCATION_SLOTS),)
 
 
 def test_empty_arrays_are_the_fill_values():
     a = empty_arrays((3, 2, 1), 4)
     assert set(a) == set(VARIABLES)
     for name, v in VARIABLES.items():
-        lead = (1, 2, 1) if v.per_block else (3, 2, 1, 4)
-        assert a[name].shape == lead + ((v.extra_dim[1],) if v.extra_dim else ())
+        lead = {"line": (1, 2, 1), "slot": (3, 2, 1, 4), "point": (3, 2, 1)}[v.layout]
+        assert a[name].shape == lead + v.trailing
         assert a[name].dtype == np.dtype(v.dtype)
         np.testing.assert_array_equal(a[name], np.full_like(a[name], v.fill))
 

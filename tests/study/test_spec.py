@@ -76,7 +76,17 @@ BAD = [
     (with_grid(extra="[solver]\nmax_solutions = 17\n"), "solver.max_solutions", "1..16"),
     (with_grid(extra="[solver]\nmax_solutions = true\n"), "solver.max_solutions", "1..16"),
     (with_grid(extra="[solver]\natol = 1e-9\n"), "solver.atol", "unknown key"),
-    (with_grid(extra="[search]\nperiods = [3]\n"), "search.periods", "[1, 2]"),
+    (with_grid(extra="[search]\nperiods = [17]\n"), "search.periods", "1..16"),
+    (with_grid(extra="[search]\nperiods = [0, 1]\n"), "search.periods", "1..16"),
+    (with_grid(extra='[search]\nattractors = "sometimes"\n'), "search.attractors",
+     "where-none-stable"),
+    (with_grid(extra="[search]\ninitial_states = 0\n"), "search.initial_states", "1..64"),
+    (with_grid(extra="[search]\ninitial_states = 65\n"), "search.initial_states", "1..64"),
+    (with_grid(extra="[search]\ntransient_periods = 5\n"), "search.transient_periods",
+     "10..100000"),
+    (with_grid(extra="[search]\nrecord_periods = 1.5\n"), "search.record_periods", "32..10000"),
+    (with_grid(extra='[search]\nattractors = "never"\ninitial_states = 8\n'),
+     "search.initial_states", "only meaningful"),
     (with_grid(extra="[search]\nperiods = []\n"), "search.periods", "non-empty"),
     (with_grid(extra="[search]\nperiods = [1, 1]\n"), "search.periods", "duplicated"),
     (with_grid(extra='[products]\noutputs = ["orbits", "movies"]\n'), "products.outputs", "measures"),
@@ -106,11 +116,15 @@ def test_minimal_study_defaults():
     assert s.shape == (5, 2, 1) and s.size == 10
     assert (s.model, s.exponent, s.rtol, s.max_solutions) == ("hertz", 1.5, 1e-10, 4)
     assert s.periods == (1, 2)
-    assert s.products == DEFAULT_PRODUCTS
+    # the attractor census runs by default (where shooting finds no stable orbit, and at probe
+    # points), so its variables are stored
+    assert s.products == DEFAULT_PRODUCTS + ("attractors",)
     assert s.rig is None
     # force_harmonics is not among the default products: the solver skips their quadrature
     assert s.solver_kwargs() == {"periods": (1, 2), "exponent": 1.5, "model": "hertz",
-                                 "rtol": 1e-10, "max_solutions": 4, "harmonics": False}
+                                 "rtol": 1e-10, "max_solutions": 4, "harmonics": False,
+                                 "attractors": "where-none-stable", "initial_states": 16,
+                                 "transient_periods": 500, "record_periods": 128}
 
 
 def test_full_study():
@@ -144,7 +158,7 @@ contact = "single"
     assert s.omega == (2.0, 1.0)          # order kept (a downward sweep)
     assert s.sigma == (0.0, 0.5, 1.0)
     assert (s.exponent, s.rtol, s.max_solutions, s.periods) == (1.0, 1e-8, 6, (2,))
-    assert s.products == ("orbits", "force_harmonics", "diagnostics")   # orbits always
+    assert s.products == ("orbits", "force_harmonics", "diagnostics", "attractors")  # orbits always
     assert s.rig_dict == {"E": 2.1e11, "nu": 0.3, "R": 0.0127, "m": 1.2, "N": 50.0,
                           "contact": "single"}
 
@@ -173,7 +187,7 @@ def test_hash_ignores_formatting_but_not_content():
     assert len(a.hash) == 64 and int(a.hash, 16) >= 0
     doc = json.loads(a.canonical_json())
     assert doc["grid"]["omega"] == [0.5, 1.0, 1.5, 2.0, 2.5]
-    assert doc["products"]["outputs"] == list(DEFAULT_PRODUCTS)
+    assert doc["products"]["outputs"] == list(DEFAULT_PRODUCTS) + ["attractors"]
 
 
 def test_study_is_frozen_and_source_text_kept():
@@ -237,3 +251,48 @@ def test_search_discover_option():
                        ("transients = 4", "search.transients")]:
         with pytest.raises(StudyError, match=field.replace(".", r"\.")):
             parse_study(base + "[search]\n" + bad + "\n", default_name="s")
+
+
+def test_search_periods_and_the_census_fields():
+    base = '[grid]\nomega = [1.0, 1.5]\nsigma = [0.2]\nzeta = [0.01]\n'
+    s = parse_study(base + "[search]\nperiods = [4, 1, 2]\n", default_name="s")
+    assert s.periods == (1, 2, 4) and s.solver_kwargs()["periods"] == (1, 2, 4)
+    three = parse_study(base + "[search]\nperiods = [3]\n", default_name="s")
+    assert three.periods == (3,) and three.attractors == "where-none-stable"
+    # a 1T-only scene pays nothing for the census unless it asks
+    one = parse_study(base + "[search]\nperiods = [1]\n", default_name="s")
+    assert one.attractors == "never" and "attractors" not in one.products
+    assert one.solver_kwargs()["attractors"] == "never"
+    asked = parse_study(base + '[search]\nperiods = [1]\nattractors = "always"\n'
+                        "initial_states = 4\ntransient_periods = 200\nrecord_periods = 64\n",
+                        default_name="s")
+    kw = asked.solver_kwargs()
+    assert {k: kw[k] for k in ("attractors", "initial_states", "transient_periods",
+                               "record_periods")} == {"attractors": "always", "initial_states": 4,
+                                                      "transient_periods": 200,
+                                                      "record_periods": 64}
+    assert "attractors" in asked.products
+    # the canonical form reads back as the same study
+    again = parse_study(_toml_of(asked.to_dict()), default_name="s")
+    assert again.hash == asked.hash
+
+
+def _toml_of(d) -> str:
+    """A study file from a canonical dict (the few value types a study has)."""
+    def value(v):
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, str):
+            return json.dumps(v)
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(value(x) for x in v) + "]"
+        return repr(v)
+    lines = []
+    for table, body in d.items():
+        if not isinstance(body, dict):
+            continue
+        lines.append(f"[{table}]")
+        for k, v in body.items():
+            if v is not None:
+                lines.append(f"{k} = {value(v)}")
+    return "\n".join(lines) + "\n"

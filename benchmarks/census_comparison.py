@@ -1,0 +1,112 @@
+"""The default search against the one before fold turning and against discovery, on one grid:
+the periodic orbits found per class, the orbits one finds and another misses, and the cost.
+
+    .venv/bin/python benchmarks/census_comparison.py                    # the default study's grid
+    .venv/bin/python benchmarks/census_comparison.py --sigma 0.2 0.5 0.8 --omega 0.25 2.5 181
+
+Three searches of the periodic orbits (no attractor census: transients are the census's, timed
+separately by benchmarks/vibro_impact_cost.py):
+
+* ``sweeps``: the seeded sweeps alone (the default search before fold turning);
+* ``default``: the sweeps and fold turning (study.solve.line), today's default;
+* ``discover``: the sweeps and discovery (transients at 12 points and continuation of every
+  branch across the line: ``[search] discover = true``).
+
+Every omega line is one block, solved by the three in turn (A B C, then C B A on the next line,
+so that a drift of the machine's speed falls on all three alike). Orbits are counted from the
+solver's own lists (16 slots: none dropped), per class (study.orbits), and compared orbit by
+orbit with the identity rule.
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from study.orbits import CLASS_NAMES, class_codes
+from study.solve.block import solve_block
+from study.spec import load_study
+
+SEARCHES = {"before": dict(turn_folds=False, seed_strides=(1, 1)),
+            "default": dict(turn_folds=True, attractors="where-none-stable"),
+            "discover": dict(turn_folds=False, discover=True, seed_strides=(1, 1))}
+SLOTS = 16
+
+
+def orbits_of(r) -> list[list[tuple]]:
+    """Per omega point: (period, stable, loses_contact, min_q, max_q, trace) of each orbit."""
+    ok = r["status"][:, 0, 0, :] == 0
+    out = []
+    for i in range(ok.shape[0]):
+        out.append([(int(r["period"][i, 0, 0, s]), bool(r["stable"][i, 0, 0, s]),
+                     bool(r["loses_contact"][i, 0, 0, s]), float(r["min_q"][i, 0, 0, s]),
+                     float(r["max_q"][i, 0, 0, s]),
+                     float(r["multipliers"][i, 0, 0, s].sum().real))
+                    for s in np.nonzero(ok[i])[0]])
+    return out
+
+
+def same(a, b, tol=1e-6) -> bool:
+    """study.orbits identity rule on the tuples of orbits_of."""
+    t = tol * (1 + abs(a[4] - a[3]))
+    return (a[0] == b[0] and abs(a[3] - b[3]) <= t and abs(a[4] - b[4]) <= t
+            and abs(a[5] - b[5]) <= tol * (1 + abs(a[5])))
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--study", default="studies/default.toml")
+    ap.add_argument("--omega", type=float, nargs=3, metavar=("START", "STOP", "NUM"))
+    ap.add_argument("--sigma", type=float, nargs="+")
+    ap.add_argument("--zeta", type=float, default=None)
+    ap.add_argument("--lines", type=int, default=None, help="only every k-th sigma line")
+    a = ap.parse_args(argv)
+    s = load_study(a.study)
+    omega = np.linspace(*a.omega[:2], int(a.omega[2])) if a.omega else s.axis("omega")
+    sigmas = np.array(a.sigma) if a.sigma else s.axis("sigma")
+    if a.lines:
+        sigmas = sigmas[::a.lines]
+    zeta = a.zeta if a.zeta is not None else float(s.axis("zeta")[0])
+    kw = dict(periods=s.periods, exponent=s.exponent or 1.5, model=s.model, rtol=s.rtol,
+              max_solutions=SLOTS, harmonics=False)
+    names = list(SEARCHES)
+    solve_block(omega[:3], sigmas[:1], [zeta], **kw)          # compile / warm the cache
+    seconds = {n: 0.0 for n in names}
+    counts = {n: np.zeros(len(CLASS_NAMES), int) for n in names}
+    missing = {n: [] for n in names}
+    for li, sg in enumerate(sigmas):
+        found = {}
+        for n in (names if li % 2 == 0 else names[::-1]):
+            t0 = time.process_time()
+            r = solve_block(omega, [sg], [zeta], **kw, **SEARCHES[n])
+            seconds[n] += time.process_time() - t0
+            found[n] = orbits_of(r)
+            ok = r["status"] == 0
+            c = class_codes(ok, r["period"], r["stable"], r["loses_contact"])
+            counts[n] += np.bincount(c[ok].ravel(), minlength=len(CLASS_NAMES))
+        for n in names:
+            for i, w in enumerate(omega):
+                for orb in found["discover"][i]:
+                    if not any(same(orb, o) for o in found[n][i]):
+                        missing[n].append((float(w), float(sg), orb[:3]))
+    print(f"grid: {omega.size} omega ({omega.min():g}..{omega.max():g}) x {sigmas.size} sigma "
+          f"({sigmas.min():g}..{sigmas.max():g}), zeta {zeta:g}, periods {list(s.periods)}")
+    print(f"{'class':60s} " + " ".join(f"{n:>9s}" for n in names))
+    for code in range(1, len(CLASS_NAMES)):
+        print(f"{CLASS_NAMES[code]:60s} " + " ".join(f"{counts[n][code]:9d}" for n in names))
+    print(f"{'all orbits':60s} " + " ".join(f"{counts[n][1:].sum():9d}" for n in names))
+    print(f"{'solver CPU seconds (one process, lines interleaved)':60s} "
+          + " ".join(f"{seconds[n]:9.2f}" for n in names))
+    print(f"cost of the default search / the search before: {seconds['default'] / seconds['before']:.2f}x;"
+          f" discovery / sweeps: {seconds['discover'] / seconds['before']:.2f}x")
+    for n in ("before", "default"):
+        print(f"orbits discovery finds that {n} misses: {len(missing[n])}"
+              + ("" if not missing[n] else "; first: " + ", ".join(
+                  f"(omega {w:.4f}, sigma {sg:.4f}, period {p}, stable {st})"
+                  for w, sg, (p, st, _) in missing[n][:5])))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

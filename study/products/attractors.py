@@ -1,0 +1,75 @@
+"""The attractor census as products: the brute-force bifurcation diagram (the stroboscopic points
+of every attractor against omega along a sigma line), with the stored periodic orbits over it.
+
+This is the standard picture of vibro-impact work: each grid point's attractors leave their
+last stroboscopic points q(tau = k T) on a vertical line at its omega (one point for a 1T orbit,
+m points for an orbit of period m, a cloud for a chaotic one), and the continuation branches (the
+stored orbits' start points, stable and unstable) are drawn over it.
+"""
+from __future__ import annotations
+
+import numpy as np
+import xarray as xr
+
+from study.products.classes import valid_orbits
+from study.products.results import open_store, source_attrs, var_attrs
+from study.schema import ATTRACTOR_KINDS
+
+
+def stroboscopic_diagram(ds: xr.Dataset, sigma: float | None = None,
+                         zeta: float | None = None) -> xr.Dataset:
+    """Along the omega line at the nearest (sigma, zeta) (default: the first): the census's
+    stroboscopic points (dim ``point``: omega, q, q', the attractor's kind and period) and the
+    stored orbits (dim ``orbit``: omega, q0, period, stable)."""
+    if "computed" not in ds:
+        ds = open_store(ds)
+    line = ds.sel(sigma=ds["sigma"].values[0] if sigma is None else sigma, method="nearest")
+    line = line.sel(zeta=line["zeta"].values[0] if zeta is None else zeta, method="nearest")
+    om = line["omega"].values
+    cols = {"omega": [], "q": [], "v": [], "kind": [], "period": []}
+    if "strobe_q" in line:
+        kind = line["attractor_kind"].transpose("omega", "attractor").values
+        per = line["attractor_period"].transpose("omega", "attractor").values
+        q = line["strobe_q"].transpose("omega", "attractor", "strobe").values
+        v = line["strobe_v"].transpose("omega", "attractor", "strobe").values
+        for i, a in np.argwhere(kind > 0):
+            keep = np.isfinite(q[i, a])
+            cols["omega"].append(np.full(keep.sum(), om[i]))
+            cols["q"].append(q[i, a][keep])
+            cols["v"].append(v[i, a][keep])
+            cols["kind"].append(np.full(keep.sum(), kind[i, a], np.int8))
+            cols["period"].append(np.full(keep.sum(), per[i, a], np.int8))
+    cat = {k: (np.concatenate(v) if v else np.zeros(0)) for k, v in cols.items()}
+    ok = valid_orbits(line.expand_dims(["sigma", "zeta"])).isel(sigma=0, zeta=0).transpose(
+        "omega", "solution").values
+    idx = np.argwhere(ok)
+    per = line["period"].transpose("omega", "solution").values
+    stab = line["stable"].transpose("omega", "solution").values
+    q0 = line["q0"].transpose("omega", "solution").values
+    flags = np.array(sorted(ATTRACTOR_KINDS.values()), np.int8)
+    out = xr.Dataset(
+        {"strobe_omega": ("point", cat["omega"].astype(float), var_attrs(
+            "excitation frequency", "1", "omega of the grid point the stroboscopic point is of")),
+         "strobe_q": ("point", cat["q"].astype(float), var_attrs(
+             "stroboscopic displacement", "1", "q at tau = 0 mod T on an attractor")),
+         "strobe_v": ("point", cat["v"].astype(float), var_attrs(
+             "stroboscopic velocity", "1", "dq/dtau at tau = 0 mod T on an attractor")),
+         "strobe_kind": ("point", cat["kind"].astype(np.int8), var_attrs(
+             "kind of attractor", "1", "as attractor_kind (docs/dataset.md)",
+             flag_values=flags,
+             flag_meanings=" ".join(k for k, _ in sorted(ATTRACTOR_KINDS.items(),
+                                                         key=lambda kv: kv[1])))),
+         "strobe_period": ("point", cat["period"].astype(np.int8), var_attrs(
+             "period of the attractor", "1", "m of a periodic attractor, 0 otherwise")),
+         "orbit_omega": ("orbit", om[idx[:, 0]].astype(float), var_attrs(
+             "excitation frequency", "1", "omega of a stored orbit")),
+         "orbit_q0": ("orbit", q0[idx[:, 0], idx[:, 1]].astype(float), var_attrs(
+             "displacement at tau = 0", "1", "start point of a stored orbit (a point of its "
+             "stroboscopic cycle)")),
+         "orbit_period": ("orbit", per[idx[:, 0], idx[:, 1]].astype(np.int8), var_attrs(
+             "period of the orbit", "1", "in forcing periods")),
+         "orbit_stable": ("orbit", stab[idx[:, 0], idx[:, 1]].astype(bool), var_attrs(
+             "orbit is stable", "1", "both multipliers inside the unit circle"))})
+    out.attrs = source_attrs(ds, "brute-force bifurcation diagram (stroboscopic points)")
+    out.attrs.update({"sigma": float(line["sigma"]), "zeta": float(line["zeta"])})
+    return out

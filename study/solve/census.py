@@ -1,0 +1,234 @@
+"""The attractor census of a grid point: what the contact does in the long run, from a set of
+initial states (issue 21).
+
+From each initial state (study.solve.seeds.initial_states) a transient runs on the stroboscopic
+map (kernels.attractors): it settles on a stable periodic orbit of period m <= 16 (refined by
+shooting), or it does not within its period budget. The census groups the outcomes of one point
+into attractors:
+
+* **periodic**: a stable orbit (the identity rule of study.orbits); new orbits join the point's
+  orbits and are stored like any other, with their period;
+* **non_periodic**: the transients that did not settle, when the point has no stable orbit (from
+  shooting, or found here) and their largest Lyapunov exponent over the record window is
+  positive beyond three standard errors, with the two halves of the window agreeing: chaos;
+* **unsettled**: transients that did not settle otherwise (a period > 16, a transient longer
+  than the budget, or a stable orbit at the point these transients did not reach: a point with
+  a stable orbit is never called chaotic because a transient was long);
+* **failed**: integration failures (never a crash).
+
+Before a point is called non-periodic, its stroboscopic points are searched for close returns
+x_{k+m} ~ x_k (m = 1..8); each is a Newton seed of period m: a stable orbit found so turns the
+point into "unsettled" (the chaotic-looking transients are transients), an unstable one is a
+periodic response of the point like any other (an orbit embedded in the chaotic set).
+
+Basin fractions: the share of the initial states ending on each attractor.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from kernels import status as st
+from kernels.attractors import (A, LYAPUNOV_FIELDS, N_ATTRACTOR_FIELDS, N_LYAPUNOV_FIELDS,
+                                attractor_batch_into, lyapunov_into)
+from kernels.model import MODELS
+from kernels.shooting import N_FIELDS
+from study.orbits import same_orbit
+from study.schema import ATTRACTOR_KINDS, ATTRACTOR_SLOTS, STROBE_POINTS
+from study.solve.point import shoot_seeds, solutions_from_rows
+from study.solve.seeds import initial_states
+
+#: The transients' integrator tolerance: looser than the shooting's (a transient is refined by
+#: shooting at the study's rtol once it settles); the exponent and measures of a chaotic window
+#: do not depend on it beyond their own statistical error.
+TRANSIENT_RTOL = 1e-8
+#: A cycle is detected when the stroboscopic points repeat to this (relative) over CYCLE_REPEATS
+#: returns; shooting then confirms it at the study's rtol.
+CYCLE_TOL = 1e-2
+CYCLE_REPEATS = 3
+#: Periods the tangent vector is aligned for before Benettin's average starts.
+LYAPUNOV_DISCARD = 16
+#: Close returns searched for Newton seeds before a point is called non-periodic.
+RECURRENCE_PERIODS = tuple(range(1, 9))
+#: transients whose close returns are shot from
+RECURRENCE_RUNS = 2
+#: a return closer than this share of (1 + |x|) is a seed
+RECURRENCE_SHARE = 0.2
+#: the exponent is positive when above this many standard errors ...
+LYAPUNOV_SIGMAS = 3.0
+#: ... and the two halves of the window agree to this share of it
+LYAPUNOV_HALVES_SHARE = 0.5
+
+
+@dataclass
+class Attractor:
+    """One attractor of a grid point: its kind, how many initial states reach it, its window's
+    exponent and measures, and (periodic) its orbit."""
+
+    kind: str
+    count: int = 0
+    orbit: dict | None = None
+    row: np.ndarray | None = None            # the kernel row of a representative transient
+    strobe: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
+
+    @property
+    def period(self) -> int:
+        return int(self.orbit["period"]) if self.orbit is not None else 0
+
+
+def _chaotic(row: np.ndarray) -> bool:
+    lam, err, halves = row[A["lyapunov"]], row[A["lyapunov_error"]], row[A["lyapunov_halves"]]
+    return (math.isfinite(lam) and math.isfinite(err) and lam > 0.0
+            and lam > LYAPUNOV_SIGMAS * err
+            and (not math.isfinite(halves) or halves <= LYAPUNOV_HALVES_SHARE * lam))
+
+
+def recurrence_seeds(strobe: np.ndarray, periods=RECURRENCE_PERIODS) -> list[tuple[int, tuple]]:
+    """(m, x_k) for the closest return x_{k+m} ~ x_k of each m on a stroboscopic sequence,
+    where it is closer than RECURRENCE_SHARE (1 + |x_k|)."""
+    out = []
+    for m in periods:
+        if strobe.shape[0] <= m:
+            break
+        d = np.hypot(*(strobe[m:] - strobe[:-m]).T)
+        k = int(np.argmin(d))
+        if d[k] <= RECURRENCE_SHARE * (1.0 + float(np.hypot(*strobe[k]))):
+            out.append((m, (float(strobe[k, 0]), float(strobe[k, 1]))))
+    return out
+
+
+def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options: dict,
+           n_states: int, transient_periods: int, record_periods: int
+           ) -> tuple[list[Attractor], list[dict]]:
+    """The attractors at (omega, sigma, zeta) from ``n_states`` initial states, and the orbits
+    the census found that ``orbits`` (the point's known orbits, not changed here) lacks.
+
+    ``options``: the solver's (exponent, model, rtol, harmonics). Dimensionless inputs.
+    """
+    states = np.array(initial_states(n_states), float)
+    k = states.shape[0]
+    rows = np.empty((k, N_ATTRACTOR_FIELDS))
+    orbit_rows = np.empty((k, N_FIELDS))
+    # the whole record window's points (close returns are searched on them); the store keeps
+    # the last STROBE_POINTS
+    strobes = np.empty((k, int(record_periods), 2))
+    rtol = float(options.get("rtol", 1e-10))
+    n_exp = float(options.get("exponent", 1.5))
+    model = MODELS[options.get("model", "hertz")]
+    t_rtol = max(TRANSIENT_RTOL, rtol)
+    # the transients without the tangent integration (2-D: a third of the work); the exponent
+    # of the ones that do not settle is computed once, below, from one of them
+    attractor_batch_into(float(omega), float(sigma), float(zeta),
+                         np.ascontiguousarray(states[:, 0]), np.ascontiguousarray(states[:, 1]),
+                         n_exp, model, int(transient_periods), int(record_periods), False,
+                         0, 0, CYCLE_TOL, CYCLE_REPEATS, t_rtol, t_rtol, rtol, 200_000,
+                         bool(options.get("harmonics", True)), rows, orbit_rows, strobes)
+    known = list(orbits)
+    new: list[dict] = []
+    periodic: list[Attractor] = []
+    open_runs, failed = [], []
+    for r in range(k):
+        status = int(rows[r, A["status"]])
+        if status == st.CONVERGED:
+            sol = solutions_from_rows(orbit_rows[r:r + 1], int(rows[r, A["period"]]))[0]
+            sol["omega"] = omega
+            if sol["status"] != st.CONVERGED:
+                open_runs.append(r)
+                continue
+            match = next((s for s in known if same_orbit(sol, s)), None)
+            if match is None:
+                known.append(sol)
+                new.append(sol)
+                match = sol
+            a = next((a for a in periodic if a.orbit is match), None)
+            if a is None:
+                a = Attractor("periodic", orbit=match, row=rows[r].copy(),
+                              strobe=_strobe(strobes[r], rows[r]))
+                periodic.append(a)
+            a.count += 1
+        elif status in (st.UNSETTLED, st.UNCONFIRMED):
+            open_runs.append(r)
+        else:
+            failed.append(r)
+    others: list[Attractor] = []
+    if open_runs:
+        has_stable = any(s["stable"] and s["status"] == st.CONVERGED for s in known)
+        if not has_stable:
+            # close returns of the unsettled transients: Newton seeds of orbits they pass near
+            # (from two of them: each further one found the same orbits on the maps tried)
+            for r in open_runs[:RECURRENCE_RUNS]:
+                strobe = _strobe(strobes[r], rows[r])
+                for m, x in recurrence_seeds(strobe):
+                    for sol in shoot_seeds(omega, sigma, zeta, m, [x],
+                                           dict(options, max_iter=15)):
+                        if sol["status"] == st.CONVERGED and not any(
+                                same_orbit(sol, s) for s in known):
+                            sol["omega"] = omega
+                            known.append(sol)
+                            new.append(sol)
+            has_stable = any(s["stable"] and s["status"] == st.CONVERGED for s in known)
+        # the representative: the run with the longest record window; its exponent by
+        # Benettin over a record window from its last state
+        rep = max(open_runs, key=lambda r: (np.nan_to_num(rows[r, A["window_periods"]]), -r))
+        lyap = np.empty(N_LYAPUNOV_FIELDS)
+        lyapunov_into(float(omega), float(sigma), float(zeta), float(rows[rep, A["q_end"]]),
+                      float(rows[rep, A["v_end"]]), n_exp, model, int(record_periods),
+                      LYAPUNOV_DISCARD, t_rtol, t_rtol, 200_000, lyap)
+        row = rows[rep].copy()
+        if int(lyap[LYAPUNOV_FIELDS.index("status")]) == st.CONVERGED:
+            for name in ("lyapunov", "lyapunov_error", "lyapunov_halves"):
+                row[A[name]] = lyap[LYAPUNOV_FIELDS.index(name)]
+            row[A["lyapunov_periods"]] = lyap[LYAPUNOV_FIELDS.index("periods")]
+        chaotic = (not has_stable) and _chaotic(row) and any(
+            int(rows[r, A["status"]]) == st.UNSETTLED for r in open_runs)
+        others.append(Attractor("non_periodic" if chaotic else "unsettled", count=len(open_runs),
+                                row=row, strobe=_strobe(strobes[rep], rows[rep])))
+    if failed:
+        others.append(Attractor("failed", count=len(failed), row=rows[failed[0]].copy()))
+    # largest basin first; at most ATTRACTOR_SLOTS (the smallest basins merge into the last)
+    found = sorted(periodic, key=lambda a: -a.count) + sorted(others, key=lambda a: -a.count)
+    found.sort(key=lambda a: -a.count)
+    return found, new
+
+
+def _strobe(strobe: np.ndarray, row: np.ndarray) -> np.ndarray:
+    n = int(np.nan_to_num(row[A["strobe_count"]]))
+    return np.array(strobe[:min(n, strobe.shape[0])])
+
+
+def record_attractors(arrays: dict, i: int, j: int, k: int, omega: float,
+                      found: list[Attractor], n_states: int, slot_of) -> None:
+    """Write a point's attractors into the block arrays (study.schema ATTRACTOR_VARIABLES).
+    ``slot_of(orbit)``: the solution slot the orbit is stored in, or -1."""
+    arrays["attractor_count"][i, j, k] = len(found)
+    for a_slot, a in enumerate(found[:ATTRACTOR_SLOTS]):
+        cell = (i, j, k, a_slot)
+        arrays["attractor_kind"][cell] = ATTRACTOR_KINDS[a.kind]
+        arrays["attractor_period"][cell] = a.period
+        arrays["attractor_solution"][cell] = slot_of(a.orbit) if a.orbit is not None else -1
+        arrays["basin_fraction"][cell] = a.count / n_states
+        row = a.row
+        if a.kind == "periodic":
+            # a stable orbit's exponent is that of its largest multiplier, per unit tau
+            mu = float(np.abs(a.orbit["multipliers"]).max())
+            T = 2.0 * math.pi / omega
+            arrays["lyapunov_exponent"][cell] = math.log(mu) / (a.period * T) if mu > 0 else -math.inf
+        elif row is not None:
+            arrays["lyapunov_exponent"][cell] = row[A["lyapunov"]]
+            arrays["lyapunov_error"][cell] = row[A["lyapunov_error"]]
+        if row is not None:
+            arrays["attractor_flight_fraction"][cell] = row[A["flight_fraction"]]
+            arrays["attractor_max_impact_velocity"][cell] = row[A["max_impact_velocity"]]
+            arrays["attractor_min_q"][cell] = row[A["min_q"]]
+            arrays["attractor_peak_force"][cell] = row[A["peak_force"]]
+            arrays["attractor_rms_force"][cell] = row[A["rms_force"]]
+        n = min(a.strobe.shape[0], STROBE_POINTS)
+        if n:
+            arrays["strobe_q"][cell + (slice(STROBE_POINTS - n, None),)] = a.strobe[-n:, 0]
+            arrays["strobe_v"][cell + (slice(STROBE_POINTS - n, None),)] = a.strobe[-n:, 1]
+    if len(found) > ATTRACTOR_SLOTS:
+        # the smallest basins share the last slot's count
+        last = (i, j, k, ATTRACTOR_SLOTS - 1)
+        arrays["basin_fraction"][last] = sum(a.count for a in found[ATTRACTOR_SLOTS - 1:]) / n_states

@@ -1,0 +1,401 @@
+"""Every periodic response along one omega line at (sigma, zeta): the seeded sweeps, then the
+branches beyond folds (paper section 3.2, Fig. 6-10).
+
+1. **Sweeps.** Up the omega axis, then down (study.solve.point): at every point the seeds
+   (linear 1T response, multiple-scales 2T response, flip eigenvectors) and the continuation of
+   the previous point's orbits. Going down, only the orbits the way up did not reach by
+   continuation are continued (the others would lead back to orbits already known): this
+   follows the branches that end in a fold towards higher omega.
+2. **Fold turning.** A branch that ends between two grid points, in a fold (a multiplier +1),
+   turns back there into another branch (the unstable middle branch of the primary resonance,
+   the unstable half of an isola), which no seed and no sweep reaches. The ends are the orbits
+   with no continuation at the next grid point (matched point to point by their invariants
+   min q and max q, one to one); from each, pseudo-arclength continuation in omega
+   (kernels.continuation) goes around the fold in a window of two grid steps and comes back;
+   Newton at the grid points it crosses gives the orbits of the new branch, which are then
+   followed along the line by natural continuation until that branch ends too (another fold:
+   turned again) or joins a known orbit. Bounded: a few turns per line and period.
+
+Orbits are kept once (study.orbits identity rule).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from kernels import continuation as cont
+from kernels import status as st
+from study.orbits import same_orbit
+from study.solve.census import census
+from study.solve.point import merge_new_orbits, shoot_seeds_minimal, solve_point
+from study.solve.seeds import mms_seeds
+
+#: Two orbits at neighbouring grid points are one branch when their invariants (min q, max q)
+#: differ by less than this share of (1 + ptp); beyond it the branch is taken as ended there.
+#: A false end costs one turn attempt that finds nothing new; a missed end loses a branch: the
+#: share is on the generous side of the jumps seen at folds (primary resonance: the upper and
+#: lower branches differ by 2-5 in max q at ptp 3-8).
+CONTINUITY_SHARE = 0.2
+#: The exploratory seeds are shot at every k-th point of the up sweep only: a branch they
+#: reach is continued both ways, and its ends are traced through their folds. The linear 1T
+#: response (where a 1T orbit is continued into the point; always where none is) every
+#: LINEAR_SEED_STRIDE-th point, the multiple-scales 2T response (most of the sweeps' cost: far
+#: from omega = 2 its Newton runs often fail) every MMS_SEED_STRIDE-th. Measured on the default
+#: study's grid (benchmarks/census_comparison.py, every 4th sigma line): the same orbits as with
+#: both at every point; the 2T seeds at every 4th point lost short 2T segments (28 of 7832).
+LINEAR_SEED_STRIDE = 8
+MMS_SEED_STRIDE = 2
+#: Grid points per line where the census runs whatever shooting found (besides the points with
+#: no stable orbit): stable orbits that no seed reaches are found from there.
+PROBE_POINTS = 4
+#: Fold functions below this are taken as zero (a fold at the grid point itself) when matching.
+FOLD_SIGN_FLOOR = 1e-6
+#: Branch ends traced per line and period.
+MAX_TURNS = 12
+#: A trace stops after this many grid crossings in a row that give known orbits.
+KNOWN_RUN = 2
+#: A trace's steps change omega by at most this many grid steps (every grid point crossed is
+#: solved for, whatever the steps)
+TRACE_DP = 1.0
+#: Continuation points per grid point a trace may take (steps are at most half a grid step in
+#: omega; folds and steep stretches take more).
+TRACE_POINTS_PER_STEP = 6
+
+
+@dataclass
+class LineSearch:
+    """The orbits of one omega line, per grid point (omega in the given order)."""
+
+    omega: np.ndarray
+    sigma: float
+    zeta: float
+    periods: tuple[int, ...]
+    options: dict
+    deadline: float | None = None
+    per_point: list = field(default_factory=list)
+    best_1t: list = field(default_factory=list)
+    visited: np.ndarray | None = None
+    traces: int = 0
+    seconds: dict = field(default_factory=dict)
+    attractors: dict = field(default_factory=dict)      # grid index -> census result
+
+    def __post_init__(self):
+        self.system = cont.System(float(self.zeta), float(self.options.get("exponent", 1.5)),
+                                  self.options.get("model", "hertz"),
+                                  float(self.options.get("rtol", 1e-10)))
+        self.omega = np.asarray(self.omega, float)
+        self.order = np.argsort(self.omega, kind="stable")
+        self.rank = np.empty(self.omega.size, int)
+        self.rank[self.order] = np.arange(self.omega.size)
+        self.per_point = [[] for _ in self.omega]
+        self.best_1t = [None] * self.omega.size
+        self.visited = np.zeros(self.omega.size, bool)
+
+    def out_of_time(self) -> bool:
+        return self.deadline is not None and time.monotonic() > self.deadline
+
+    # -- 1. the sweeps --------------------------------------------------------------------
+    def sweep(self) -> None:
+        t0 = time.perf_counter()
+        mms = mms_seeds(self.omega, self.sigma, self.zeta) if 2 in self.periods else None
+        for first_visit, order in ((True, self.order), (False, self.order[::-1])):
+            prev = []
+            for i in order:
+                if self.out_of_time():
+                    break
+                last = self.rank[i] == self.omega.size - 1
+                explore = first_visit and (
+                    self.rank[i] % int(self.options.get("linear_stride", LINEAR_SEED_STRIDE)) == 0
+                    or last)
+                use_mms = first_visit and (
+                    self.rank[i] % int(self.options.get("mms_stride", MMS_SEED_STRIDE)) == 0
+                    or last)
+                found, tries = solve_point(self.omega[i], self.sigma, self.zeta, self.periods,
+                                           prev, self.options, first_visit,
+                                           mms[i] if mms is not None and use_mms else (),
+                                           explore)
+                self.visited[i] = True
+                merge_new_orbits(self.per_point[i], found)
+                if tries and self.best_1t[i] is None:
+                    self.best_1t[i] = min(tries, key=lambda s: (
+                        s["status"] != st.CONVERGED,
+                        s["residual"] if math.isfinite(s["residual"]) else math.inf))
+                if first_visit:
+                    prev = self.per_point[i]
+                else:
+                    prev = [s for s in self.per_point[i] if not s.get("continued_up")]
+            if first_visit:
+                for sols in self.per_point:
+                    for s in sols:
+                        s["continued_up"] = bool(s.get("continued"))
+        self.seconds["sweep"] = time.perf_counter() - t0
+
+    # -- 2. fold turning ------------------------------------------------------------------
+    def branch_ends(self, period: int) -> list[tuple[int, dict, int]]:
+        """(grid index, orbit, direction) of the orbits of ``period`` with no continuation at
+        the next grid point in that direction (one-to-one matching by invariants, between
+        orbits whose fold functions have the same sign), and the
+        orbits at the two ends of the line whose fold function, extrapolated one grid step
+        outwards, changes sign (a fold just beyond the line: its other branch crosses the
+        line's end points)."""
+        ends = []
+        partner: dict[int, dict] = {}
+        for a, b in zip(self.order[:-1], self.order[1:]):
+            A = [s for s in self.per_point[a] if s["period"] == period]
+            B = [s for s in self.per_point[b] if s["period"] == period]
+            pairs = sorted((_distance(x, y), ia, ib) for ia, x in enumerate(A)
+                           for ib, y in enumerate(B))
+            used_a, used_b = set(), set()
+            for d, ia, ib in pairs:
+                if ia in used_a or ib in used_b:
+                    continue
+                # along a branch the fold function (1 - mu1)(1 - mu2) changes sign only at a
+                # fold, where the branch turns back: neighbours with opposite signs are two
+                # branches, however close their invariants
+                ga, gb = _fold_function(A[ia]), _fold_function(B[ib])
+                if ga * gb < 0.0 and min(abs(ga), abs(gb)) > FOLD_SIGN_FLOOR:
+                    continue
+                if d <= CONTINUITY_SHARE * (1.0 + max(A[ia]["ptp"], B[ib]["ptp"])):
+                    used_a.add(ia)
+                    used_b.add(ib)
+                    partner[id(A[ia])] = B[ib]
+                    partner[id(B[ib])] = A[ia]
+            ends += [(int(a), A[ia], +1) for ia in range(len(A)) if ia not in used_a]
+            ends += [(int(b), B[ib], -1) for ib in range(len(B)) if ib not in used_b]
+        if self.omega.size >= 2:
+            for i, d in ((int(self.order[0]), -1), (int(self.order[-1]), +1)):
+                for s in self.per_point[i]:
+                    inner = partner.get(id(s))
+                    if s["period"] != period or inner is None:
+                        continue
+                    g, g_in = _fold_function(s), _fold_function(inner)
+                    if g * (2.0 * g - g_in) <= 0.0:
+                        ends.append((i, s, d))
+        return ends
+
+    def neighbour(self, i: int, d: int) -> int | None:
+        r = self.rank[i] + d
+        return int(self.order[r]) if 0 <= r < self.omega.size else None
+
+    def trace(self, i: int, sol: dict, d: int) -> int:
+        """Continue the branch of ``sol`` (at grid point i) in omega from there in direction d
+        by pseudo-arclength (through folds: a turning branch comes back along its other half),
+        within the line's window (one grid step beyond each end), and solve at every grid
+        point the branch crosses (Newton at fixed omega from the interpolated point). Stops when
+        KNOWN_RUN crossings in a row give orbits already known (the branch is retracing one)
+        or the window is left. Returns the number of new orbits."""
+        n = self.omega.size
+        h = (float(self.omega.max()) - float(self.omega.min())) / max(n - 1, 1)
+        lo, hi = float(self.omega.min()) - h, float(self.omega.max()) + h
+        self.traces += 1
+        period = sol["period"]
+        state = {"known": 0, "new": 0}
+
+        def on_step(u_prev, u):
+            for k, x in path_crossings(np.array([u_prev, u]), self.omega):
+                if k == i and _near(x, sol["x0"], 1e-3):
+                    continue        # the start point itself
+                got = [g for g in shoot_seeds_minimal(self.omega[k], self.sigma, self.zeta,
+                                                      period, [x], self.options)
+                       if g["status"] == st.CONVERGED and g["period"] == period]
+                if not got:
+                    continue
+                g = got[0]
+                if any(same_orbit(g, s) for s in self.per_point[k]):
+                    state["known"] += 1
+                    if state["known"] >= KNOWN_RUN:
+                        return False
+                else:
+                    g["omega"] = self.omega[k]
+                    self.per_point[k].append(g)
+                    state["new"] += 1
+                    state["known"] = 0
+            return not self.out_of_time()
+
+        arc_path(self.system, np.asarray(sol["x0"], float), float(self.omega[i]), self.sigma,
+                 period, float(d), lo, hi, ds=2.0 * h, dp_max=TRACE_DP * h,
+                 max_points=TRACE_POINTS_PER_STEP * n, on_step=on_step)
+        return state["new"]
+
+    def turn_folds(self) -> None:
+        """Trace every branch end through its fold and along what lies beyond (bounded per
+        line and period)."""
+        t0 = time.perf_counter()
+        for period in self.periods:
+            queue = self.branch_ends(period)
+            # both halves of a fold already known at its last grid point: the stable side's fold
+            # function (1 - mu1)(1 - mu2) is positive, the unstable side's negative
+            known_pairs = set()
+            for i, sol, d in queue:
+                for i2, sol2, d2 in queue:
+                    if i2 == i and d2 == d and sol2 is not sol \
+                            and _fold_function(sol) * _fold_function(sol2) < 0.0:
+                        known_pairs.add(id(sol))
+            queue = [e for e in queue if id(e[1]) not in known_pairs]
+            for i, sol, d in queue[:MAX_TURNS]:
+                if self.out_of_time():
+                    break
+                self.trace(i, sol, d)
+        self.seconds["fold turning"] = time.perf_counter() - t0
+
+    # -- 3. the attractor census ------------------------------------------------------------
+    def probe_points(self, count: int = PROBE_POINTS) -> set[int]:
+        """``count`` grid points spread evenly along the line (both ends included)."""
+        n = self.omega.size
+        ranks = np.unique(np.round(np.linspace(0, n - 1, min(count, n))).astype(int))
+        return {int(self.order[r]) for r in ranks}
+
+    def run_census(self, mode: str, n_states: int, transient_periods: int,
+                   record_periods: int) -> None:
+        """Transients from ``n_states`` initial states at the points ``mode`` names
+        ("where-none-stable": those with no stable orbit when their turn comes, and the
+        probe points spread along the line; "always": every point), in omega order. Orbits
+        found there are followed along the line both ways (where they may be stable, or
+        unstable) and their branch ends turned, so that a stable orbit that no seed reaches
+        (an isola away from omega = 2) is found along the whole line from one probe, and a
+        point whose stable orbit a neighbour's census found needs no transients of its own."""
+        if mode == "never":
+            return
+        t0 = time.perf_counter()
+        probes = self.probe_points()
+        for i in self.order:
+            if self.out_of_time():
+                break
+            if mode == "where-none-stable" and int(i) not in probes \
+                    and any(s["stable"] for s in self.per_point[i]):
+                continue
+            found, new = census(self.omega[i], self.sigma, self.zeta, self.per_point[i],
+                                self.options, n_states, transient_periods, record_periods)
+            self.attractors[int(i)] = found
+            for sol in new:
+                sol["omega"] = self.omega[i]
+                self.per_point[i].append(sol)
+            # an orbit of a period the study searches is traced along the line (and beyond
+            # its folds); one of another period is stored where the census met it
+            for sol in (s for s in new if s["period"] in self.periods):
+                for direction in (-1, +1):
+                    self.trace(int(i), sol, direction)
+        self.seconds["census"] = time.perf_counter() - t0
+
+    # -- results --------------------------------------------------------------------------
+    def solutions(self, i: int) -> list[dict]:
+        """The distinct converged orbits at grid point i, ordered by (period, ptp)."""
+        return sorted(self.per_point[i], key=lambda s: (s["period"], s["ptp"]))
+
+
+def _fold_function(sol) -> float:
+    """(1 - mu1)(1 - mu2) = 1 - tr M + det M: zero at a fold, positive on its stable side."""
+    mu = sol["multipliers"]
+    return float(((1.0 - mu[0]) * (1.0 - mu[1])).real)
+
+
+def arc_path(system, x0, omega, sigma, period, direction, w_lo, w_hi, *, ds, dp_max,
+             max_points, on_step, tol=1e-7) -> int:
+    """A lean pseudo-arclength continuation of the period-``period`` orbit through (x0, omega)
+    in omega, starting towards ``direction``, until omega leaves [w_lo, w_hi], ``max_points``
+    are taken, the corrector fails, or ``on_step(u_prev, u)`` returns False (u = (q, q',
+    omega)). The points only seed Newton at fixed omega, so the corrector is loose (``tol``)
+    and the derivative in omega is a forward difference (one map per corrector iteration more
+    instead of two, and none of kernels.continuation's records). Returns the points taken."""
+    def residual(u):
+        phi, M, code = system.map(u[:2], u[2], sigma, period)
+        if code != st.CONVERGED or not np.all(np.isfinite(M)):
+            return None, None
+        dw = 1e-6 * (1.0 + abs(u[2]))
+        phi_w, _, code = system.map(u[:2], u[2] + dw, sigma, period)
+        if code != st.CONVERGED:
+            return None, None
+        J = np.empty((2, 3))
+        J[:, :2] = M - np.eye(2)
+        J[:, 2] = (phi_w - phi) / dw
+        return phi - u[:2], J
+
+    def tangent(J, t_prev):
+        t = np.linalg.svd(J)[2][-1]
+        return t * (np.sign(t @ t_prev) or 1.0)
+
+    u = np.array([x0[0], x0[1], omega], float)
+    F, J = residual(u)
+    if F is None:
+        return 0
+    t = np.linalg.svd(J)[2][-1]
+    t *= np.sign(t[2] * direction) or 1.0
+    h = ds
+    taken = 1
+    while taken < max_points and w_lo <= u[2] <= w_hi:
+        if abs(t[2]) * h > dp_max:
+            h = dp_max / abs(t[2])
+        accepted = None
+        while h > 1e-7 * ds and accepted is None:
+            pred = u + h * t
+            v = pred.copy()
+            for it in range(1, 6):
+                F, J = residual(v)
+                if F is None:
+                    break
+                A = np.vstack([J, t])
+                try:
+                    dv = np.linalg.solve(A, -np.concatenate([F, [t @ (v - pred)]]))
+                except np.linalg.LinAlgError:
+                    break
+                v = v + dv
+                if np.linalg.norm(dv) <= tol * (1.0 + np.linalg.norm(v)):
+                    t_new = tangent(J, t)
+                    if t_new @ t > 0.9 and np.linalg.norm(v - pred) <= 0.5 * h:
+                        accepted = (v, t_new, it)
+                    break
+            if accepted is None:
+                h *= 0.5
+        if accepted is None:
+            break
+        u_prev = u
+        u, t, it = accepted
+        taken += 1
+        if not on_step(u_prev, u):
+            break
+        h = min(4.0 * ds, 1.5 * h) if it <= 2 else h
+    return taken
+
+
+def path_crossings(path: np.ndarray, omega_grid) -> list[tuple[int, tuple]]:
+    """(grid index, guess x) where a continuation path (rows q, q', omega) crosses a grid omega
+    (linear interpolation between consecutive points)."""
+    out = []
+    for k in range(len(path) - 1):
+        a, b = path[k, 2], path[k + 1, 2]
+        lo, hi = min(a, b), max(a, b)
+        for i in np.nonzero((omega_grid >= lo) & (omega_grid <= hi))[0]:
+            th = 0.0 if b == a else (omega_grid[i] - a) / (b - a)
+            x = path[k, :2] + th * (path[k + 1, :2] - path[k, :2])
+            out.append((int(i), (float(x[0]), float(x[1]))))
+    return out
+
+
+def _distance(a, b) -> float:
+    """Distance of two orbits' invariants (min q, max q): unchanged by the T-shift of an orbit
+    of period > 1, unlike their start points."""
+    return abs(a["min_q"] - b["min_q"]) + abs(a["max_q"] - b["max_q"])
+
+
+def _near(x, y, tol=1e-6) -> bool:
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    return float(np.hypot(*(x - y))) <= tol * (1.0 + float(np.hypot(*y)))
+
+
+def grid_crossings(branch, omega_grid):
+    """(grid index, guess x) where a branch crosses a grid omega (linear interpolation between
+    consecutive continuation points)."""
+    w = branch.points["omega"]
+    q, v = branch.points["q0"], branch.points["v0"]
+    out = []
+    for k in range(len(w) - 1):
+        a, b = w[k], w[k + 1]
+        lo, hi = min(a, b), max(a, b)
+        for i in np.nonzero((omega_grid >= lo) & (omega_grid <= hi))[0]:
+            th = 0.0 if b == a else (omega_grid[i] - a) / (b - a)
+            out.append((int(i), (q[k] + th * (q[k + 1] - q[k]), v[k] + th * (v[k + 1] - v[k]))))
+    return out
+
