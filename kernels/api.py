@@ -309,6 +309,8 @@ def _attractor_options(transient_periods, record_periods, lyapunov, lyapunov_dis
                        max_steps, strobe_capacity):
     transient_periods = _check_int("transient_periods", transient_periods, 0)
     record_periods = _check_int("record_periods", record_periods, 1)
+    if lyapunov_discard is None:
+        lyapunov_discard = min(32, record_periods // 4)
     lyapunov_discard = _check_int("lyapunov_discard", lyapunov_discard, 0, record_periods - 1)
     force_samples = _check_int("force_samples", force_samples, 0)
     cycle_repeats = _check_int("cycle_repeats", cycle_repeats, 1, MAX_REPEATS)
@@ -325,7 +327,7 @@ def _attractor_options(transient_periods, record_periods, lyapunov, lyapunov_dis
 
 def attractor(omega: float, sigma: float, zeta: float, x0=(0.0, 0.0), *,
               transient_periods: int = 1000, record_periods: int = 500, lyapunov: bool = True,
-              lyapunov_discard: int = 32, force_samples: int = 0, cycle_tol: float = 1e-6,
+              lyapunov_discard: int | None = None, force_samples: int = 0, cycle_tol: float = 1e-6,
               cycle_repeats: int = 3, exponent: float = 1.5, model: str = "hertz",
               rtol: float = DEFAULT_ATTRACTOR_RTOL, atol: float | None = None,
               shoot_rtol: float = DEFAULT_RTOL, max_steps: int = DEFAULT_MAX_STEPS,
@@ -337,7 +339,8 @@ def attractor(omega: float, sigma: float, zeta: float, x0=(0.0, 0.0), *,
     stroboscopic points repeat with a period m <= 16 (within cycle_tol relative, over
     cycle_repeats returns) and shooting (at shoot_rtol) confirms a stable orbit there. The
     record window (the last record_periods periods) gives the strobe points, the measures and,
-    with ``lyapunov``, the largest Lyapunov exponent (Benettin, after lyapunov_discard periods).
+    with ``lyapunov``, the largest Lyapunov exponent (Benettin, after lyapunov_discard periods;
+    default min(32, record_periods // 4)).
     force_samples: contact-force samples per period for the rms (0: every 0.05 in tau, >= 32).
     rtol/atol: the transient's integrator tolerances. strobe_capacity: how many of the last
     stroboscopic points to return (default record_periods).
@@ -359,8 +362,9 @@ def attractor(omega: float, sigma: float, zeta: float, x0=(0.0, 0.0), *,
 
 def attractor_batch(omega: float, sigma: float, zeta: float, x0, *,
                     transient_periods: int = 1000, record_periods: int = 500,
-                    lyapunov: bool = True, lyapunov_discard: int = 32, force_samples: int = 0,
-                    cycle_tol: float = 1e-6, cycle_repeats: int = 3, exponent: float = 1.5,
+                    lyapunov: bool = True, lyapunov_discard: int | None = None,
+                    force_samples: int = 0, cycle_tol: float = 1e-6, cycle_repeats: int = 3,
+                    exponent: float = 1.5,
                     model: str = "hertz", rtol: float = DEFAULT_ATTRACTOR_RTOL,
                     atol: float | None = None, shoot_rtol: float = DEFAULT_RTOL,
                     max_steps: int = DEFAULT_MAX_STEPS, harmonics: bool = True,

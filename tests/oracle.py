@@ -153,3 +153,44 @@ def shoot_period(guess, omega, sigma, zeta, m, n=1.5, rtol=1e-12, tol=1e-11, max
             return x, M
         x = x + np.linalg.solve(M - np.eye(2), -r)
     raise RuntimeError("period-m shooting did not converge")
+
+
+def trajectory(x0, t0, t1, t_eval, omega, sigma, zeta, n=1.5, rtol=1e-12, atol=1e-12,
+               max_events=100_000):
+    """Paper Eq. 7 from (q, v) at t0 to t1 with the switches as terminal events (direction
+    alternating, as in variational_flow). Returns (q, v at the sorted times t_eval, the
+    switches as an array of rows (t, v, +1 recontact / -1 loss of contact))."""
+    def rhs(t, y):
+        s = 1.0 + y[0] / n
+        return [y[1], 1.0 + sigma * np.cos(omega * t) - 2.0 * zeta * y[1]
+                - (s ** n if s > 0.0 else 0.0)]
+
+    def surface(t, y):
+        return y[0] + n
+    surface.terminal = True
+
+    t_eval = np.asarray(t_eval, float)
+    out = np.full((2, t_eval.size), np.nan)
+    switches = []
+    y = np.array(x0, float)
+    t = t0
+    contact = y[0] + n > 0.0 or (y[0] + n == 0.0 and y[1] >= 0.0)
+    for _ in range(max_events):
+        surface.direction = -1.0 if contact else 1.0
+        sol = solve_ivp(rhs, (t, t1), y, method="DOP853", rtol=rtol, atol=atol, events=surface,
+                        dense_output=True)
+        if sol.status < 0:
+            raise RuntimeError(sol.message)
+        end = float(sol.t[-1])
+        inside = (t_eval >= t) & (t_eval <= end)
+        if inside.any():
+            out[:, inside] = sol.sol(t_eval[inside])
+        if sol.status == 1 and sol.t_events[0].size:
+            t = float(sol.t_events[0][0])
+            y = sol.y_events[0][0].copy()
+            y[0] = -n
+            switches.append((t, y[1], -1.0 if contact else 1.0))
+            contact = not contact
+            continue
+        return out[0], out[1], np.array(switches).reshape(-1, 3)
+    raise RuntimeError("too many events")
