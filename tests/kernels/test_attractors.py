@@ -5,9 +5,11 @@ sequences whose period is known by construction.
 
 The examples (paper Eq. 7, n = 1.5, zeta = 0.01) come from benchmarks/attractor_scan.py:
 * (omega, sigma) = (0.5, 2.5): a chaotic attractor (q down to -268, 90 % of the time in flight);
-  8 initial states over 70,000 periods each never settle, exponents 0.0439-0.0447 per unit tau.
-* (2.0, 1.0): a stable 3T orbit (from x0 = (2, 2); a 2T orbit attracts (0, 0)).
-* sigma = 2.5: the 2T orbit flips near omega = 1.907 (2T stable above, a stable 4T below).
+  8 initial states over 70,000 periods each never settle, exponents 0.0439-0.0447 per unit tau
+  (``attractor_scan.py chaos 0.5 2.5 --states 8 --transient 50000 --budgets 20000``).
+* (2.0, 1.0): a stable 3T orbit (from x0 = (2, 2); a 2T orbit attracts (0, 0)) (``grid``).
+* sigma = 2.5: the 2T orbit flips near omega = 1.907 (2T stable above, a stable 4T below)
+  (``grid``, then ``flip 1.95 1.88 2.5 --steps 15``).
 * (1.0, 2.0): the issue's point: a chaotic transient of thousands of periods, then a 2T orbit.
 """
 from __future__ import annotations
