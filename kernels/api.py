@@ -238,7 +238,7 @@ class Attractor:
     rms_force: float              # sqrt(<F^2>) / N
     mean_force: float             # <F> / N
     force_quadrature_error: float  # |sampled <F> - exact <F> (Eq. 7 over the window)|
-    orbit: Orbit | None           # the refined (or last tried) orbit
+    orbit: Orbit | None           # the refined orbit (or the last shooting attempt; None: none)
     row: np.ndarray               # the kernel's row (kernels.attractors.ATTRACTOR_FIELDS)
 
     @property
@@ -256,7 +256,7 @@ class Attractor:
     def from_rows(cls, omega, sigma, zeta, x0, row, orbit_row, strobe) -> "Attractor":
         r = {name: float(row[i]) for i, name in enumerate(ATTRACTOR_FIELDS)}
         period = int(r["period"])
-        tried = np.isfinite(orbit_row[0])
+        orbit_period = int(r["orbit_period"])
         return cls(
             omega=float(omega), sigma=float(sigma), zeta=float(zeta),
             x0=np.array([float(x0[0]), float(x0[1])]), status=int(r["status"]), period=period,
@@ -270,7 +270,7 @@ class Attractor:
             min_q=r["min_q"], max_q=r["max_q"], peak_force=r["peak_force"],
             rms_force=r["rms_force"], mean_force=r["mean_force"],
             force_quadrature_error=r["force_quadrature_error"],
-            orbit=Orbit.from_row(omega, sigma, zeta, max(period, 1), orbit_row) if tried
+            orbit=Orbit.from_row(omega, sigma, zeta, orbit_period, orbit_row) if orbit_period
             else None,
             row=np.array(row))
 

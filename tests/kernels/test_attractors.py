@@ -74,10 +74,14 @@ def test_needs_the_stated_number_of_returns():
 
 def test_chaotic_exponent_matches_scipy_benettin():
     """Chaos makes trajectories diverge, so the exponents of two different trajectories on the
-    attractor are compared (kernels: 20,000 periods after 500; scipy: 1,000 after 50, its
+    attractor are compared (kernels: 20,000 periods after 500; scipy: 800 after 50, its
     integrator and event handling its own), within three combined standard errors (each the
-    standard error of the mean over 8 blocks). The exponent must also be positive beyond ten
-    of its standard errors, and the same from a second initial state."""
+    standard error of the mean over 8 blocks; on this attractor the scatter of 30 windows of
+    1,500 periods, 0.0011, matches the stated 0.0014). The oracle's steps are capped at 0.1:
+    with free steps, short contact excursions fall between its sign tests, and its exponent
+    came out 1.5-2 standard errors high here and at (1.0, 1.5) (there 0.0582 +- 0.0024 from 4
+    windows, 0.0536 +- 0.0010 capped, kernels 0.0539 +- 0.0006). The exponent must also be
+    positive beyond ten of its standard errors, and the same from a second initial state."""
     omega, sigma = 0.5, 2.5
     a = attractor(omega, sigma, ZETA, (0.0, 0.0), transient_periods=500, record_periods=20_000)
     assert a.status == status.UNSETTLED and a.period == 0
@@ -86,7 +90,8 @@ def test_chaotic_exponent_matches_scipy_benettin():
     assert a["liouville_error"] < 1e-6      # det M_k = exp(-2 zeta T) every period
     b = attractor(omega, sigma, ZETA, (-3.0, 0.0), transient_periods=500, record_periods=20_000)
     assert abs(a.lyapunov - b.lyapunov) <= 3 * np.hypot(a.lyapunov_error, b.lyapunov_error)
-    lam, err, _ = oracle.lyapunov_benettin((0.0, 0.0), omega, sigma, ZETA, 1000, discard=50)
+    lam, err, _ = oracle.lyapunov_benettin((0.0, 0.0), omega, sigma, ZETA, 800, discard=50,
+                                           max_step=0.1)
     assert lam > 5 * err
     assert abs(a.lyapunov - lam) <= 3 * np.hypot(a.lyapunov_error, err), (a.lyapunov, lam, err)
     # the measures of a long flight regime (q far below the contact surface)
@@ -120,6 +125,7 @@ def period3():
 def test_period3_orbit_matches_scipy_shooting(period3):
     a = period3
     assert a.status == status.CONVERGED and a.period == 3, a.status_name
+    assert a["orbit_period"] == 3 and a["refinements"] >= 1
     o = a.orbit
     assert o.converged and o.stable and o.minimal_period == 3
     # scipy's Newton with its own variational equations, from 1e-3 away
