@@ -7,7 +7,7 @@ the last error norm ("adaptive"): the cost of a step with nothing around it. It 
 the 2-D state step (step_state: what a transient integrates) and for the 6-D state +
 variational step (step_var: Benettin's record window; bare_step_seconds(adaptive=True), the
 floor benchmarks/bench_kernels.py prints). Per case, a transient of a fixed number of forcing
-periods (attractor_into with detection switched off: cycle_tol = 1e-300, record 1 period) and a
+periods (attractor_batch_into with detection switched off: cycle_tol = 1e-300, record 1 period) and a
 Benettin run (lyapunov_into) over a quarter as many, each timed as the fastest of 5 runs; time
 per step = time / (accepted + rejected + partial steps). Flight is closed form and costs no
 steps, so its time is charged to the steps: a long-flight case's ratio includes the flight's
@@ -28,7 +28,7 @@ sys.path.insert(0, os.path.join(HERE, ".."))
 
 from kernels._dop853 import step_state  # noqa: E402
 from kernels.attractors import (A, N_ATTRACTOR_FIELDS, N_LYAPUNOV_FIELDS,  # noqa: E402
-                                attractor_into, lyapunov_into)
+                                attractor_batch_into, lyapunov_into)
 from kernels.shooting import N_FIELDS  # noqa: E402
 from study.benchmark import bare_step_seconds, seconds_per_step, step_loop  # noqa: E402
 
@@ -55,14 +55,16 @@ def fastest(fn, rounds=5):
 
 
 def transient(w, s, z, x0, periods):
-    row = np.empty(N_ATTRACTOR_FIELDS)
-    orbit = np.empty(N_FIELDS)
-    strobe = np.empty((1, 2))
+    rows = np.empty((1, N_ATTRACTOR_FIELDS))
+    orbits = np.empty((1, N_FIELDS))
+    strobes = np.empty((1, 1, 2))
+    q0, v0 = np.array([x0[0]]), np.array([x0[1]])
 
     def run():
-        attractor_into(w, s, z, x0[0], x0[1], 1.5, 0, periods, 1, False, 0, 0, 1e-300, 7, RTOL,
-                       RTOL, 1e-10, 200_000, False, row, orbit, strobe)
+        attractor_batch_into(w, s, z, q0, v0, 1.5, 0, periods, 1, False, 0, 0, 1e-300, 7, RTOL,
+                             RTOL, 1e-10, 200_000, False, rows, orbits, strobes)
     t = fastest(run)
+    row = rows[0]
     return t, row[A["steps"]], row[A["events"]], row[A["status"]]
 
 

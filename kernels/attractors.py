@@ -53,7 +53,7 @@ Everything is dimensionless (paper Eq. 5-8). Kernels never raise and never alloc
 from math import exp, hypot, log, pi, sqrt
 
 import numpy as np
-from numba import float64, int64, njit
+from numba import njit
 
 from kernels import status as st
 from kernels.integrate import (N_HARMONICS, N_STATS, S_ACCEPTED, S_EVENTS, S_FLIGHT_TIME,
@@ -149,7 +149,7 @@ def detect_period(ring, count, m_max, tol, repeats):
     return 0, np.inf
 
 
-@njit(int64(float64[:, ::1], int64, int64, float64, int64), cache=True, nogil=True)
+@njit(cache=True, nogil=True)
 def detect_period_in(points, count, m_max, tol, repeats):
     """detect_period on the first ``count`` rows of a chronological array of stroboscopic
     points (as written by attractor_into): the smallest m, 0 if none."""
@@ -231,8 +231,7 @@ def _block_statistics(blocks, nb, tau_per_block, total_log, total_tau, out):
 
 # ---- the stand-alone exponent ----------------------------------------------------------------
 
-@njit("void(float64, float64, float64, float64, float64, float64, int64, int64, int64, float64, "
-      "float64, int64, float64[::1])", cache=True, nogil=True)
+@njit(cache=True, nogil=True)
 def lyapunov_into(omega, sigma, zeta, q0, v0, n, model, periods, discard, rtol, atol, max_steps,
                   out):
     """Largest Lyapunov exponent (per unit tau) of paper Eq. 7 along the trajectory from
@@ -383,9 +382,7 @@ def _flip_unstable(orbit):
             and (orbit[I_M1R] < -1.0 or orbit[I_M2R] < -1.0))
 
 
-@njit("void(float64, float64, float64, float64, float64, float64, int64, int64, int64, boolean, "
-      "int64, int64, float64, int64, float64, float64, float64, int64, boolean, float64[::1], "
-      "float64[::1], float64[:, ::1])", cache=True, nogil=True)
+@njit(cache=True, nogil=True)
 def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, record_periods,
                    lyapunov, lyapunov_discard, force_samples, cycle_tol, cycle_repeats, rtol,
                    atol, shoot_rtol, max_steps, harmonics, row, orbit, strobe):
@@ -615,7 +612,12 @@ def attractor_batch_into(omega, sigma, zeta, q0, v0, n, model, transient_periods
                          cycle_repeats, rtol, atol, shoot_rtol, max_steps, harmonics, rows,
                          orbits, strobes):
     """attractor_into for each initial state (q0[i], v0[i]) at one parameter point: rows
-    (k, N_ATTRACTOR_FIELDS), orbits (k, N_FIELDS), strobes (k, cap, 2)."""
+    (k, N_ATTRACTOR_FIELDS), orbits (k, N_FIELDS), strobes (k, cap, 2).
+
+    The module's one entry point with a fixed signature (compiled, or loaded from the cache,
+    when the module is imported); kernels.attractor calls it with k = 1. The others compile on
+    first use: each compiled entry point carries its own optimised copy of the integrator and
+    of the shooting code (about 10 s each, cold), and a census needs only this one."""
     for i in range(q0.shape[0]):
         attractor_into(omega, sigma, zeta, q0[i], v0[i], n, model, transient_periods,
                        record_periods, lyapunov, lyapunov_discard, force_samples, cycle_tol,
