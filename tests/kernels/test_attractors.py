@@ -21,7 +21,8 @@ import pytest
 
 import oracle
 from kernels import attractor, attractor_batch, lyapunov, shoot, status
-from kernels.attractors import M_MAX, RING, detect_period, detect_period_in
+from kernels.attractors import (M_MAX, MAX_REFINEMENTS, RING, detect_period,
+                                detect_period_in)
 
 ZETA = 0.01
 
@@ -272,6 +273,18 @@ def test_step_budget_gives_a_status():
                   max_steps=3)
     assert a.status == status.STEP_LIMIT
     assert a.periods_run <= 1
+
+
+def test_repeating_points_that_shooting_cannot_confirm():
+    """The 3T orbit's points repeat, but a step budget that one period fits and three do not
+    makes every refinement (a 3T shooting) fail: "unconfirmed", with the period seen, a
+    bounded number of shooting attempts, and the budget's end."""
+    a = attractor(2.0, 1.0, ZETA, (2.0, 2.0), transient_periods=1000, record_periods=100,
+                  max_steps=25)
+    assert a.status == status.UNCONFIRMED and a.period == 3
+    assert a.orbit is not None and a.orbit.status == status.STEP_LIMIT
+    assert 1 <= a["refinements"] <= MAX_REFINEMENTS + 1
+    assert a.periods_run == 1100
 
 
 def test_batch_equals_single_calls():
