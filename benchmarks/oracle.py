@@ -125,13 +125,15 @@ def fold_function(M):
 # ---- the state with its variational matrix, for Benettin's method and period-m shooting -------
 
 def variational_flow(x0, t0, t1, omega, sigma, zeta, n=1.5, rtol=1e-10, atol=1e-10,
-                     max_events=100_000):
+                     max_step=np.inf, max_events=100_000):
     """Integrate paper Eq. 7 and its variational equations Phi' = J Phi (J = [[0, 1],
     [-F'(q), -2 zeta]], F' = 0 in flight) from (q, v) at t0 with Phi = I to t1. The contact
     switches q = -n are terminal events; the event direction alternates (a loss of contact is
     a downward crossing, a recontact an upward one), so a restart on the surface does not
     re-detect it. The vector field is continuous at q = -n (F(-n) = 0), so Phi continues
-    unchanged across a switch (the saltation matrix is the identity). Returns (x(t1), Phi)."""
+    unchanged across a switch (the saltation matrix is the identity). A contact excursion (or
+    flight) shorter than a step can fall between two steps' sign tests: ``max_step`` bounds
+    the steps so that such grazing switches are seen. Returns (x(t1), Phi)."""
     def rhs(t, y):
         s = 1.0 + y[0] / n
         F, dF = (s ** n, s ** (n - 1.0)) if s > 0.0 else (0.0, 0.0)
@@ -148,7 +150,8 @@ def variational_flow(x0, t0, t1, omega, sigma, zeta, n=1.5, rtol=1e-10, atol=1e-
     contact = y[0] + n > 0.0 or (y[0] + n == 0.0 and y[1] >= 0.0)
     for _ in range(max_events):
         surface.direction = -1.0 if contact else 1.0
-        sol = solve_ivp(rhs, (t, t1), y, method="DOP853", rtol=rtol, atol=atol, events=surface)
+        sol = solve_ivp(rhs, (t, t1), y, method="DOP853", rtol=rtol, atol=atol, events=surface,
+                        max_step=max_step)
         if sol.status < 0:
             raise RuntimeError(sol.message)
         if sol.status == 1 and sol.t_events[0].size:
@@ -163,7 +166,7 @@ def variational_flow(x0, t0, t1, omega, sigma, zeta, n=1.5, rtol=1e-10, atol=1e-
 
 
 def lyapunov_benettin(x0, omega, sigma, zeta, periods, discard=20, n=1.5, rtol=1e-10,
-                      blocks=8):
+                      blocks=8, max_step=np.inf):
     """Largest Lyapunov exponent (per unit tau) by Benettin's method: the period map's Jacobian
     M_k from variational_flow over each forcing period, w <- M_k w / |M_k w|, the mean of
     log |M_k w| over ``periods`` periods after ``discard``, divided by T. Returns
@@ -173,7 +176,8 @@ def lyapunov_benettin(x0, omega, sigma, zeta, periods, discard=20, n=1.5, rtol=1
     x = np.asarray(x0, float)
     logs = []
     for k in range(discard + periods):
-        x, M = variational_flow(x, 0.0, T, omega, sigma, zeta, n=n, rtol=rtol, atol=rtol)
+        x, M = variational_flow(x, 0.0, T, omega, sigma, zeta, n=n, rtol=rtol, atol=rtol,
+                                max_step=max_step)
         w = M @ w
         g = np.linalg.norm(w)
         w /= g
@@ -277,3 +281,44 @@ def fold_point(guess, omega, sigma, zeta, m=2, *, n=1.5, model="hertz", rtol=1e-
                options={"xtol": xtol, "eps": 1e-8})
     f = equations(sol.x)
     return sol.x[:2].copy(), float(sol.x[2]), (float(np.abs(f[:2]).max()), float(abs(f[2])))
+
+
+def trajectory(x0, t0, t1, t_eval, omega, sigma, zeta, n=1.5, rtol=1e-12, atol=1e-12,
+               max_events=100_000):
+    """Paper Eq. 7 from (q, v) at t0 to t1 with the switches as terminal events (direction
+    alternating, as in variational_flow). Returns (q, v at the sorted times t_eval, the
+    switches as an array of rows (t, v, +1 recontact / -1 loss of contact))."""
+    def rhs(t, y):
+        s = 1.0 + y[0] / n
+        return [y[1], 1.0 + sigma * np.cos(omega * t) - 2.0 * zeta * y[1]
+                - (s ** n if s > 0.0 else 0.0)]
+
+    def surface(t, y):
+        return y[0] + n
+    surface.terminal = True
+
+    t_eval = np.asarray(t_eval, float)
+    out = np.full((2, t_eval.size), np.nan)
+    switches = []
+    y = np.array(x0, float)
+    t = t0
+    contact = y[0] + n > 0.0 or (y[0] + n == 0.0 and y[1] >= 0.0)
+    for _ in range(max_events):
+        surface.direction = -1.0 if contact else 1.0
+        sol = solve_ivp(rhs, (t, t1), y, method="DOP853", rtol=rtol, atol=atol, events=surface,
+                        dense_output=True)
+        if sol.status < 0:
+            raise RuntimeError(sol.message)
+        end = float(sol.t[-1])
+        inside = (t_eval >= t) & (t_eval <= end)
+        if inside.any():
+            out[:, inside] = sol.sol(t_eval[inside])
+        if sol.status == 1 and sol.t_events[0].size:
+            t = float(sol.t_events[0][0])
+            y = sol.y_events[0][0].copy()
+            y[0] = -n
+            switches.append((t, y[1], -1.0 if contact else 1.0))
+            contact = not contact
+            continue
+        return out[0], out[1], np.array(switches).reshape(-1, 3)
+    raise RuntimeError("too many events")

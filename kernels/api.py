@@ -12,9 +12,6 @@ from math import pi
 import numpy as np
 
 from kernels import status as st
-from kernels.attractors import (ATTRACTOR_FIELDS, LYAPUNOV_FIELDS, MAX_REPEATS,
-                                N_ATTRACTOR_FIELDS, N_LYAPUNOV_FIELDS, attractor_batch_into,
-                                attractor_into, lyapunov_into)
 from kernels.integrate import N_HARMONICS, N_STATS, integrate
 from kernels.model import MODELS, rhs_force
 from kernels.shooting import FIELDS, N_FIELDS, shoot_batch_into, shoot_into
@@ -205,6 +202,13 @@ def simulate(omega: float, sigma: float, zeta: float, x0=(0.0, 0.0), *, t_end: f
 DEFAULT_ATTRACTOR_RTOL = 1e-8
 
 
+def _attractors():
+    """kernels.attractors, imported on first use: its kernels have fixed signatures and compile
+    (or load from the cache) when imported, which a study that only shoots need not pay for."""
+    from kernels import attractors
+    return attractors
+
+
 @dataclass(frozen=True)
 class Attractor:
     """The long-time response of paper Eq. 7 from one initial state (kernels.attractors).
@@ -238,7 +242,7 @@ class Attractor:
     rms_force: float              # sqrt(<F^2>) / N
     mean_force: float             # <F> / N
     force_quadrature_error: float  # |sampled <F> - exact <F> (Eq. 7 over the window)|
-    orbit: Orbit | None           # the refined (or last tried) orbit
+    orbit: Orbit | None           # the refined orbit (or the last shooting attempt; None: none)
     row: np.ndarray               # the kernel's row (kernels.attractors.ATTRACTOR_FIELDS)
 
     @property
@@ -250,13 +254,13 @@ class Attractor:
         return self.status == st.CONVERGED and self.period > 0
 
     def __getitem__(self, name: str) -> float:
-        return float(self.row[ATTRACTOR_FIELDS.index(name)])
+        return float(self.row[_attractors().ATTRACTOR_FIELDS.index(name)])
 
     @classmethod
     def from_rows(cls, omega, sigma, zeta, x0, row, orbit_row, strobe) -> "Attractor":
-        r = {name: float(row[i]) for i, name in enumerate(ATTRACTOR_FIELDS)}
+        r = {name: float(row[i]) for i, name in enumerate(_attractors().ATTRACTOR_FIELDS)}
         period = int(r["period"])
-        tried = np.isfinite(orbit_row[0])
+        orbit_period = int(r["orbit_period"])
         return cls(
             omega=float(omega), sigma=float(sigma), zeta=float(zeta),
             x0=np.array([float(x0[0]), float(x0[1])]), status=int(r["status"]), period=period,
@@ -270,7 +274,7 @@ class Attractor:
             min_q=r["min_q"], max_q=r["max_q"], peak_force=r["peak_force"],
             rms_force=r["rms_force"], mean_force=r["mean_force"],
             force_quadrature_error=r["force_quadrature_error"],
-            orbit=Orbit.from_row(omega, sigma, zeta, max(period, 1), orbit_row) if tried
+            orbit=Orbit.from_row(omega, sigma, zeta, orbit_period, orbit_row) if orbit_period
             else None,
             row=np.array(row))
 
@@ -309,9 +313,11 @@ def _attractor_options(transient_periods, record_periods, lyapunov, lyapunov_dis
                        max_steps, strobe_capacity):
     transient_periods = _check_int("transient_periods", transient_periods, 0)
     record_periods = _check_int("record_periods", record_periods, 1)
+    if lyapunov_discard is None:
+        lyapunov_discard = min(32, record_periods // 4)
     lyapunov_discard = _check_int("lyapunov_discard", lyapunov_discard, 0, record_periods - 1)
     force_samples = _check_int("force_samples", force_samples, 0)
-    cycle_repeats = _check_int("cycle_repeats", cycle_repeats, 1, MAX_REPEATS)
+    cycle_repeats = _check_int("cycle_repeats", cycle_repeats, 1, _attractors().MAX_REPEATS)
     cycle_tol = _check_tolerance("cycle_tol", cycle_tol, 1e-2)
     rtol = _check_tolerance("rtol", rtol)
     atol = rtol if atol is None else _check_tolerance("atol", atol)
@@ -325,7 +331,7 @@ def _attractor_options(transient_periods, record_periods, lyapunov, lyapunov_dis
 
 def attractor(omega: float, sigma: float, zeta: float, x0=(0.0, 0.0), *,
               transient_periods: int = 1000, record_periods: int = 500, lyapunov: bool = True,
-              lyapunov_discard: int = 32, force_samples: int = 0, cycle_tol: float = 1e-6,
+              lyapunov_discard: int | None = None, force_samples: int = 0, cycle_tol: float = 1e-6,
               cycle_repeats: int = 3, exponent: float = 1.5, model: str = "hertz",
               rtol: float = DEFAULT_ATTRACTOR_RTOL, atol: float | None = None,
               shoot_rtol: float = DEFAULT_RTOL, max_steps: int = DEFAULT_MAX_STEPS,
@@ -337,11 +343,13 @@ def attractor(omega: float, sigma: float, zeta: float, x0=(0.0, 0.0), *,
     stroboscopic points repeat with a period m <= 16 (within cycle_tol relative, over
     cycle_repeats returns) and shooting (at shoot_rtol) confirms a stable orbit there. The
     record window (the last record_periods periods) gives the strobe points, the measures and,
-    with ``lyapunov``, the largest Lyapunov exponent (Benettin, after lyapunov_discard periods).
+    with ``lyapunov``, the largest Lyapunov exponent (Benettin, after lyapunov_discard periods;
+    default min(32, record_periods // 4)).
     force_samples: contact-force samples per period for the rms (0: every 0.05 in tau, >= 32).
     rtol/atol: the transient's integrator tolerances. strobe_capacity: how many of the last
     stroboscopic points to return (default record_periods).
     """
+    att = _attractors()
     omega, sigma, zeta = _check_parameters(omega, sigma, zeta)
     q0, v0 = float(x0[0]), float(x0[1])
     if not (np.isfinite(q0) and np.isfinite(v0)):
@@ -349,18 +357,21 @@ def attractor(omega: float, sigma: float, zeta: float, x0=(0.0, 0.0), *,
     opts, cap = _attractor_options(transient_periods, record_periods, lyapunov,
                                    lyapunov_discard, force_samples, cycle_tol, cycle_repeats,
                                    rtol, atol, shoot_rtol, max_steps, strobe_capacity)
-    row = np.empty(N_ATTRACTOR_FIELDS)
-    orbit = np.empty(N_FIELDS)
-    strobe = np.empty((cap, 2))
-    attractor_into(omega, sigma, zeta, q0, v0, _check_exponent(exponent), _model_code(model),
-                   *opts, bool(harmonics), row, orbit, strobe)
-    return Attractor.from_rows(omega, sigma, zeta, (q0, v0), row, orbit, strobe)
+    row = np.empty((1, att.N_ATTRACTOR_FIELDS))
+    orbit = np.empty((1, N_FIELDS))
+    strobe = np.empty((1, cap, 2))
+    # the batch kernel with one state: one compiled entry point serves both calls
+    att.attractor_batch_into(omega, sigma, zeta, np.array([q0]), np.array([v0]),
+                             _check_exponent(exponent), _model_code(model), *opts,
+                             bool(harmonics), row, orbit, strobe)
+    return Attractor.from_rows(omega, sigma, zeta, (q0, v0), row[0], orbit[0], strobe[0])
 
 
 def attractor_batch(omega: float, sigma: float, zeta: float, x0, *,
                     transient_periods: int = 1000, record_periods: int = 500,
-                    lyapunov: bool = True, lyapunov_discard: int = 32, force_samples: int = 0,
-                    cycle_tol: float = 1e-6, cycle_repeats: int = 3, exponent: float = 1.5,
+                    lyapunov: bool = True, lyapunov_discard: int | None = None,
+                    force_samples: int = 0, cycle_tol: float = 1e-6, cycle_repeats: int = 3,
+                    exponent: float = 1.5,
                     model: str = "hertz", rtol: float = DEFAULT_ATTRACTOR_RTOL,
                     atol: float | None = None, shoot_rtol: float = DEFAULT_RTOL,
                     max_steps: int = DEFAULT_MAX_STEPS, harmonics: bool = True,
@@ -369,6 +380,7 @@ def attractor_batch(omega: float, sigma: float, zeta: float, x0, *,
     kernel call. Returns {field: (k,) array} over kernels.attractors.ATTRACTOR_FIELDS, plus
     "orbit": (k, N_FIELDS) rows of kernels.shooting.FIELDS (NaN where no orbit was tried) and
     "strobe": (k, strobe_capacity, 2) (the first strobe_count[i] rows valid)."""
+    att = _attractors()
     omega, sigma, zeta = _check_parameters(omega, sigma, zeta)
     x0 = np.asarray(x0, dtype=float)
     if x0.ndim != 2 or x0.shape[1] != 2 or not np.all(np.isfinite(x0)):
@@ -377,13 +389,13 @@ def attractor_batch(omega: float, sigma: float, zeta: float, x0, *,
                                    lyapunov_discard, force_samples, cycle_tol, cycle_repeats,
                                    rtol, atol, shoot_rtol, max_steps, strobe_capacity)
     k = x0.shape[0]
-    rows = np.empty((k, N_ATTRACTOR_FIELDS))
+    rows = np.empty((k, att.N_ATTRACTOR_FIELDS))
     orbits = np.empty((k, N_FIELDS))
     strobes = np.empty((k, cap, 2))
-    attractor_batch_into(omega, sigma, zeta, np.ascontiguousarray(x0[:, 0]),
-                         np.ascontiguousarray(x0[:, 1]), _check_exponent(exponent),
-                         _model_code(model), *opts, bool(harmonics), rows, orbits, strobes)
-    out = {name: rows[:, i].copy() for i, name in enumerate(ATTRACTOR_FIELDS)}
+    att.attractor_batch_into(omega, sigma, zeta, np.ascontiguousarray(x0[:, 0]),
+                             np.ascontiguousarray(x0[:, 1]), _check_exponent(exponent),
+                             _model_code(model), *opts, bool(harmonics), rows, orbits, strobes)
+    out = {name: rows[:, i].copy() for i, name in enumerate(att.ATTRACTOR_FIELDS)}
     out["orbit"] = orbits
     out["strobe"] = strobes
     return out
@@ -397,13 +409,14 @@ def lyapunov(omega: float, sigma: float, zeta: float, x0=(0.0, 0.0), *, periods:
     Benettin's method with the variational equations (kernels.attractors.lyapunov_into): no
     transient beyond ``discard`` periods (the tangent vector's alignment). Returns
     {field: value} over kernels.attractors.LYAPUNOV_FIELDS."""
+    att = _attractors()
     omega, sigma, zeta = _check_parameters(omega, sigma, zeta)
     periods = _check_int("periods", periods, 1)
     discard = _check_int("discard", discard, 0)
     rtol = _check_tolerance("rtol", rtol)
     atol = rtol if atol is None else _check_tolerance("atol", atol)
-    out = np.empty(N_LYAPUNOV_FIELDS)
-    lyapunov_into(omega, sigma, zeta, float(x0[0]), float(x0[1]), _check_exponent(exponent),
-                  _model_code(model), periods, discard, rtol, atol,
-                  _check_int("max_steps", max_steps, 1), out)
-    return {name: float(out[i]) for i, name in enumerate(LYAPUNOV_FIELDS)}
+    out = np.empty(att.N_LYAPUNOV_FIELDS)
+    att.lyapunov_into(omega, sigma, zeta, float(x0[0]), float(x0[1]),
+                      _check_exponent(exponent), _model_code(model), periods, discard, rtol,
+                      atol, _check_int("max_steps", max_steps, 1), out)
+    return {name: float(out[i]) for i, name in enumerate(att.LYAPUNOV_FIELDS)}

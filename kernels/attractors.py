@@ -53,7 +53,7 @@ Everything is dimensionless (paper Eq. 5-8). Kernels never raise and never alloc
 from math import exp, hypot, log, pi, sqrt
 
 import numpy as np
-from numba import float64, int64, njit
+from numba import njit
 
 from kernels import status as st
 from kernels.integrate import (N_HARMONICS, N_STATS, S_ACCEPTED, S_EVENTS, S_FLIGHT_TIME,
@@ -90,13 +90,14 @@ ATTRACTOR_FIELDS = (
     "force_quadrature_error",   # |sampled <F> - exact <F>| (Eq. 7 over the window)
     "steps", "rejected", "events",   # integrator work of the transient and the record
     "refinements",              # shooting attempts
+    "orbit_period",             # period m of the orbit row (the last shooting attempt; 0: none)
     "strobe_count",             # stroboscopic points written to the strobe array
 )
 A = {name: i for i, name in enumerate(ATTRACTOR_FIELDS)}
 N_ATTRACTOR_FIELDS = len(ATTRACTOR_FIELDS)
 (A_STATUS, A_PERIOD, A_RUN, A_SETTLED, A_CYCLE_RES, A_QEND, A_VEND, A_LYAP, A_LYAP_ERR,
  A_LYAP_HALVES, A_LYAP_PERIODS, A_LIOU, A_WINDOW, A_FLIGHT, A_IMPACT, A_MINQ, A_MAXQ, A_PEAKF,
- A_RMSF, A_MEANF, A_QUAD_ERR, A_STEPS, A_REJ, A_EVENTS, A_REFINE,
+ A_RMSF, A_MEANF, A_QUAD_ERR, A_STEPS, A_REJ, A_EVENTS, A_REFINE, A_ORBIT_PERIOD,
  A_STROBE_COUNT) = range(N_ATTRACTOR_FIELDS)
 
 LYAPUNOV_FIELDS = ("status", "lyapunov", "lyapunov_error", "lyapunov_halves", "periods",
@@ -148,7 +149,7 @@ def detect_period(ring, count, m_max, tol, repeats):
     return 0, np.inf
 
 
-@njit(int64(float64[:, ::1], int64, int64, float64, int64), cache=True, nogil=True)
+@njit(cache=True, nogil=True)
 def detect_period_in(points, count, m_max, tol, repeats):
     """detect_period on the first ``count`` rows of a chronological array of stroboscopic
     points (as written by attractor_into): the smallest m, 0 if none."""
@@ -230,8 +231,7 @@ def _block_statistics(blocks, nb, tau_per_block, total_log, total_tau, out):
 
 # ---- the stand-alone exponent ----------------------------------------------------------------
 
-@njit("void(float64, float64, float64, float64, float64, float64, int64, int64, int64, float64, "
-      "float64, int64, float64[::1])", cache=True, nogil=True)
+@njit(cache=True, nogil=True)
 def lyapunov_into(omega, sigma, zeta, q0, v0, n, model, periods, discard, rtol, atol, max_steps,
                   out):
     """Largest Lyapunov exponent (per unit tau) of paper Eq. 7 along the trajectory from
@@ -361,9 +361,11 @@ def _sample_times(T, count, t_eval):
 
 @njit(cache=True, nogil=True)
 def _confirm(omega, sigma, zeta, m, q, v, n, model, shoot_rtol, max_steps, harmonics, orbit,
-             near):
+             near, row):
     """Shoot period m from (q, v): True when it converged to a stable orbit of minimal period m
-    within ``near`` of (q, v) (orbit row filled either way)."""
+    within ``near`` of (q, v) (orbit row filled either way; one more refinement in row)."""
+    row[A_REFINE] += 1.0
+    row[A_ORBIT_PERIOD] = m
     shoot_into(omega, sigma, zeta, m, q, v, n, model, shoot_rtol, shoot_rtol, 40, max_steps,
                harmonics, orbit)
     if orbit[I_STATUS] != st.CONVERGED:
@@ -380,9 +382,7 @@ def _flip_unstable(orbit):
             and (orbit[I_M1R] < -1.0 or orbit[I_M2R] < -1.0))
 
 
-@njit("void(float64, float64, float64, float64, float64, float64, int64, int64, int64, boolean, "
-      "int64, int64, float64, int64, float64, float64, float64, int64, boolean, float64[::1], "
-      "float64[::1], float64[:, ::1])", cache=True, nogil=True)
+@njit(cache=True, nogil=True)
 def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, record_periods,
                    lyapunov, lyapunov_discard, force_samples, cycle_tol, cycle_repeats, rtol,
                    atol, shoot_rtol, max_steps, harmonics, row, orbit, strobe):
@@ -407,6 +407,7 @@ def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, reco
     row[A_PERIOD] = 0.0
     row[A_RUN] = 0.0
     row[A_REFINE] = 0.0
+    row[A_ORBIT_PERIOD] = 0.0
     row[A_STROBE_COUNT] = 0.0
     if not (omega > 0.0 and np.isfinite(omega) and sigma >= 0.0 and np.isfinite(sigma)
             and zeta >= 0.0 and np.isfinite(zeta) and n > 0.0 and np.isfinite(q0)
@@ -505,17 +506,15 @@ def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, reco
             continue
         last_m = m
         last_res = res
-        row[A_REFINE] += 1.0
         scale = 1.0 + hypot(y[0], y[1])
         near = max(1e3 * cycle_tol, 1e-3) * scale
         ok = _confirm(omega, sigma, zeta, m, y[0], y[1], n, model, shoot_rtol, max_steps,
-                      harmonics, orbit, near)
+                      harmonics, orbit, near, row)
         if not ok and _flip_unstable(orbit) and 2 * m <= M_MAX:
             # points that repeat with period m to tol can be a period-2m orbit just past a flip
             # of the m-orbit (its two halves closer than tol)
-            row[A_REFINE] += 1.0
             ok = _confirm(omega, sigma, zeta, 2 * m, y[0], y[1], n, model, shoot_rtol,
-                          max_steps, harmonics, orbit, near)
+                          max_steps, harmonics, orbit, near, row)
             if ok:
                 last_m = 2 * m
         if ok:
@@ -531,10 +530,9 @@ def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, reco
         last_m = m
         last_res = res
         if m > 0:
-            row[A_REFINE] += 1.0
             near = max(1e3 * cycle_tol, 1e-3) * (1.0 + hypot(y[0], y[1]))
             settled = _confirm(omega, sigma, zeta, m, y[0], y[1], n, model, shoot_rtol,
-                               max_steps, harmonics, orbit, near)
+                               max_steps, harmonics, orbit, near, row)
 
     # ---- results --------------------------------------------------------------------------
     row[A_RUN] = k
@@ -614,7 +612,12 @@ def attractor_batch_into(omega, sigma, zeta, q0, v0, n, model, transient_periods
                          cycle_repeats, rtol, atol, shoot_rtol, max_steps, harmonics, rows,
                          orbits, strobes):
     """attractor_into for each initial state (q0[i], v0[i]) at one parameter point: rows
-    (k, N_ATTRACTOR_FIELDS), orbits (k, N_FIELDS), strobes (k, cap, 2)."""
+    (k, N_ATTRACTOR_FIELDS), orbits (k, N_FIELDS), strobes (k, cap, 2).
+
+    The module's one entry point with a fixed signature (compiled, or loaded from the cache,
+    when the module is imported); kernels.attractor calls it with k = 1. The others compile on
+    first use: each compiled entry point carries its own optimised copy of the integrator and
+    of the shooting code (about 10 s each, cold), and a census needs only this one."""
     for i in range(q0.shape[0]):
         attractor_into(omega, sigma, zeta, q0[i], v0[i], n, model, transient_periods,
                        record_periods, lyapunov, lyapunov_discard, force_samples, cycle_tol,

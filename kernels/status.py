@@ -10,8 +10,8 @@ STEP_LIMIT = 3         # integrator step-count limit (max_steps per period) reac
 STEP_SIZE = 4          # integrator step size fell below its floor (h < 1e-14 * period)
 SINGULAR = 5           # I - M singular (multiplier +1 to machine precision): no Newton step
 TIME_LIMIT = 6         # not solved: the task's time budget ran out first (grid studies only)
-UNSETTLED = 7          # attractor: no repeating stroboscopic cycle (period <= 16) within the period budget
-UNCONFIRMED = 8        # attractor: the stroboscopic points repeat, but shooting found no stable orbit there
+UNSETTLED = 7          # attractor: no repeating stroboscopic cycle (m <= 16) within the budget
+UNCONFIRMED = 8        # attractor: the points repeat, but shooting confirmed no stable orbit
 EMPTY = -1             # no solution in this slot (used by the store, never returned by a solve)
 
 NAMES = {
