@@ -369,9 +369,11 @@ def run_study(study: Study, opts: RunOptions, *, out: TextIO | None = None,
                     new_store=opts.overwrite or not note.startswith("exists (same"))
     chunks = choose_chunks(study, opts.task_seconds)
     early = None
-    if client is None and opts.cluster.kind == "address":
-        # connect before anything is written: an unreachable scheduler changes nothing
-        early = make_client(opts.cluster)
+    if client is None and opts.cluster.kind != "local" and not _store_complete(
+            study, opts.store, len(plan.tasks), note):
+        # connect (an existing scheduler) or have the first worker jobs accepted (a batch
+        # system) before anything is written: a refused option changes nothing
+        early = make_client(opts.cluster, report=_printer(out))
     try:
         store, resumed = open_or_create(opts.store, study, chunks, overwrite=opts.overwrite,
                                         action=f"{opts.command}: created")
@@ -379,8 +381,34 @@ def run_study(study: Study, opts: RunOptions, *, out: TextIO | None = None,
             return _run_locked(study, opts, store, resumed, out, err, client, early)
     except BaseException:
         if early is not None:
-            early[0].close()
+            _close(*early)
         raise
+
+
+def _printer(stream: TextIO):
+    def report(line: str) -> None:
+        print(line, file=stream, flush=True)
+    return report
+
+
+def _close(client, cluster) -> None:
+    """Close the client, then the cluster (a batch cluster cancels its jobs)."""
+    with contextlib.suppress(Exception):
+        client.close()
+    if cluster is not None:
+        with contextlib.suppress(Exception):
+            cluster.close()
+
+
+def _store_complete(study: Study, store_path: Path, n_tasks: int, note: str) -> bool:
+    """True for a store of this study with every task flagged done (nothing to compute, so
+    no cluster is started)."""
+    if not note.startswith("exists (same"):
+        return False
+    try:
+        return int(Store(store_path).done_mask().sum()) == n_tasks
+    except (StoreError, KeyError, OSError):
+        return False
 
 
 class _DeferInterrupt:
@@ -476,7 +504,8 @@ def _run_locked(study, opts, store: Store, resumed: bool, out, err, client,
     cluster = None
     t_setup = time.perf_counter()
     if own_client:
-        client, cluster = early if early is not None else make_client(opts.cluster)
+        client, cluster = early if early is not None else make_client(opts.cluster,
+                                                                       report=_printer(out))
     interrupt = _DeferInterrupt()
     futures = []
     try:
@@ -495,11 +524,7 @@ def _run_locked(study, opts, store: Store, resumed: bool, out, err, client,
     finally:
         interrupt.__exit__()
         if own_client:
-            with contextlib.suppress(Exception):
-                client.close()
-            if cluster is not None:
-                with contextlib.suppress(Exception):
-                    cluster.close()
+            _close(client, cluster)
 
 
 def _compute(study, opts, store, plan, names, todo, n_done0, summary, client, own_client,

@@ -153,10 +153,23 @@ class SlurmCluster:
             except subprocess.TimeoutExpired:
                 p.kill()
                 p.wait(timeout=15)
-        # job steps left by a slurmd that died first (their slurmstepd outlives it)
-        for pid_file in (self.root / "spool").glob("**/*.pid"):
-            pass
         self.procs.clear()
+        self.kill_strays()
+
+    def kill_strays(self) -> None:
+        """SIGKILL what is left of this Slurm: processes whose environment names its
+        slurm.conf (the daemons, slurmstepd and the jobs' processes, which slurmd starts with
+        SLURM_CONF set, and clients started with :attr:`env`), e.g. a job step that outlived
+        a slurmd killed first. Nothing of another Slurm or test is touched."""
+        mark = f"SLURM_CONF={self.conf}".encode() + b"\0"
+        for entry in Path("/proc").iterdir():
+            if not entry.name.isdigit() or int(entry.name) == os.getpid():
+                continue
+            try:
+                if mark in (entry / "environ").read_bytes():
+                    os.kill(int(entry.name), signal.SIGKILL)
+            except (OSError, ProcessLookupError):
+                pass
 
 
 def _check_prerequisites() -> None:
@@ -218,12 +231,23 @@ PartitionName={c.partition} Nodes={c.node} Default=YES MaxTime=60 State=UP
 """)
 
 
+def _die_with_parent() -> None:
+    """In the daemon, before exec: SIGTERM when the process that started it dies (a test
+    run killed without its teardown leaves no Slurm behind)."""
+    try:
+        import ctypes
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+
+
 def _start_daemon(c: SlurmCluster, name: str, args: list[str], log: Path) -> None:
     out = open(c.root / f"{name}.stdout", "wb")
     try:
         c.procs[name] = subprocess.Popen(args, stdout=out, stderr=subprocess.STDOUT,
                                          stdin=subprocess.DEVNULL,
-                                         env={**os.environ, **c.env}, start_new_session=True)
+                                         env={**os.environ, **c.env}, start_new_session=True,
+                                         preexec_fn=_die_with_parent)
     finally:
         out.close()
 
@@ -291,6 +315,7 @@ if __name__ == "__main__":  # pragma: no cover (by hand)
     cluster = start_slurm(Path(sys.argv[1]) if len(sys.argv) > 1 else None)
     print(f"export SLURM_CONF={cluster.conf}   # node {cluster.node}: {cluster.cpus} CPUs, "
           f"{cluster.memory_mb} MB; partition {cluster.partition}", flush=True)
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
     try:
         signal.pause()
     except KeyboardInterrupt:
