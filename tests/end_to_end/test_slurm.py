@@ -28,6 +28,7 @@ import xarray as xr
 from conftest import (REPO, TESTS, done_count, hertzmap_cmd, needs_block, subprocess_env,
                       wait_until)
 from end_to_end.slurm_cluster import SlurmUnavailable, start_slurm
+from scheduler.cli import main
 
 pytestmark = pytest.mark.slow
 
@@ -45,18 +46,19 @@ outputs = ["orbits", "measures", "force_harmonics", "diagnostics"]
 """
 TASK_SECONDS = "0.25"
 
-# the placeholder solver (tests/conftest.py) sleeping 25 ms per grid point: 144 tasks of
-# 0.6 s, 90 s of sleep and almost no CPU, about 55 s on two workers with one of them lost for
-# 20 s: long enough for Slurm's time-limit check (every 30 s) and the lost job's replacement
+# the placeholder solver (tests/conftest.py) sleeping 25 ms per grid point: 72 tasks of 1 s,
+# 72 s of sleep and almost no CPU, about 45 s on two workers, one of them lost for a while:
+# longer than Slurm's time-limit check takes to come (every 30 s) plus the lost job's
+# replacement
 SLOW = """
 [study]
 name = "slurm-slow"
 [grid]
-omega = {start = 0.5, stop = 2.5, num = 25}
-sigma = {start = 0.1, stop = 1.2, num = 12}
-zeta = {start = 0.01, stop = 0.12, num = 12}
+omega = {start = 0.5, stop = 2.5, num = 40}
+sigma = {start = 0.1, stop = 1.2, num = 9}
+zeta = {start = 0.01, stop = 0.08, num = 8}
 """
-SLOW_TASKS = 144
+SLOW_TASKS = 72
 SLOW_DELAY = "0.025"
 PLACEHOLDER = "conftest:placeholder_solve_block"
 
@@ -137,12 +139,13 @@ def slurm_options(slurm, logs: Path, *extra: str) -> list[str]:
 
 
 def run_on_slurm(slurm, study: Path, store: Path, cwd: Path, *args: str,
-                 timeout: float = 240, **popen) -> subprocess.Popen:
+                 **env: str) -> subprocess.Popen:
+    """`hertzmap run STUDY --cluster slurm --workers 2 ARGS` in the folder ``cwd``."""
     cwd.mkdir(exist_ok=True)
     cmd = hertzmap_cmd("run", str(study), "--store", str(store), "--cluster", "slurm",
                        "--workers", "2", *args)
-    return subprocess.Popen(cmd, env=subprocess_env(**slurm.env), cwd=cwd,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **popen)
+    return subprocess.Popen(cmd, env=subprocess_env(**slurm.env, **env), cwd=cwd,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
 def finish(p: subprocess.Popen, timeout: float = 240) -> tuple[int, str, str]:
@@ -228,31 +231,40 @@ def test_job_ended_by_its_time_limit_is_replaced_and_loses_nothing(slurm, tmp_pa
     """Slurm's own time limit: a running job's limit is cut to 0 (scontrol update), and
     slurmctld ends it at its next time-limit check (every 30 s) as at the end of its
     walltime: SIGTERM, SIGKILL after KillWait, state TIMEOUT. The study goes on; the job is
-    replaced by a new one (Dask gives the lost worker up after 15 s)."""
+    replaced by a new one once Dask gives its worker up (lost-worker-timeout: 15 s by
+    default, 3 s here to keep the test short)."""
     study = tmp_path / "slow.toml"
     study.write_text(SLOW)
+    # the undisturbed run (no delay: the placeholder's results do not depend on it), at the
+    # same time as the Slurm one: it needs little CPU
     reference = tmp_path / "slow-ref.zarr"
-    r = subprocess.run(hertzmap_cmd("run", str(study), "--store", str(reference), "--workers",
-                                    "2", "--solver", PLACEHOLDER, "--error-sample", "0",
-                                    "--task-seconds", "0.01"),
-                       env=subprocess_env(), capture_output=True, text=True, timeout=120)
-    assert r.returncode == 0, r.stderr
+    ref = subprocess.Popen(hertzmap_cmd("run", str(study), "--store", str(reference),
+                                        "--workers", "1", "--solver", PLACEHOLDER,
+                                        "--error-sample", "0", "--task-seconds", "0.01"),
+                           env=subprocess_env(), stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True)
     store = tmp_path / "slow.zarr"
     # with --export=NONE the jobs need the placeholder's folder and delay from the prologue
     prologue = json.dumps([f"export PYTHONPATH={TESTS}",
                            f"export HERTZMAP_PLACEHOLDER_DELAY={SLOW_DELAY}"])
+    t0 = time.perf_counter()
     p = run_on_slurm(slurm, study, store, tmp_path / "cwd", "--solver", PLACEHOLDER,
                      "--error-sample", "0", "--task-seconds", "0.01",
-                     *slurm_options(slurm, tmp_path / "logs", f"job_script_prologue={prologue}"))
+                     *slurm_options(slurm, tmp_path / "logs", f"job_script_prologue={prologue}"),
+                     DASK_DISTRIBUTED__DEPLOY__LOST_WORKER_TIMEOUT="3s")
     try:
         wait_until(lambda: done_count(store) >= 1 or p.poll() is not None, 120, "a first task")
         victim = slurm.jobs("RUNNING")[0]["id"]
         slurm.command("scontrol", "update", f"JobId={victim}", "TimeLimit=0")
         wait_until(lambda: slurm.job_state(victim) != "RUNNING" or p.poll() is not None, 60,
                    "the time limit")
-        ended_at = done_count(store)
+        ended_after, ended_at = time.perf_counter() - t0, done_count(store)
     finally:
         code, out, err = finish(p)
+        ref_code, _, ref_err = finish(ref)
+    print(f"\ntime limit: job {victim} ended {ended_after:.0f} s into the run with {ended_at}/"
+          f"{SLOW_TASKS} tasks done; run {time.perf_counter() - t0:.0f} s")
+    assert ref_code == 0, ref_err
     assert slurm.job_state(victim) == "TIMEOUT"
     assert ended_at < SLOW_TASKS, "the study finished before the job hit its time limit"
     assert code == 0, f"{out}\n{err}"
@@ -277,42 +289,42 @@ REFUSED = [
 
 @pytest.mark.parametrize("option,words", REFUSED, ids=[o.split("=")[0] for o, _ in REFUSED])
 def test_refused_option_is_a_usage_error_and_writes_nothing(slurm, study_path, tmp_path,
-                                                            option, words):
+                                                            monkeypatch, capsys, option, words):
+    """In this process (the command's main(), as the console script calls it): a client
+    process per case would spend most of its time importing."""
+    monkeypatch.setenv("SLURM_CONF", str(slurm.conf))
+    monkeypatch.chdir(tmp_path)
     store = tmp_path / "refused.zarr"
-    base = [o for o in slurm_options(slurm, tmp_path / "logs")]
     key = option.split("=")[0]
     # the option under test replaces the example's own value for that key
-    args, i = [], 0
-    while i < len(base):
-        if base[i + 1].split("=")[0] != key:
-            args += base[i:i + 2]
-        i += 2
-    p = run_on_slurm(slurm, study_path, store, tmp_path / "cwd", "--cluster-option", option,
-                     *args)
-    code, out, err = finish(p, timeout=120)
+    base = slurm_options(slurm, tmp_path / "logs")
+    args = [arg for i in range(0, len(base), 2) if base[i + 1].split("=")[0] != key
+            for arg in base[i:i + 2]]
+    code = main(["run", str(study_path), "--store", str(store), "--cluster", "slurm",
+                 "--workers", "2", "--cluster-option", option, *args])
+    out, err = capsys.readouterr()
     assert code == 2, f"{out}\n{err}"
     assert "Traceback" not in out + err
     first = err.strip().splitlines()[0]
     assert first.startswith(f"hertzmap: error: --cluster-option {option}: "), err
     assert words in first, err
     assert not store.exists() and not Path(f"{store}.lock").exists()
+    assert not slurm.jobs("PENDING,RUNNING,CONFIGURING"), "a job was left in the queue"
 
 
-def test_refused_option_leaves_an_existing_store_untouched(slurm, study_path, tmp_path):
-    """A partial store (some tasks done) and a rerun with a partition that does not exist:
-    exit 2, the store byte for byte as it was."""
-    store = tmp_path / "partial.zarr"
-    r = subprocess.run(hertzmap_cmd("run", str(study_path), "--store", str(store), "--workers",
-                                    "1", "--task-seconds", TASK_SECONDS, "--solver",
-                                    PLACEHOLDER, "--error-sample", "0"),
-                       env=subprocess_env(), capture_output=True, text=True, timeout=120)
-    assert r.returncode == 0, r.stderr
+def test_refused_option_leaves_an_existing_store_untouched(slurm, study_path, reference,
+                                                          tmp_path, monkeypatch, capsys):
+    """A partial store (one task not done) and a rerun with a partition that does not
+    exist: exit 2, the store byte for byte as it was."""
     from scheduler.store import Store
-    Store(store).unmark(next(iter(zip(*Store(store).done_mask().nonzero()))))
+    monkeypatch.setenv("SLURM_CONF", str(slurm.conf))
+    store = tmp_path / "partial.zarr"
+    shutil.copytree(reference, store)
+    Store(store).unmark((0, 0, 0))
     before = {p.relative_to(store): p.read_bytes() for p in store.rglob("*") if p.is_file()}
-    p = run_on_slurm(slurm, study_path, store, tmp_path / "cwd", "--solver", PLACEHOLDER,
-                     "--cluster-option", "queue=nosuch", "--task-seconds", TASK_SECONDS)
-    code, out, err = finish(p, timeout=120)
+    code = main(["run", str(study_path), "--store", str(store), "--cluster", "slurm",
+                 "--workers", "2", "--cluster-option", "queue=nosuch"])
+    out, err = capsys.readouterr()
     assert code == 2 and "--cluster-option queue=nosuch" in err, f"{out}\n{err}"
     after = {p.relative_to(store): p.read_bytes() for p in store.rglob("*") if p.is_file()}
     assert after == before
