@@ -11,6 +11,12 @@ Needs the Debian packages slurm-wlm (slurmctld, slurmd, slurm-client) and munge,
 a daemon does not come up, :func:`start_slurm` raises :class:`SlurmUnavailable` with the
 reason, which the fixture turns into a skip message.
 
+With slurmdbd and a MariaDB server (Debian: slurmdbd, mariadb-server-core) it also runs the
+accounting database: a MariaDB of its own in the folder, slurmdbd, the account
+:data:`ACCOUNT` for root, and ``AccountingStorageEnforce=associations``, so that Slurm
+refuses a job of an account that does not exist, as a real cluster does. Without them,
+:attr:`SlurmCluster.accounting` says why, and any account is accepted.
+
     python tests/end_to_end/slurm_cluster.py [FOLDER]   # bring one up by hand, Ctrl-C to stop
 """
 
@@ -28,8 +34,12 @@ from pathlib import Path
 
 #: The test partition (the only one, and the default).
 PARTITION = "hztest"
+#: The account root's jobs are charged to, when there is an accounting database.
+ACCOUNT = "hzproj"
 #: Binaries the fixture needs (Debian: slurm-wlm, slurmctld, slurmd, slurm-client, munge).
 BINARIES = ("munged", "slurmctld", "slurmd", "sbatch", "squeue", "scancel", "scontrol", "sinfo")
+#: ... and for accounts (Debian: slurmdbd, mariadb-server-core, mariadb-client-core).
+ACCOUNTING_BINARIES = ("slurmdbd", "sacctmgr", "mariadbd", "mariadb-install-db")
 
 
 class SlurmUnavailable(Exception):
@@ -71,6 +81,8 @@ class SlurmCluster:
     memory_mb: int
     partition: str = PARTITION
     procs: dict[str, subprocess.Popen] = field(default_factory=dict)
+    #: None when accounts are enforced (slurmdbd running), else why not
+    accounting: str | None = "not started"
 
     @property
     def conf(self) -> Path:
@@ -143,7 +155,7 @@ class SlurmCluster:
                 self.cancel_all()
             except Exception:
                 pass
-        for name in ("slurmd", "slurmctld", "munged"):
+        for name in ("slurmd", "slurmctld", "slurmdbd", "mariadbd", "munged"):
             p = self.procs.get(name)
             if p is None or p.poll() is not None:
                 continue
@@ -183,11 +195,21 @@ def _check_prerequisites() -> None:
                                f"(uid {os.geteuid()} here)")
 
 
-def _write_config(c: SlurmCluster, ctld_port: int, slurmd_port: int) -> None:
+def _write_config(c: SlurmCluster, ctld_port: int, slurmd_port: int,
+                  dbd_port: int | None) -> None:
     r = c.root
+    if dbd_port is None:
+        accounting = "AccountingStorageType=accounting_storage/none"
+    else:
+        accounting = (f"AccountingStorageType=accounting_storage/slurmdbd\n"
+                      f"AccountingStorageHost=127.0.0.1\nAccountingStoragePort={dbd_port}\n"
+                      f"# the munge socket for slurmdbd (AuthInfo is not used for it)\n"
+                      f"AccountingStoragePass={r}/munge/munge.socket\n"
+                      f"# a job must name an account its user has (or take the default one)\n"
+                      f"AccountingStorageEnforce=associations")
     c.conf.write_text(f"""\
-# written by tests/end_to_end/slurm_cluster.py: one node, one partition, no cgroups, no
-# accounting database; every path is under {r}
+# written by tests/end_to_end/slurm_cluster.py: one node, one partition, no cgroups;
+# every path is under {r}
 ClusterName=hztest
 SlurmctldHost={c.node}(127.0.0.1)
 SlurmctldPort={ctld_port}
@@ -208,7 +230,7 @@ SlurmdDebug=info
 ProctrackType=proctrack/linuxproc
 TaskPlugin=task/none
 JobAcctGatherType=jobacct_gather/none
-AccountingStorageType=accounting_storage/none
+{accounting}
 JobCompType=jobcomp/none
 MpiDefault=none
 SwitchType=switch/none
@@ -231,6 +253,58 @@ PartitionName={c.partition} Nodes={c.node} Default=YES MaxTime=60 State=UP
 """)
 
 
+def _start_accounting(c: SlurmCluster, timeout: float, dbd_port: int) -> None:
+    """MariaDB (its own data folder and port), slurmdbd on ``dbd_port``, and the cluster,
+    account and user in its database. Raises SlurmUnavailable when something does not
+    start."""
+    r = c.root
+    db_port = _free_port()
+    install_log = r / "mariadb-install.log"
+    with open(install_log, "wb") as log:
+        done = subprocess.run(["mariadb-install-db", "--no-defaults", f"--datadir={r}/db",
+                               "--user=root", "--auth-root-authentication-method=normal",
+                               "--skip-test-db"], stdout=log, stderr=subprocess.STDOUT,
+                              timeout=120)
+    if done.returncode != 0:
+        raise SlurmUnavailable(f"mariadb-install-db failed:\n{_tail(install_log)}")
+    db_log = r / "mariadbd.log"
+    _start_daemon(c, "mariadbd", [
+        "mariadbd", "--no-defaults", f"--datadir={r}/db", "--user=root",
+        "--bind-address=127.0.0.1", f"--port={db_port}", f"--socket={r}/mariadbd.sock",
+        f"--pid-file={r}/mariadbd.pid", f"--log-error={db_log}",
+        "--innodb-buffer-pool-size=16M"], db_log)
+
+    def db_up() -> bool:
+        with socket.socket() as s:
+            return s.connect_ex(("127.0.0.1", db_port)) == 0
+    _wait(c, "mariadbd", db_up, timeout, db_log)
+    dbd_conf = r / "slurmdbd.conf"
+    dbd_conf.write_text(f"""\
+AuthType=auth/munge
+AuthInfo=socket={r}/munge/munge.socket
+DbdHost={c.node}
+DbdAddr=127.0.0.1
+DbdPort={dbd_port}
+SlurmUser=root
+LogFile={r}/slurmdbd.log
+PidFile={r}/slurmdbd.pid
+StorageType=accounting_storage/mysql
+StorageHost=127.0.0.1
+StoragePort={db_port}
+StorageUser=root
+StorageLoc=hztest_accounting
+""")
+    os.chmod(dbd_conf, 0o600)      # slurmdbd refuses a config others can read
+    dbd_log = r / "slurmdbd.log"
+    # (slurmdbd reads slurmdbd.conf from the folder of SLURM_CONF)
+    _start_daemon(c, "slurmdbd", ["slurmdbd", "-D"], dbd_log)
+    _wait(c, "slurmdbd", lambda: c.command("sacctmgr", "--noheader", "show", "cluster",
+                                           timeout=5) is not None, timeout, dbd_log)
+    for args in (["add", "cluster", "hztest"], ["add", "account", ACCOUNT],
+                 ["add", "user", "root", f"account={ACCOUNT}"]):
+        c.command("sacctmgr", "--immediate", *args, timeout=30)
+
+
 def _die_with_parent() -> None:
     """In the daemon, before exec: SIGTERM when the process that started it dies (a test
     run killed without its teardown leaves no Slurm behind)."""
@@ -243,11 +317,11 @@ def _die_with_parent() -> None:
 
 def _start_daemon(c: SlurmCluster, name: str, args: list[str], log: Path) -> None:
     out = open(c.root / f"{name}.stdout", "wb")
+    env = {**os.environ, **c.env}
     try:
         c.procs[name] = subprocess.Popen(args, stdout=out, stderr=subprocess.STDOUT,
-                                         stdin=subprocess.DEVNULL,
-                                         env={**os.environ, **c.env}, start_new_session=True,
-                                         preexec_fn=_die_with_parent)
+                                         stdin=subprocess.DEVNULL, env=env,
+                                         start_new_session=True, preexec_fn=_die_with_parent)
     finally:
         out.close()
 
@@ -286,14 +360,34 @@ def start_slurm(root: Path | None = None, *, timeout: float = 60) -> SlurmCluste
         os.chmod(key, 0o400)
         munge_log = root / "munged.log"
         # --force: munged refuses to run as root otherwise
-        _start_daemon(c, "munged", [
+        munged_args = [
             "munged", "--foreground", "--force", f"--socket={root}/munge/munge.socket",
             f"--key-file={key}", f"--pid-file={root}/munge/munged.pid",
             f"--log-file={munge_log}", f"--seed-file={root}/munge/munged.seed",
-            "--num-threads=2"], munge_log)
+            "--num-threads=4"]
+        _start_daemon(c, "munged", munged_args, munge_log)
         _wait(c, "munged", lambda: (root / "munge" / "munge.socket").exists(), 15, munge_log)
 
-        _write_config(c, _free_port(), _free_port())
+        missing = [b for b in ACCOUNTING_BINARIES if shutil.which(b) is None]
+        dbd_port = None if missing else _free_port()
+        if missing:
+            c.accounting = (f"no accounting database (missing {', '.join(missing)}; Debian: "
+                            "apt-get install slurmdbd mariadb-server-core)")
+        # (sacctmgr and slurmdbd find each other through slurm.conf)
+        ports = _free_port(), _free_port()
+        _write_config(c, *ports, dbd_port)
+        if dbd_port is not None:
+            try:
+                _start_accounting(c, timeout, dbd_port)
+                c.accounting = None
+            except (SlurmUnavailable, RuntimeError, subprocess.TimeoutExpired) as exc:
+                # the rest of Slurm is still worth testing: without accounts
+                c.accounting = f"the accounting database did not start: {exc}"
+                c.stop()
+                _write_config(c, *ports, None)
+                _start_daemon(c, "munged", munged_args, munge_log)
+                _wait(c, "munged", lambda: (root / "munge" / "munge.socket").exists(), 15,
+                      munge_log)
         ctld_log = root / "slurmctld.log"
         # -i: ignore state files of an earlier start in this folder; -D: foreground
         _start_daemon(c, "slurmctld", ["slurmctld", "-D", "-i", "-f", str(c.conf)], ctld_log)

@@ -15,7 +15,7 @@ root, ...); .ci/run installs it when it can.
 from __future__ import annotations
 
 import json
-import os
+import re
 import shutil
 import subprocess
 import sys
@@ -25,9 +25,9 @@ from pathlib import Path
 import pytest
 import xarray as xr
 
-from conftest import (REPO, TESTS, done_count, hertzmap_cmd, needs_block, subprocess_env,
+from conftest import (TESTS, done_count, hertzmap_cmd, needs_block, subprocess_env,
                       wait_until)
-from end_to_end.slurm_cluster import SlurmUnavailable, start_slurm
+from end_to_end.slurm_cluster import ACCOUNT, SlurmUnavailable, start_slurm
 from scheduler.cli import main
 
 pytestmark = pytest.mark.slow
@@ -74,7 +74,8 @@ def slurm():
     except SlurmUnavailable as exc:
         pytest.skip(f"Slurm test skipped: {exc}")
     print(f"\nslurm: node {cluster.node} ({cluster.cpus} CPUs, {cluster.memory_mb} MB), "
-          f"partition {cluster.partition}, SLURM_CONF={cluster.conf}", flush=True)
+          f"partition {cluster.partition}, accounts: "
+          f"{cluster.accounting or 'enforced (slurmdbd)'}, SLURM_CONF={cluster.conf}", flush=True)
     try:
         yield cluster
     finally:
@@ -133,7 +134,7 @@ def slurm_options(slurm, logs: Path, *extra: str) -> list[str]:
     """The options of docs/running.md's Slurm example, on this machine's partition. The
     jobs get none of the client's environment (--export=NONE): what they need comes from
     hertzmap's job script."""
-    opts = [f"queue={slurm.partition}", "walltime=00:10:00", "memory=2GB",
+    opts = [f"queue={slurm.partition}", f"account={ACCOUNT}", "walltime=00:10:00", "memory=2GB",
             f"log_directory={logs}", 'job_extra_directives=["--export=NONE"]', *extra]
     return [arg for o in opts for arg in ("--cluster-option", o)]
 
@@ -159,16 +160,9 @@ def finish(p: subprocess.Popen, timeout: float = 240) -> tuple[int, str, str]:
 
 
 def submitted_jobs(out: str) -> list[str]:
-    """Job ids from the run's 'worker job(s) N, M submitted' lines."""
-    ids = []
-    for line in out.splitlines():
-        if line.startswith("hertzmap: worker job") and " submitted" in line:
-            words = line.split(" submitted")[0].split()[-1]
-            ids += [w for w in words.replace(",", " ").split() if w.isdigit()]
-        if line.startswith("hertzmap: worker job(s) "):
-            ids += [w.strip(",") for w in line.split(" submitted")[0].split()[2:]
-                    if w.strip(",").isdigit()]
-    return list(dict.fromkeys(ids))
+    """Job ids from the run's 'hertzmap: worker job(s) N, M submitted' lines, in order."""
+    found = re.findall(r"^hertzmap: worker job(?:\(s\))? ([\d, ]+) submitted", out, re.M)
+    return [job for group in found for job in re.findall(r"\d+", group)]
 
 
 @needs_block
@@ -290,8 +284,23 @@ REFUSED = [
 @pytest.mark.parametrize("option,words", REFUSED, ids=[o.split("=")[0] for o, _ in REFUSED])
 def test_refused_option_is_a_usage_error_and_writes_nothing(slurm, study_path, tmp_path,
                                                             monkeypatch, capsys, option, words):
-    """In this process (the command's main(), as the console script calls it): a client
-    process per case would spend most of its time importing."""
+    assert_refused(slurm, study_path, tmp_path, monkeypatch, capsys, option, words)
+
+
+def test_account_that_does_not_exist_is_a_usage_error(slurm, study_path, tmp_path,
+                                                     monkeypatch, capsys):
+    if slurm.accounting is not None:
+        pytest.skip(f"Slurm account test skipped: {slurm.accounting}")
+    assert_refused(slurm, study_path, tmp_path, monkeypatch, capsys, "account=nosuch",
+                   "sbatch refused the worker job: sbatch: error: Batch job submission "
+                   "failed: Invalid account or account/partition combination specified")
+
+
+def assert_refused(slurm, study_path, tmp_path, monkeypatch, capsys, option, words) -> None:
+    """`hertzmap run ... --cluster-option OPTION` exits with code 2, its first line of
+    stderr names the option and has ``words``, no store, no job. In this process (the
+    command's main(), as the console script calls it): a client process per case would
+    spend most of its time importing."""
     monkeypatch.setenv("SLURM_CONF", str(slurm.conf))
     monkeypatch.chdir(tmp_path)
     store = tmp_path / "refused.zarr"
