@@ -12,6 +12,7 @@ import logging
 import os
 import re
 import shlex
+import subprocess
 import tomllib
 from dataclasses import dataclass, field
 from typing import Any
@@ -330,9 +331,75 @@ def make_jobqueue_cluster(spec: ClusterSpec, report=None):
         raise
     reporting["on"] = True
     if report is not None:
-        report(f"hertzmap: worker job(s) {', '.join(map(str, submitted))} submitted; "
-               f"each one that ends is replaced")
+        report(f"hertzmap: worker job(s) {', '.join(map(str, submitted))} submitted (a job "
+               f"whose worker is lost is replaced)")
     return cluster
+
+
+class WorkerJobsEnded(Exception):
+    """Every worker job submitted so far ended before a worker connected (the job script
+    failed on the node: python or hertzmap not there, ...). The store exists by then: the
+    run stops with exit code 1 and the message, and resumes on rerun."""
+
+
+#: Slurm job states from which a job may still start its worker.
+SLURM_ACTIVE = {"PENDING", "CONFIGURING", "RUNNING", "REQUEUED", "REQUEUE_HOLD",
+                "REQUEUE_FED", "RESIZING", "SUSPENDED", "SIGNALING", "STAGE_OUT"}
+
+
+def batch_job_states(kind: str, job_ids: list[str]) -> dict[str, tuple[str, str]] | None:
+    """{job id: (state, reason)} from the batch system (Slurm: squeue), a job it no longer
+    knows left out; None where hertzmap cannot ask (other batch systems) or the query
+    failed."""
+    if kind != "slurm" or not job_ids:
+        return None
+    try:
+        r = subprocess.run(["squeue", "--noheader", "--states=all", "--jobs", ",".join(job_ids),
+                            "--format=%i|%T|%r"], capture_output=True, text=True, timeout=30)
+    except (OSError, subprocess.TimeoutExpired):
+        return None
+    if r.returncode != 0:
+        # every id purged from slurmctld's memory (MinJobAge): none of them is known
+        return {} if "Invalid job id" in r.stderr else None
+    states = {}
+    for line in r.stdout.splitlines():
+        parts = line.strip().split("|")
+        if len(parts) == 3:
+            states[parts[0]] = (parts[1], parts[2])
+    return states
+
+
+def wait_for_first_worker(client, cluster, spec: ClusterSpec, report, *, poll: float = 5.0,
+                          note_every: float = 60.0) -> None:
+    """Wait until a worker of the batch cluster connects. Every ``note_every`` s, report the
+    jobs' states (Slurm: squeue's state and reason, e.g. PENDING (Priority)); raise
+    WorkerJobsEnded when the batch system says that every job submitted so far has ended."""
+    import time
+
+    t0 = last = time.monotonic()
+    while True:
+        try:
+            client.wait_for_workers(1, timeout=poll)
+            return
+        except TimeoutError:
+            pass
+        ids = [str(w.job_id) for w in list(cluster.workers.values()) if getattr(w, "job_id", None)]
+        states = batch_job_states(spec.kind, ids)
+        if states is not None and ids and not any(
+                states.get(i, ("ENDED", ""))[0] in SLURM_ACTIVE for i in ids):
+            ended = ", ".join(f"{i} {states.get(i, ('ended', ''))[0]}" for i in ids)
+            logs = spec.options.get("log_directory")
+            where = (f"{logs}/dask-worker-JOBID.err" if logs
+                     else "slurm-JOBID.out in the folder hertzmap was started from")
+            raise WorkerJobsEnded(
+                f"the worker jobs ended before any worker connected ({ended}): the job script "
+                f"failed on the node; its output is in {where}")
+        now = time.monotonic()
+        if report is not None and now - last >= note_every:
+            last = now
+            seen = ", ".join(f"{i} {states[i][0]} ({states[i][1]})" if states and i in states
+                             else i for i in ids)
+            report(f"hertzmap: still waiting for a worker after {now - t0:.0f} s; jobs: {seen}")
 
 
 def make_client(spec: ClusterSpec, report=None):

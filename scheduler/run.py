@@ -24,7 +24,8 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from scheduler.cluster import ClusterError, ClusterSpec, make_client, worker_count
+from scheduler.cluster import (JOBQUEUE, ClusterSpec, WorkerJobsEnded, make_client,
+                               wait_for_first_worker, worker_count)
 from kernels.status import TIME_LIMIT
 from scheduler.plan import (DEFAULT_TASK_SECONDS, DEFAULT_TASK_TIMEOUT, Plan, Task, choose_chunks,
                             make_plan)
@@ -510,7 +511,7 @@ def _run_locked(study, opts, store: Store, resumed: bool, out, err, client,
     futures = []
     try:
         return _compute(study, opts, store, plan, names, todo, n_done0, summary, client,
-                        own_client, t_setup, out, err, interrupt, futures)
+                        cluster, own_client, t_setup, out, err, interrupt, futures)
     except KeyboardInterrupt:
         with contextlib.suppress(Exception):
             client.cancel(futures)
@@ -527,15 +528,26 @@ def _run_locked(study, opts, store: Store, resumed: bool, out, err, client,
             _close(client, cluster)
 
 
-def _compute(study, opts, store, plan, names, todo, n_done0, summary, client, own_client,
-             t_setup, out, err, interrupt, futures) -> dict[str, Any]:
+def _compute(study, opts, store, plan, names, todo, n_done0, summary, client, cluster,
+             own_client, t_setup, out, err, interrupt, futures) -> dict[str, Any]:
     interrupt.__enter__()
     if True:
         if opts.cluster.kind != "local" and own_client:
             print(f"waiting for workers ({opts.cluster.describe()}) ...", file=out, flush=True)
-        # an existing scheduler with --workers N: wait for N workers before starting
-        client.wait_for_workers(opts.cluster.workers if opts.cluster.kind == "address"
-                                and opts.cluster.workers else 1)
+        if cluster is not None and opts.cluster.kind in JOBQUEUE:
+            try:
+                wait_for_first_worker(client, cluster, opts.cluster, _printer(out))
+            except WorkerJobsEnded as exc:
+                msg = f"{exc}; fix that and rerun: the store ({store.path}) resumes"
+                with interrupt.critical():
+                    store.add_history(f"{opts.command}: stopped, no worker job started")
+                print(f"hertzmap: error: {msg}", file=err, flush=True)
+                summary.update(complete=False, failed=[("worker jobs", msg)])
+                return summary
+        else:
+            # an existing scheduler with --workers N: wait for N workers before starting
+            client.wait_for_workers(opts.cluster.workers if opts.cluster.kind == "address"
+                                    and opts.cluster.workers else 1)
         kwargs = study.solver_kwargs()
         client.register_plugin(Warmup(opts.solver, kwargs), name="hertzmap-warmup")
         n_workers = worker_count(client)

@@ -268,6 +268,29 @@ def test_job_ended_by_its_time_limit_is_replaced_and_loses_nothing(slurm, tmp_pa
     assert_same_store(store, reference)
 
 
+def test_worker_jobs_failing_on_the_node_stop_the_run_with_a_message(slurm, study_path,
+                                                                    tmp_path):
+    """Jobs that Slurm accepts but whose script fails on the node (here: a python that is
+    not there, as when the environment is on a disk the nodes do not see): the run stops
+    (exit code 1) naming the jobs and where their output is, instead of waiting forever;
+    the store exists with no task done."""
+    store = tmp_path / "no-python.zarr"
+    logs = tmp_path / "logs"
+    p = run_on_slurm(slurm, study_path, store, tmp_path / "cwd",
+                     *slurm_options(slurm, logs, "python=/nonexistent/bin/python"))
+    code, out, err = finish(p, timeout=120)
+    assert code == 1, f"{out}\n{err}"
+    assert "Traceback" not in out + err
+    jobs = submitted_jobs(out)
+    assert len(jobs) == 2
+    assert (f"hertzmap: error: the worker jobs ended before any worker connected "
+            f"({jobs[0]} FAILED, {jobs[1]} FAILED)") in err, err
+    assert f"its output is in {logs}/dask-worker-JOBID.err" in err
+    assert "/nonexistent/bin/python: No such file" in (logs / f"dask-worker-{jobs[0]}.err").read_text()
+    assert done_count(store) == 0
+    assert "stopped, no worker job started" in xr.open_zarr(store).attrs["history"]
+
+
 # -- refused options: exit 2, nothing written ---------------------------------------------
 
 REFUSED = [
