@@ -206,6 +206,7 @@ def test_study_through_slurm_jobs_is_identical_to_local(slurm, study_path, refer
 @needs_block
 def test_scancel_of_a_worker_job_mid_study_loses_nothing(slurm, study_path, reference, tmp_path):
     store = tmp_path / "scancel.zarr"
+    t0 = time.perf_counter()
     p = run_on_slurm(slurm, study_path, store, tmp_path / "cwd", "--task-seconds", TASK_SECONDS,
                      *slurm_options(slurm, tmp_path / "logs"))
     try:
@@ -214,8 +215,12 @@ def test_scancel_of_a_worker_job_mid_study_loses_nothing(slurm, study_path, refe
         cancelled_at = done_count(store)
         assert running, "no running worker job"
         slurm.command("scancel", running[0])
+        cancelled_after = time.perf_counter() - t0
     finally:
         code, out, err = finish(p)
+    print(f"\nscancel: job {running[0]} cancelled {cancelled_after:.0f} s into the run with "
+          f"{cancelled_at}/24 tasks done; run {time.perf_counter() - t0:.0f} s; jobs "
+          f"submitted: {', '.join(submitted_jobs(out))}")
     assert cancelled_at < 24, "the study finished before the job was cancelled"
     assert code == 0, f"{out}\n{err}"
     assert "Traceback" not in out + err
