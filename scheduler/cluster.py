@@ -217,9 +217,14 @@ def _jobs_per_spec(spec: ClusterSpec, opts: dict[str, Any]) -> tuple[int, int]:
     return -(-workers // per_job), per_job
 
 
+NOT_RUN = "cannot run"
+
+
 def _submit_output(exc: BaseException) -> str:
     """The submit command's own words from dask-jobqueue's error ("Command exited with
-    non-zero exit code ... stderr: ..."), on one line."""
+    non-zero exit code ... stderr: ..."), on one line; or why it could not be run."""
+    if isinstance(exc, OSError):
+        return f"{NOT_RUN} {exc.filename or 'the submit command'}: {exc.strerror or exc}"
     text = str(exc)
     stderr = text.split("stderr:", 1)[1] if "stderr:" in text else text
     lines = [ln.strip() for ln in stderr.strip().splitlines() if ln.strip()]
@@ -322,6 +327,9 @@ def make_jobqueue_cluster(spec: ClusterSpec, report=None):
                 raise ClusterError(f"--cluster {spec.kind}: {JOBQUEUE_SUBMIT[spec.kind]} did "
                                    f"not accept {jobs} worker job(s) within {SUBMIT_TIMEOUT} s")
             time.sleep(0.05)
+        if refused and refused[0].startswith(NOT_RUN):
+            raise ClusterError(f"--cluster {spec.kind}: {refused[0]} (is this a machine "
+                               f"that submits to the batch system?)")
         if refused:
             raise _submit_refusal(spec, defaults, refused[0])
         cluster.adapt(minimum_jobs=jobs, maximum_jobs=jobs)
