@@ -290,10 +290,10 @@ def make_jobqueue_cluster(spec: ClusterSpec, report=None):
     Raises ClusterError (naming the option) for an option the cluster class does not take or
     a job the batch system refuses (no such partition or account, more memory or cores or
     time than it gives): before anything is written. Keeps the jobs at the number asked for
-    (``adapt(minimum_jobs=n, maximum_jobs=n)``): a job that ends (scancel, walltime, a node
-    lost) is resubmitted once Dask has given its worker up (distributed.deploy.lost-worker-
-    timeout, 15 s); ``scale`` alone never resubmits. ``report(line)`` is called for each job
-    submitted after the first ones."""
+    (``adapt(minimum_jobs=n, maximum_jobs=n)``, and :func:`_watch_for_ended_jobs`): a job
+    that ends (scancel, walltime, a node lost) is resubmitted once its workers have been gone
+    for distributed.deploy.lost-worker-timeout (15 s); ``scale`` alone never resubmits.
+    ``report(line)`` is called for each job submitted after the first ones."""
     import time
 
     import dask_jobqueue
@@ -333,6 +333,7 @@ def make_jobqueue_cluster(spec: ClusterSpec, report=None):
         if refused:
             raise _submit_refusal(spec, defaults, refused[0])
         cluster.adapt(minimum_jobs=jobs, maximum_jobs=jobs)
+        _watch_for_ended_jobs(cluster)
     except BaseException:
         with contextlib.suppress(Exception):
             cluster.close()
@@ -342,6 +343,54 @@ def make_jobqueue_cluster(spec: ClusterSpec, report=None):
         report(f"hertzmap: worker job(s) {', '.join(map(str, submitted))} submitted (a job "
                f"whose worker is lost is replaced)")
     return cluster
+
+
+def _watch_for_ended_jobs(cluster, every: float = 0.5) -> None:
+    """Give up a job whose worker processes have all been gone for Dask's
+    lost-worker-timeout (distributed.deploy.lost-worker-timeout, 15 s by default): cancel
+    it and drop it from the cluster's jobs, which the adaptive cluster then resubmits.
+
+    SpecCluster does this itself for a job of one worker process only: it looks its lost
+    worker up by name, and the workers of a job of several processes are named
+    ``<job>-0``, ``<job>-1``... (measured: a job of two processes cancelled with scancel was
+    never replaced, the study left with no worker)."""
+    import asyncio
+    import time
+    import weakref
+
+    import dask
+    from dask.utils import parse_timedelta
+    from tornado.ioloop import PeriodicCallback
+
+    grace = parse_timedelta(dask.config.get("distributed.deploy.lost-worker-timeout"))
+    seen: weakref.WeakSet = weakref.WeakSet()        # jobs whose workers have connected
+    gone_since: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+    closing: set = set()
+
+    def check() -> None:
+        alive = {str(w.get("name")) for w in cluster.scheduler_info.get("workers", {}).values()}
+        now = time.monotonic()
+        for name, job in list(cluster.workers.items()):
+            spec = cluster.worker_spec.get(name)
+            if spec is None:
+                continue
+            names = {f"{name}{suffix}" for suffix in spec.get("group", [""])}
+            if names & alive:
+                seen.add(job)
+                gone_since.pop(job, None)
+            elif job in seen and now - gone_since.setdefault(job, now) >= grace:
+                if cluster.workers.get(name) is job:
+                    del cluster.workers[name]
+                task = asyncio.ensure_future(job.close())    # scancel (the job may be over)
+                closing.add(task)
+                task.add_done_callback(closing.discard)
+
+    def install() -> None:
+        pc = PeriodicCallback(check, every * 1000)
+        cluster.periodic_callbacks["hertzmap-ended-jobs"] = pc
+        pc.start()
+
+    cluster.loop.add_callback(install)
 
 
 class WorkerJobsEnded(Exception):
@@ -391,7 +440,8 @@ def wait_for_first_worker(client, cluster, spec: ClusterSpec, report, *, poll: f
             return
         except TimeoutError:
             pass
-        ids = [str(w.job_id) for w in list(cluster.workers.values()) if getattr(w, "job_id", None)]
+        ids = sorted((str(w.job_id) for w in list(cluster.workers.values())
+                      if getattr(w, "job_id", None)), key=lambda i: (len(i), i))
         states = batch_job_states(spec.kind, ids)
         if states is not None and ids and not any(
                 states.get(i, ("ENDED", ""))[0] in SLURM_ACTIVE for i in ids):

@@ -204,11 +204,15 @@ def test_study_through_slurm_jobs_is_identical_to_local(slurm, study_path, refer
 
 
 @needs_block
-def test_scancel_of_a_worker_job_mid_study_loses_nothing(slurm, study_path, reference, tmp_path):
+def test_scancel_of_the_worker_job_mid_study_loses_nothing(slurm, study_path, reference, tmp_path):
+    """One job of two worker processes (cores=2), cancelled with scancel after the first
+    task: no worker left; the job is replaced once its workers have been gone for Dask's
+    lost-worker-timeout (3 s here, 15 s by default) and the study finishes on the new one."""
     store = tmp_path / "scancel.zarr"
     t0 = time.perf_counter()
     p = run_on_slurm(slurm, study_path, store, tmp_path / "cwd", "--task-seconds", TASK_SECONDS,
-                     *slurm_options(slurm, tmp_path / "logs"))
+                     *slurm_options(slurm, tmp_path / "logs", "cores=2"),
+                     DASK_DISTRIBUTED__DEPLOY__LOST_WORKER_TIMEOUT="3s")
     try:
         wait_until(lambda: done_count(store) >= 1 or p.poll() is not None, 120, "a first task")
         running = [j["id"] for j in slurm.jobs("RUNNING")]
@@ -218,13 +222,15 @@ def test_scancel_of_a_worker_job_mid_study_loses_nothing(slurm, study_path, refe
         cancelled_after = time.perf_counter() - t0
     finally:
         code, out, err = finish(p)
-    print(f"\nscancel: job {running[0]} cancelled {cancelled_after:.0f} s into the run with "
-          f"{cancelled_at}/24 tasks done; run {time.perf_counter() - t0:.0f} s; jobs "
-          f"submitted: {', '.join(submitted_jobs(out))}")
+    jobs = submitted_jobs(out)
+    print(f"\nscancel: job {running[0]} (2 workers) cancelled {cancelled_after:.0f} s into the "
+          f"run with {cancelled_at}/24 tasks done; run {time.perf_counter() - t0:.0f} s; jobs "
+          f"submitted: {', '.join(jobs)}")
     assert cancelled_at < 24, "the study finished before the job was cancelled"
     assert code == 0, f"{out}\n{err}"
     assert "Traceback" not in out + err
     assert slurm.job_state(running[0]) == "CANCELLED"
+    assert jobs[0] == running[0] and len(jobs) == 2, out     # the job, then its replacement
     assert_same_store(store, reference)
 
 
