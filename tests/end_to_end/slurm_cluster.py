@@ -343,9 +343,12 @@ def _wait(c: SlurmCluster, name: str, ready, timeout: float, log: Path) -> None:
 
 
 def start_slurm(root: Path | None = None, *, timeout: float = 60) -> SlurmCluster:
-    """Start munged, slurmctld and slurmd under ``root`` (a new temporary folder by default)
-    and wait until the node is idle. Raises SlurmUnavailable (everything started is stopped)."""
+    """Start munged, the accounting database (MariaDB, slurmdbd) when it is installed,
+    slurmctld and slurmd under ``root`` (a new temporary folder by default, removed again if
+    the start fails) and wait until the node is idle. Raises SlurmUnavailable (everything
+    started is stopped)."""
     _check_prerequisites()
+    made_root = root is None
     root = Path(root or tempfile.mkdtemp(prefix="hzslurm-"))
     for sub in ("munge", "state", "spool"):
         (root / sub).mkdir(parents=True, exist_ok=True)
@@ -400,6 +403,8 @@ def start_slurm(root: Path | None = None, *, timeout: float = 60) -> SlurmCluste
               timeout, slurmd_log)
     except BaseException:
         c.stop()
+        if made_root:
+            shutil.rmtree(root, ignore_errors=True)
         raise
     return c
 
