@@ -18,7 +18,8 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from kernels.status import TIME_LIMIT
-from scheduler.cluster import ClusterSpec, close_quietly, make_client, worker_count
+from scheduler.cluster import (JOBQUEUE, ClusterSpec, WorkerJobsEnded, close_quietly,
+                               make_client, wait_for_first_worker, worker_count)
 from scheduler.dry_run import plan_for
 from scheduler.error_estimate import ERROR_SAMPLE, Sampler, estimate_error, record_error_estimate
 from scheduler.errors import RunError
@@ -27,7 +28,7 @@ from scheduler.plan import DEFAULT_TASK_SECONDS, DEFAULT_TASK_TIMEOUT, choose_ch
 from scheduler.progress import Progress
 from scheduler.report import print_summary
 from scheduler.resources import check_resources
-from scheduler.store import Lock, Store, open_or_create
+from scheduler.store import Lock, Store, StoreError, open_or_create
 from scheduler.worker import DEFAULT_SOLVER, Warmup, run_task
 from study.schema import code_fingerprint, stored_variables
 from study.spec import Study
@@ -78,9 +79,12 @@ def run_study(study: Study, opts: RunOptions, *, out: TextIO | None = None,
                     new_store=opts.overwrite or not note.startswith("exists (same"))
     chunks = choose_chunks(study, opts.task_seconds)
     early = None
-    if client is None and opts.cluster.kind == "address":
-        # connect before anything is written: an unreachable scheduler changes nothing
-        early = make_client(opts.cluster)
+    if client is None and opts.cluster.kind != "local" and not _store_complete(
+            study, opts.store, len(plan.tasks), note):
+        # connect (an existing scheduler) or have the first worker jobs accepted (a batch
+        # system) before anything is written: an unreachable scheduler or a refused option
+        # changes nothing
+        early = make_client(opts.cluster, report=_printer(out))
     try:
         store, resumed = open_or_create(opts.store, study, chunks, overwrite=opts.overwrite,
                                         action=f"{opts.command}: created")
@@ -88,8 +92,25 @@ def run_study(study: Study, opts: RunOptions, *, out: TextIO | None = None,
             return StudyRun(study, opts, store, out, err).run(resumed, client, early)
     except BaseException:
         if early is not None:
-            early[0].close()
+            close_quietly(*early)
         raise
+
+
+def _printer(stream: TextIO):
+    def report(line: str) -> None:
+        print(line, file=stream, flush=True)
+    return report
+
+
+def _store_complete(study: Study, store_path: Path, n_tasks: int, note: str) -> bool:
+    """True for a store of this study with every task flagged done (nothing to compute, so
+    no cluster is started)."""
+    if not note.startswith("exists (same"):
+        return False
+    try:
+        return int(Store(store_path).done_mask().sum()) == n_tasks
+    except (StoreError, KeyError, OSError):
+        return False
 
 
 def _scheduler_lost(client, exc: BaseException | None = None) -> bool:
@@ -176,10 +197,11 @@ class StudyRun:
         cluster = None
         t_setup = time.perf_counter()
         if own_client:
-            client, cluster = early if early is not None else make_client(self.opts.cluster)
+            client, cluster = early if early is not None else make_client(
+                self.opts.cluster, report=_printer(self.out))
         try:
             with self.interrupt:
-                return self.compute(client, todo, n_done, t_setup, own_client)
+                return self.compute(client, cluster, todo, n_done, t_setup, own_client)
         except KeyboardInterrupt as exc:
             self.report_interrupt(client)
             exc.reported = True
@@ -209,15 +231,26 @@ class StudyRun:
                           "time_budget": self.opts.task_timeout})
         return specs
 
-    def compute(self, client, todo, n_done, t_setup, own_client) -> dict[str, Any]:
+    def compute(self, client, cluster, todo, n_done, t_setup, own_client) -> dict[str, Any]:
         from distributed import as_completed
 
         opts, store, summary = self.opts, self.store, self.summary
         if opts.cluster.kind != "local" and own_client:
             print(f"waiting for workers ({opts.cluster.describe()}) ...", file=self.out, flush=True)
-        # an existing scheduler with --workers N: wait for N workers before starting
-        client.wait_for_workers(opts.cluster.workers if opts.cluster.kind == "address"
-                                and opts.cluster.workers else 1)
+        if cluster is not None and opts.cluster.kind in JOBQUEUE:
+            try:
+                wait_for_first_worker(client, cluster, opts.cluster, _printer(self.out))
+            except WorkerJobsEnded as exc:
+                msg = f"{exc}; fix that and rerun: the store ({store.path}) resumes"
+                with self.interrupt.critical():
+                    store.add_history(f"{opts.command}: stopped, no worker job started")
+                print(f"hertzmap: error: {msg}", file=self.err, flush=True)
+                summary.update(complete=False, failed=[("worker jobs", msg)])
+                return summary
+        else:
+            # an existing scheduler with --workers N: wait for N workers before starting
+            client.wait_for_workers(opts.cluster.workers if opts.cluster.kind == "address"
+                                    and opts.cluster.workers else 1)
         kwargs = self.study.solver_kwargs()
         client.register_plugin(Warmup(opts.solver, kwargs), name="hertzmap-warmup")
         n_workers = worker_count(client)

@@ -2,13 +2,13 @@
 it as exports, dask-jobqueue clusters are made from the options (or refused clearly)."""
 from __future__ import annotations
 
+import os
 import sys
 
 import pytest
 
 from scheduler.cli import main
 from scheduler.cluster import ClusterSpec
-from scheduler.store import Store
 
 
 pytestmark = pytest.mark.slow
@@ -56,38 +56,42 @@ def test_config_env_lines_reproduce_the_config():
         assert {k: dask.config.get(k) for k in CLUSTER_CONFIG} == CLUSTER_CONFIG
 
 
-def test_jobqueue_cluster_is_made_from_options(tmp_path, monkeypatch, capsys):
-    """--cluster slurm with a stand-in for dask_jobqueue (no batch system here)."""
-    import importlib.machinery
-    import types
-    from distributed import LocalCluster
-    from tests.helpers import PLACEHOLDER
+def test_jobqueue_job_script_is_made_from_options():
+    """The job script dask-jobqueue's SLURMCluster writes from hertzmap's keyword arguments
+    (no batch system needed; tests/end_to_end/test_slurm.py submits it to a real Slurm):
+    the options given, hertzmap's defaults, and its prologue before the user's."""
+    pytest.importorskip("dask_jobqueue", reason="dask-jobqueue not installed")
+    import dask_jobqueue
 
-    made = {}
+    import kernels
+    from scheduler.cluster import jobqueue_options, parse_cluster_options
 
-    class FakeSLURMCluster(LocalCluster):
-        def __init__(self, **kwargs):
-            made.update(kwargs)
-            super().__init__(n_workers=0, threads_per_worker=1, processes=False,
-                             dashboard_address=None)
-
-    fake = types.ModuleType("dask_jobqueue")
-    fake.__spec__ = importlib.machinery.ModuleSpec("dask_jobqueue", None)
-    fake.SLURMCluster = FakeSLURMCluster
-    monkeypatch.setitem(sys.modules, "dask_jobqueue", fake)
-    p = tmp_path / "small.toml"
-    p.write_text(SMALL)
-    rc = main(["run", str(p), "--store", str(tmp_path / "j.zarr"), "--cluster", "slurm",
-               "--workers", "2", "--cluster-option", "queue=normal", "--cluster-option", "cores=4",
-               "--cluster-option", 'job_extra_directives=["--exclusive"]',
-               "--solver", PLACEHOLDER, "--error-sample", "0"])
-    assert rc == 0, capsys.readouterr().err
-    assert made["queue"] == "normal" and made["cores"] == 4 and made["processes"] == 4
-    assert made["job_extra_directives"] == ["--exclusive"] and made["memory"] == "8GB"
-    # the job's workers get the trimmed Dask config (scheduler.cluster.CLUSTER_CONFIG)
-    assert "export DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED=False" in made["job_script_prologue"]
-    assert "export DASK_DISTRIBUTED__ADMIN__TICK__INTERVAL=200ms" in made["job_script_prologue"]
-    assert Store(tmp_path / "j.zarr").done_mask().all()
+    options = parse_cluster_options([
+        "queue=normal", "cores=4", "walltime=02:00:00", 'job_extra_directives=["--exclusive"]',
+        'job_script_prologue=["module load gcc"]'])
+    assert options["walltime"] == "02:00:00"          # text, not a TOML time of day
+    opts, defaults = jobqueue_options(ClusterSpec(kind="slurm", workers=8, options=options))
+    assert defaults == {"processes": 4, "memory": "8GB"}
+    cluster = dask_jobqueue.SLURMCluster(**opts)
+    try:
+        script = cluster.job_script()
+    finally:
+        cluster.close()
+    lines = script.splitlines()
+    for line in ("#SBATCH -p normal", "#SBATCH --cpus-per-task=4", "#SBATCH -t 02:00:00",
+                 "#SBATCH --exclusive", "#SBATCH --mem=8G"):
+        assert line in lines, line
+    # the trimmed Dask config, the client's numba cache, no import from the job's cwd; then
+    # the user's prologue
+    prologue = ["export DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED=False",
+                "export DASK_DISTRIBUTED__ADMIN__TICK__INTERVAL=200ms",
+                f"export NUMBA_CACHE_DIR={os.path.dirname(kernels.CACHE_DIR)}",
+                "export PYTHONSAFEPATH=1", "module load gcc"]
+    at = [lines.index(line) for line in prologue]
+    assert at == sorted(at)
+    worker = next(line for line in lines if "distributed.cli.dask_worker" in line)
+    assert worker.startswith(f"{sys.executable} -m distributed.cli.dask_worker")
+    assert "--nthreads 1" in worker and "--nworkers 4" in worker
 
 
 def test_jobqueue_missing_is_a_usage_error(tmp_path, monkeypatch, capsys):

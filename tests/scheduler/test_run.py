@@ -109,8 +109,15 @@ def test_local_cluster_end_to_end(reference):
 
 
 def test_existing_scheduler_two_workers(study_path, reference, tmp_path):
+    """`dask scheduler` and two `dask worker` processes started here, the workers with the
+    environment docs/running.md gives them (the trimmed Dask config); the store identical to
+    the LocalCluster run's."""
+    from scheduler.cluster import CLUSTER_CONFIG, config_env_lines
+
     port = free_port()
     env = subprocess_env()
+    worker_env = subprocess_env(**dict(line.removeprefix("export ").split("=", 1)
+                                       for line in config_env_lines(CLUSTER_CONFIG)))
     procs = []
     try:
         procs.append(subprocess.Popen(
@@ -122,7 +129,7 @@ def test_existing_scheduler_two_workers(study_path, reference, tmp_path):
             procs.append(subprocess.Popen(
                 [sys.executable, "-m", "distributed.cli.dask_worker", addr, "--nworkers", "1",
                  "--nthreads", "1", "--no-dashboard", "--name", f"w{i}", "--host", "127.0.0.1"],
-                env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+                env=worker_env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
         from distributed import Client
         with Client(addr, timeout="30s") as c:
             c.wait_for_workers(2, timeout=60)
@@ -132,6 +139,7 @@ def test_existing_scheduler_two_workers(study_path, reference, tmp_path):
                            env=env, capture_output=True, text=True, timeout=120)
         assert r.returncode == 0, r.stderr
         assert "on 2 workers" in r.stdout and "dask overhead" in r.stdout
+        assert "Traceback" not in r.stdout + r.stderr
         assert_same_store(store, reference)
     finally:
         for p in reversed(procs):
