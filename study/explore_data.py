@@ -28,6 +28,7 @@ import xarray as xr
 
 from study import products as P
 from study.orbits import CLASS_LABELS
+from study.schema import ATTRACTOR_KINDS
 
 __all__ = [
     "MAX_REFINE_POINTS",
@@ -46,6 +47,7 @@ __all__ = [
     "orbit_history",
     "force_spectrum",
     "stroboscopic_points",
+    "stored_attractors",
     "response_slice",
     "refine_study",
     "refine_store_name",
@@ -378,6 +380,32 @@ def force_spectrum(history: dict[str, np.ndarray], period: int, kmax: int = 8
     c = np.fft.rfft(f) / f.size
     k = np.arange(1, kmax + 1)
     return k / period, 2.0 * np.abs(c[k])
+
+
+def stored_attractors(ds: xr.Dataset, omega: float, sigma: float, zeta: float
+                      ) -> list[dict[str, Any]]:
+    """The attractor census's results at the nearest grid point (docs/dataset.md): per
+    attractor its kind, period, basin fraction, exponent, impact measures and stored
+    stroboscopic points; empty where the census did not run (or the store has none)."""
+    if "attractor_count" not in ds:
+        return []
+    pt = ds.sel(omega=omega, sigma=sigma, zeta=zeta, method="nearest")
+    n = int(pt["attractor_count"])
+    names = {c: k for k, c in ATTRACTOR_KINDS.items()}
+    out = []
+    for a in range(max(n, 0)):
+        kind = int(pt["attractor_kind"][a])
+        if kind == 0:
+            continue
+        q, v = pt["strobe_q"][a].values, pt["strobe_v"][a].values
+        keep = np.isfinite(q)
+        out.append({"kind": names[kind], "period": int(pt["attractor_period"][a]),
+                    "basin": float(pt["basin_fraction"][a]),
+                    "lyapunov": float(pt["lyapunov_exponent"][a]),
+                    "impact": float(pt["attractor_max_impact_velocity"][a]),
+                    "peak_force": float(pt["attractor_peak_force"][a]),
+                    "strobe": np.column_stack([q[keep], v[keep]])})
+    return out
 
 
 def stroboscopic_points(omega: float, sigma: float, zeta: float, x0, *, transient: int = 100,

@@ -412,15 +412,30 @@ class Page:
         self.lost_h.location = q_lost
         # no stable periodic orbit here: show where the motion goes (its stroboscopic points)
         stable_any = bool(orb["stable"].values.any()) if n_orb else False
-        if not stable_any:
+        census = [a for a in E.stored_attractors(v.ds, w, s, z) if a["kind"] != "periodic"]
+        if census:
+            # the census's own stroboscopic points of the attractors that are not periodic
+            pts = np.vstack([a["strobe"] for a in census])
+            self.strobe_src.data = {"q": u.disp(pts[:, 0]), "v": u.vel(pts[:, 1])}
+            self.point_div.text += "<br>" + "<br>".join(
+                f"<b>{a['kind'].replace('_', '-')}</b> attractor: basin {100 * a['basin']:.0f} %, "
+                f"Lyapunov exponent {a['lyapunov']:.3g} per unit tau, largest impact velocity "
+                f"{float(u.vel(a['impact'])):.4g} {u.vel.unit}, peak force "
+                f"{float(u.force(a['peak_force'])):.4g} {u.force.unit}" for a in census)
+        elif not stable_any:
             x0 = ((float(orb["q0"].values[0]), float(orb["v0"].values[0])) if n_orb else (0.0, 0.0))
             pts = E.stroboscopic_points(w, s, z, x0, exponent=orb.attrs["exponent"],
                                         model=orb.attrs["model"], rtol=orb.attrs["rtol"])
             self.strobe_src.data = {"q": u.disp(pts[:, 0]), "v": u.vel(pts[:, 1])}
         else:
             self.strobe_src.data = {"q": [], "v": []}
-        self.phase.title.text = "phase portrait" + ("" if stable_any else " + stroboscopic")
-        if not stable_any:
+        self.phase.title.text = "phase portrait" + ("" if stable_any and not census
+                                                    else " + stroboscopic")
+        if census:
+            self.point_div.text += (
+                "<br>the grey dots of the phase portrait are the attractor census's last "
+                "stroboscopic points (q, q' at tau = m T) of the attractors above")
+        elif not stable_any:
             self.point_div.text += (
                 "<br><span class='err'>no stable periodic orbit stored here</span>: the grey dots "
                 "of the phase portrait are the stroboscopic points (q, q' at tau = m T) of 200 "
