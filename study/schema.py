@@ -199,6 +199,8 @@ PRODUCT_VARIABLES: dict[str, tuple[str, ...]] = {
     "diagnostics": ("newton_iterations", "residual"),
     "bifurcations": ("bifurcation_omega", "bifurcation_kind", "bifurcation_period",
                      "bifurcation_q0", "bifurcation_v0", "bifurcation_count"),
+    # traced curves: a products group written by the run (study.products.traced_curves)
+    "curves": (),
 }
 
 _COORD_ATTRS = {

@@ -249,7 +249,9 @@ def combine_traced_curves(parts: list[xr.Dataset], attrs: dict | None = None) ->
         arr = np.concatenate([np.asarray(p[name].values) for p in fixed], axis=0)
         out[name] = xr.Variable(dims, arr.astype(dtype), dict(vattrs))
     out = out.assign_coords(multiplier=("multiplier", np.arange(2, dtype=np.int16)))
-    out.attrs = dict(parts[0].attrs, **(attrs or {}))
+    out.attrs = {k: v for k, v in parts[0].attrs.items()
+                 if k not in ("hertzmap_curve_seed", "hertzmap_curve_status")}
+    out.attrs.update(attrs or {})
     return out
 
 
@@ -346,3 +348,13 @@ def part_attrs(result: dict) -> dict:
     """Attrs of a stored one-curve part: its seed and status (JSON), for reading back."""
     return {"hertzmap_curve_seed": json.dumps(result["seed"]),
             "hertzmap_curve_status": json.dumps(list(result["status"]))}
+
+
+def trace_from_part(part: xr.Dataset) -> dict:
+    """A stored one-curve part read back as a trace (seed, status, vertices: omega, sigma,
+    zeta, q0, v0), enough to tell which seeds lie on it (study.solve.curves.covers)."""
+    seed = json.loads(part.attrs["hertzmap_curve_seed"])
+    seed["plane"] = tuple(seed["plane"])
+    return {"seed": seed, "status": tuple(json.loads(part.attrs["hertzmap_curve_status"])),
+            "vertices": {n: np.asarray(part[n].values, float)
+                         for n in ("omega", "sigma", "zeta", "q0", "v0")}}
