@@ -205,7 +205,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
     """Compute the products of a store (study.products), store them in its products/ groups
     (scheduler.store) unless --no-products, and draw the figures (study.plots)."""
     from scheduler.errors import StoreError
-    from scheduler.store import list_products, write_products
+    from scheduler.store import list_products, read_product, write_products
     from study import plots
     from study import products as P
 
@@ -220,8 +220,16 @@ def cmd_plot(args: argparse.Namespace) -> int:
             prods = P.compute_products(ds)
             if plots.wants_time_histories(ds, args.which):
                 prods["time_histories"] = P.time_histories(ds, rig=P.rig_of(ds))
+            # the traced curves are written by hertzmap run (the "curves" output); they are
+            # read here, and the isola boundary read off them
+            traced = read_product(args.store, "traced_curves") \
+                if "traced_curves" in list_products(args.store) else None
+            if traced is not None:
+                prods["isola_boundary"] = P.isola_boundary(traced)
             if not args.no_products:
                 write_products(args.store, prods)
+            if traced is not None:
+                prods["traced_curves"] = traced
             paths += plots.plot_results(ds, prods, args.out, args.which,
                                         prefix=ds.attrs.get("hertzmap_study_name")
                                         or Path(args.store).stem)

@@ -17,7 +17,10 @@ One module per topic (docs/products.md has the reference):
   (located points linked across sigma lines), :func:`contour_lines`, :func:`curve_segments`;
 * ``multiple_scales``: :func:`mms_curves`, :func:`mms_response` (paper Eq. 19-27);
 * ``response``: :func:`frequency_response`, :func:`force_harmonics`, :func:`time_histories`;
-* ``paper_numbers``: :func:`flip_minimum`, :func:`branch_end` (VALIDATION.md).
+* ``paper_numbers``: :func:`flip_minimum`, :func:`branch_end` (VALIDATION.md);
+* ``traced_curves``: the stored traced curves (``products/traced_curves``, written by
+  ``hertzmap run`` for studies with the ``curves`` output): :func:`traced_segments`,
+  :func:`failed_traces`, :func:`isola_boundary` (sigma** and where the isola joins the flip).
 
 numpy / xarray / contourpy / scipy.ndimage only: no Dask, no scheduler, no writes.
 """
@@ -36,6 +39,8 @@ from study.products.maps import STABLE_SET_FLAGS, isola_mask, loss_of_contact_ma
 from study.products.multiple_scales import MMS_HALF_WIDTH, mms_curves, mms_response
 from study.products.paper_numbers import branch_end, flip_minimum
 from study.products.response import force_harmonics, frequency_response, time_histories
+from study.products.traced_curves import (TRACED_VARIABLES, failed_traces, isola_boundary,
+                                          traced_segments)
 from study.products.results import (completed, contact_threshold, exponent_of, open_store,
                                     rig_of, source_attrs)
 
@@ -46,6 +51,7 @@ __all__ = [
     "contour_lines", "bifurcation_curves", "located_curves", "curve_segments",
     "mms_curves", "mms_response", "frequency_response", "force_harmonics", "time_histories",
     "flip_minimum", "branch_end", "compute_products",
+    "TRACED_VARIABLES", "traced_segments", "failed_traces", "isola_boundary",
 ]
 
 
