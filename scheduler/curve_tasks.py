@@ -47,6 +47,18 @@ def trace_task(spec: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def warm_curve_kernels() -> float:
+    """Load (or compile) the curve kernels in this process: a three-vertex trace. Returns the
+    seconds it took (numba's disk cache: about 1 s per process)."""
+    from kernels.continuation import trace_curve
+
+    t0 = time.perf_counter()
+    for kind, period in (("flip", 1), ("grazing", 2)):
+        trace_curve((0.0, 0.0), 2.0, 0.5, 0.01, kind=kind, period=period, max_points=3,
+                    bounds={"omega": (1.9, 2.1), "sigma": (0.4, 0.6)})
+    return time.perf_counter() - t0
+
+
 def located_dataset(store: Store) -> xr.Dataset:
     """The stored located points of a (complete) store, in memory."""
     names = PRODUCT_VARIABLES["bifurcations"]
@@ -85,6 +97,9 @@ class CurveRun:
         from distributed import wait
 
         t0 = time.perf_counter()
+        # every worker loads the curve kernels first, so that the traces' times are theirs
+        warm = client.run(warm_curve_kernels)
+        t_warm = time.perf_counter() - t0
         seeds = curve_seeds(located_dataset(self.store))
         parts = read_curve_parts(self.store.path)
         kept = []                 # committed traces with vertices, in seed order
@@ -93,7 +108,8 @@ class CurveRun:
             if i < len(seeds):
                 committed[i] = parts[i]
         summary = {"seeds": len(seeds), "resumed": len(committed), "traced": 0, "dropped": 0,
-                   "failed": [], "compute": 0.0, "vertices_traced": 0}
+                   "failed": [], "compute": 0.0, "vertices_traced": 0, "warm_up": t_warm,
+                   "warm_up_per_worker": max(warm.values()) if warm else 0.0}
         if committed:
             print(f"resuming the curves of {self.store.path}: {len(committed)} committed",
                   file=self.out, flush=True)
@@ -204,8 +220,8 @@ def print_curve_summary(s: dict[str, Any], out: TextIO) -> None:
             + (f" ({s['dropped']} dropped: covered by an earlier seed's curve)"
                if s["dropped"] else "")
             + (f", {s['resumed']} resumed" if s["resumed"] else "")
-            + f", {s['wall']:.2f} s wall, {per:.2f} ms per vertex traced"
-            + " (products/traced_curves)")
+            + f", {s['wall']:.2f} s wall ({s['warm_up']:.2f} s loading the curve kernels on "
+            f"the workers), {per:.2f} ms per vertex traced (products/traced_curves)")
     else:
         lines.append(f"curves: incomplete ({s['traced']} traces run); rerun the same command to "
                      "resume them")
