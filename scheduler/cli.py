@@ -70,6 +70,8 @@ def _run_args(p: argparse.ArgumentParser) -> None:
                    "(default 8; 0 to skip)")
     # developer hook: another block solver with the same contract (module:function)
     p.add_argument("--solver", default=None, help=argparse.SUPPRESS)
+    # developer hook: another curve tracer with trace_seed's contract (module:function)
+    p.add_argument("--curve-tracer", default=None, help=argparse.SUPPRESS)
 
 
 def run_command_line(args: argparse.Namespace) -> str:
@@ -128,6 +130,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         error_sample=8 if args.error_sample is None else args.error_sample,
         command=run_command_line(args),
     )
+    if args.curve_tracer:
+        opts.curve_tracer = args.curve_tracer
     try:
         if args.dry_run:
             print(describe(study, opts.store, opts.task_seconds, opts.cluster))
@@ -141,7 +145,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(f"\nhertzmap: interrupted; to resume, run again: {opts.command}",
                   file=sys.stderr)
         return EXIT_INTERRUPTED
-    return EXIT_OK if not summary["failed"] else EXIT_FAILED
+    curves_failed = bool(summary.get("curves")) and not summary["curves"].get("complete")
+    return EXIT_OK if not summary["failed"] and not curves_failed else EXIT_FAILED
 
 
 # -- status -----------------------------------------------------------------------------------

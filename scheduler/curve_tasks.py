@@ -32,16 +32,19 @@ from study.solve.curves import Seed, covers, curve_seeds, window
 from study.spec import Study
 
 IN_FLIGHT_PER_WORKER = 2
+#: what traces one seed's curve (module:function, imported on the worker by name)
+DEFAULT_TRACER = "study.solve.curves:trace_seed"
 
 
 def trace_task(spec: dict[str, Any]) -> dict[str, Any]:
     """Trace the curve of one seed. Runs on a worker. ``spec``: seed (Seed fields), bounds
-    ({param: (lo, hi)}), options (exponent, model, rtol)."""
-    from study.solve.curves import trace_seed
+    ({param: (lo, hi)}), options (exponent, model, rtol), tracer (module:function)."""
+    from scheduler.worker import load_solver
 
+    trace = load_solver(spec.get("tracer", DEFAULT_TRACER))
     seed = Seed(**dict(spec["seed"], plane=tuple(spec["seed"]["plane"])))
     t0 = time.perf_counter()
-    out = trace_seed(seed, spec["bounds"], **spec["options"])
+    out = trace(seed, spec["bounds"], **spec["options"])
     out["seconds"] = time.perf_counter() - t0
     out["pid"] = os.getpid()
     return out
@@ -71,7 +74,8 @@ class CurveRun:
     """The curve stage of one run of a study into its (locked) store."""
 
     def __init__(self, study: Study, store: Store, out: TextIO, err: TextIO, interrupt,
-                 command: str = "hertzmap run"):
+                 command: str = "hertzmap run", tracer: str = DEFAULT_TRACER):
+        self.tracer = tracer
         self.study = study
         self.store = store
         self.out = out
@@ -154,7 +158,7 @@ class CurveRun:
                             and ship not in finished and not self._covered(seeds[ship], kept)):
                         seed = seeds[ship]
                         spec = {"seed": seed.as_dict(), "bounds": window(self.axes, seed.plane),
-                                "options": self.options}
+                                "options": self.options, "tracer": self.tracer}
                         in_flight[ship] = client.submit(trace_task, spec, pure=False,
                                                         key=f"hertzmap-curve-{key}-{ship}")
                     ship += 1

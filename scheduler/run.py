@@ -19,7 +19,7 @@ from typing import Any, TextIO
 
 from kernels.status import TIME_LIMIT
 from scheduler.cluster import ClusterSpec, close_quietly, make_client, worker_count
-from scheduler.curve_tasks import CurveRun
+from scheduler.curve_tasks import DEFAULT_TRACER, CurveRun
 from scheduler.dry_run import plan_for
 from scheduler.error_estimate import ERROR_SAMPLE, Sampler, estimate_error, record_error_estimate
 from scheduler.errors import RunError
@@ -45,6 +45,8 @@ class RunOptions:
     error_sample: int = ERROR_SAMPLE
     #: the command as the user ran it: resume hints tell them to run exactly this again
     command: str = "hertzmap run"
+    #: what traces a curve (the "curves" output), module:function
+    curve_tracer: str = DEFAULT_TRACER
 
 
 def default_store_path(study: Study) -> Path:
@@ -126,7 +128,8 @@ class StudyRun:
         self.summary: dict[str, Any] = {"store": str(store.path), "tasks_total": len(self.plan.tasks),
                                         "tasks_done_before": 0, "tasks_run": 0, "failed": []}
         # the traced curves of a study with the "curves" output, after its grid
-        self.curves = CurveRun(study, store, out, err, self.interrupt, opts.command)
+        self.curves = CurveRun(study, store, out, err, self.interrupt, opts.command,
+                               opts.curve_tracer)
 
     # -- before computing -----------------------------------------------------------------
     def repair(self) -> None:
