@@ -296,9 +296,9 @@ def isola_boundary(traced: xr.Dataset) -> xr.Dataset:
     """The isola boundary read off the traced curves, per zeta: the 2T fold curve in the
     (omega, sigma) plane that ends on the 1T orbit (a fold_flip point: where the isola joins
     the flip-born branch) with the lowest interior minimum of sigma (sigma**, paper Fig. 8-9:
-    below it no isola). Dims ``zeta``: ``sigma_isola`` (sigma**), ``omega_isola`` (omega
-    there), ``sigma_join``, ``omega_join`` (the fold_flip point), ``curve`` (its id; -1 and
-    NaN where no such curve was traced)."""
+    below it no isola). Dims ``zeta``: ``sigma_isola`` (sigma**; NaN when it lies below the
+    window), ``omega_isola`` (omega there), ``sigma_join``, ``omega_join`` (the fold_flip
+    point), ``curve`` (its id; -1 and NaN where no such curve was traced)."""
     zs = np.unique(traced["zeta"].values[traced["plane"].values == 1]) \
         if traced.sizes.get("vertex", 0) else np.zeros(0)
     rows = []
@@ -308,20 +308,22 @@ def isola_boundary(traced: xr.Dataset) -> xr.Dataset:
                  & (traced["curve_period"].values == 2) & (traced["curve_plane"].values == 1)
                  & np.isclose(traced["curve_fixed"].values, z))
         for cid in np.nonzero(fold2)[0]:
-            sel = traced["curve_id"].values == cid
-            flags = traced["flag"].values[sel].astype(int)
-            ext = (flags & VERTEX_EXTREMUM) != 0
             joins = np.nonzero((traced["codim2_curve"].values == cid)
                                & (traced["codim2_kind"].values == CODIM2_CODES["fold_flip"]))[0]
-            if not ext.any() or joins.size == 0:
+            if joins.size == 0:
                 continue
+            sel = traced["curve_id"].values == cid
+            flags = traced["flag"].values[sel].astype(int)
+            ext = ((flags & VERTEX_EXTREMUM) != 0) & ((flags & VERTEX_END) == 0)
             s = traced["sigma"].values[sel]
             w = traced["omega"].values[sel]
-            k = int(np.argmin(np.where(ext, s, np.inf)))
-            if (flags[k] & VERTEX_END) or (best is not None and s[k] >= best[0]):
+            # sigma**: the lowest interior minimum (NaN when it lies outside the window)
+            k = int(np.argmin(np.where(ext, s, np.inf))) if ext.any() else -1
+            low = (float(s[k]), float(w[k])) if k >= 0 else (np.nan, np.nan)
+            if best is not None and not (low[0] < best[0] or np.isnan(best[0])):
                 continue
             j = joins[0]
-            best = (float(s[k]), float(w[k]), float(traced["codim2_sigma"].values[j]),
+            best = (low[0], low[1], float(traced["codim2_sigma"].values[j]),
                     float(traced["codim2_omega"].values[j]), int(cid))
         rows.append(best or (np.nan, np.nan, np.nan, np.nan, -1))
     arr = np.array(rows, dtype=object).reshape(len(zs), 5) if rows else np.zeros((0, 5))
