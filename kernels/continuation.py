@@ -1414,8 +1414,10 @@ class _Tracer:
             return sign * float(r[0][2:] @ d)
         lo, hi = -0.25, 1.25
         for _ in range(4):
-            res = minimize_scalar(phi, bounds=(lo, hi), method="bounded",
-                                  options={"xatol": 1e-8, "maxiter": 60})
+            # a trial that does not converge is +inf: no arithmetic warning from the search
+            with np.errstate(invalid="ignore", over="ignore"):
+                res = minimize_scalar(phi, bounds=(lo, hi), method="bounded",
+                                      options={"xatol": 1e-8, "maxiter": 60})
             th = float(res.x)
             if th not in found or not np.isfinite(res.fun):
                 return None
