@@ -38,9 +38,19 @@ Two-parameter continuation of a fold (of period-m orbits) or flip (of 1T orbits)
 (omega, sigma) at fixed zeta: u = (q, q', omega, sigma), equations Phi(x) - x = 0 and
 g(M) = 0 (g the fold or flip test function), pseudo-arclength with a finite-difference Jacobian
 for the g row and the parameter columns (central, step 1e-5).
+
+Curves in any two of (omega, sigma, zeta) (``trace_curve``, the study's "curves" output): fold,
+flip (of the period-m monodromy: m = 2 gives the 2T -> 4T flips) and grazing (min q + n = 0)
+curves, with a compiled extended system and chord corrector (exact M, forward differences for
+the rest: ~9-16 period maps a vertex), traced both ways to the window's edge, through turning
+points and contact loss; on the way the sign changes of the other two test functions
+(codimension-2 points, with the values on both sides), the cusps of fold curves and the extrema
+of each parameter are located and inserted as vertices; a 2T curve that reaches the 1T orbit
+ends there, extrapolated onto it (where the isola's fold curve meets the 1T flip curve).
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from math import pi
 
@@ -1122,9 +1132,6 @@ class _Tracer:
         mu = _multipliers(M)
         return mu[np.argsort(-np.abs(mu))]
 
-    def tangent_from(self, J, t_ref):
-        return _tangent(J, t_ref)
-
     # -- refining along a chord ------------------------------------------------------------------
     def refine(self, ua, ub, ga, gb, gfun, J=None, max_iter=30):
         """Zero of gfun(u, F, aux, J) between two vertices: Illinois regula falsi on the chord,
@@ -1168,15 +1175,6 @@ class _Tracer:
             if (tb - ta) * nc <= 1e-13 * (1.0 + np.linalg.norm(u)):
                 break
         return best
-
-    def fresh_tangent(self, t_ref):
-        def tangent(u, F, aux, J):
-            r = self.sys(u, True)
-            if r is None:
-                return None
-            t = _tangent(r[1], t_ref)
-            return t
-        return tangent
 
     def to_edge(self, u_prev, u_new, J):
         """The point where the curve leaves the window between two vertices: corrected onto
@@ -1451,9 +1449,7 @@ def trace_curve(x0, omega, sigma, zeta, *, kind, period=1, pair=("omega", "sigma
     Every loop is bounded; a failure is a status, never an exception. Dimensionless (paper
     Eq. 7 / 11); returns a :class:`Curve`.
     """
-    import time as _time
-
-    t_start = _time.perf_counter()
+    t_start = time.perf_counter()
     pair = tuple(pair)
     if len(pair) != 2 or pair[0] == pair[1] or any(p not in CURVE_PARAMS for p in pair):
         raise ValueError(f"pair must be two distinct names of {CURVE_PARAMS}, got {pair!r}")
@@ -1477,7 +1473,7 @@ def trace_curve(x0, omega, sigma, zeta, *, kind, period=1, pair=("omega", "sigma
             break
     if start is None:
         curve.maps = system.maps
-        curve.seconds = _time.perf_counter() - t_start
+        curve.seconds = time.perf_counter() - t_start
         return curve
     u, F, aux, J, it = start
     r = system(u, True)
@@ -1548,5 +1544,5 @@ def trace_curve(x0, omega, sigma, zeta, *, kind, period=1, pair=("omega", "sigma
     curve.codim2 = codim2
     curve.status = (bst, fst)
     curve.maps = system.maps
-    curve.seconds = _time.perf_counter() - t_start
+    curve.seconds = time.perf_counter() - t_start
     return curve
