@@ -1305,7 +1305,7 @@ class _Tracer:
                 un, Fn, auxn, Jn, it = edge
                 dist = float(np.linalg.norm(un - u))
                 rec = self.record(un, Fn, auxn, dist, it, VERTEX_EDGE)
-            inserts = self.specials(u, un, prev, rec, t, tn, Jn, special)
+            inserts = self.specials(u, un, prev, rec, Jn, special)
             for th, r_ins, u_ins in sorted(inserts, key=lambda z: z[0]):
                 r_ins["step"] = float(np.linalg.norm(u_ins - (us[-1] if us else u)))
                 recs.append(r_ins)
@@ -1335,10 +1335,10 @@ class _Tracer:
                 h = max(self.ds_min, 0.6 * h)
         return recs, us, special, status
 
-    def specials(self, ua, ub, ra, rb, ta, tb, Jb, special):
-        """Codimension-2 points and parameter extrema between two consecutive vertices:
-        located, recorded in ``special`` and returned as vertices to insert (fraction along
-        the chord, record, u)."""
+    def specials(self, ua, ub, ra, rb, Jb, special):
+        """Codimension-2 points between two consecutive vertices (sign changes of the other two
+        test functions): located, recorded in ``special`` and returned as vertices to insert
+        (fraction along the chord, record, u)."""
         out = []
         chord = ub - ua
         # the other test functions: a sign change is a codimension-2 point
@@ -1365,48 +1365,14 @@ class _Tracer:
                                          float(ga), float(gb), float(width))
             special.append(rec["_codim2"])
             out.append((th, rec, u))
-        # parameter extrema (dp/ds = 0) and, on fold curves, cusps (both vanish together: the
-        # projection of the curve onto the parameter plane turns back). Located as extrema of
-        # the parameter (or of its component along the direction before the cusp) over the
-        # points of the curve, not as zeros of the tangent: the tangent comes from a
-        # difference Jacobian, ~1e-4 off, which moved sigma** by 1e-6 where the value itself is
-        # exact to the integrator's accuracy.
-        pa, pb = ta[2:], tb[2:]
-        if self.kind == "fold" and pa @ pb < 0.0:
-            d = pa / np.linalg.norm(pa)
-            loc = self.extremum(ua, ub, Jb, d, maximum=True)
-            if loc is not None:
-                u, F, aux = loc
-                rec = self.record(u, F, aux, np.nan, 0, VERTEX_CODIM2)
-                r = self.sys(u, True)
-                t = _tangent(r[1], chord / np.linalg.norm(chord)) if r is not None else None
-                value = float(t[2:] @ d) if t is not None else np.nan
-                th = float((u - ua) @ chord / (chord @ chord))
-                rec["_codim2"] = Codim2Point("cusp", self.m, rec["omega"], rec["sigma"],
-                                             rec["zeta"], u[:2].copy(), self.multipliers(rec),
-                                             value, float(pa @ d), float(pb @ d), np.nan)
-                special.append(rec["_codim2"])
-                out.append((th, rec, u))
-            return out
-        for j in range(2):
-            if pa[j] * pb[j] >= 0.0:
-                continue
-            d = np.zeros(2)
-            d[j] = 1.0
-            loc = self.extremum(ua, ub, Jb, d, maximum=pa[j] > 0.0)
-            if loc is None:
-                continue
-            u, F, aux = loc
-            rec = self.record(u, F, aux, np.nan, 0, VERTEX_EXTREMUM)
-            th = float((u - ua) @ chord / (chord @ chord))
-            out.append((th, rec, u))
         return out
 
     def extremum(self, ua, ub, J, d, maximum):
-        """The point of the curve near the chord ua -> ub where d . (a, b) is extremal: the
-        curve's points on the hyperplanes normal to the chord through ua + th (ub - ua),
-        th in [-0.25, 1.25], with Brent's bounded search over th (to 1e-8 in th: the extremal
-        value is then exact to ~1e-16 times the curvature). Returns (u, F, aux) or None."""
+        """The point of the curve between ua and ub (vertices two apart, bracketing it) where
+        d . (a, b) is extremal: the curve's points on the hyperplanes normal to the chord
+        through ua + th (ub - ua), th in [0, 1], with Brent's bounded search over th (to 1e-9
+        in th: the extremal value is then exact to ~1e-18 times the curvature). Returns
+        (u, F, aux) or None."""
         from scipy.optimize import minimize_scalar
 
         c = ub - ua
@@ -1420,25 +1386,90 @@ class _Tracer:
                 return np.inf
             found[th] = r
             return sign * float(r[0][2:] @ d)
-        lo, hi = -0.25, 1.25
-        for _ in range(4):
-            # a trial that does not converge is +inf: no arithmetic warning from the search
-            with np.errstate(invalid="ignore", over="ignore"):
-                res = minimize_scalar(phi, bounds=(lo, hi), method="bounded",
-                                      options={"xatol": 1e-8, "maxiter": 60})
-            th = float(res.x)
-            if th not in found or not np.isfinite(res.fun):
-                return None
-            # the tangents that bracket the extremum come from difference Jacobians: it may lie
-            # just outside the chord; follow it there
-            if th - lo < 1e-4 and lo > -1.5:
-                lo, hi = lo - 1.0, lo + 0.25
-            elif hi - th < 1e-4 and hi < 2.5:
-                lo, hi = hi - 0.25, hi + 1.0
+        # a trial that does not converge is +inf: no arithmetic warning from the search
+        with np.errstate(invalid="ignore", over="ignore"):
+            res = minimize_scalar(phi, bounds=(0.0, 1.0), method="bounded",
+                                  options={"xatol": 1e-9, "maxiter": 80})
+        th = float(res.x)
+        if th not in found or not np.isfinite(res.fun):
+            return None
+        u, F, aux, _, _ = found[th]
+        return u, F, aux
+
+    def turning_points(self, recs, us):
+        """The curve's parameter extrema and (fold curves) cusps, refined and inserted as
+        vertices: a post-pass over the assembled curve. An extremum of a parameter lies where
+        its values at three consecutive vertices k-1, k, k+1 turn (p_k above or below both):
+        it is located as the extremum of that parameter over the curve between k-1 and k+1,
+        not as a zero of the tangent (the tangent comes from a difference Jacobian ~1e-4 off:
+        that moved sigma** by 1e-6, and the tangent's sign change by two vertices, where the
+        extremal value itself is exact to the integrator's accuracy). On a fold curve, a cusp
+        is where the parameter increments reverse ((p_k - p_k-1) . (p_k+1 - p_k) < 0) and
+        the curve's tangent has no parameter component left at the extremum of p . d (d the
+        direction before it). Returns the new (recs, us)."""
+        inserts = []            # (k, after k?, record, u)
+        n = len(recs)
+        P = np.array([[r[CURVE_PARAMS[self.sys.pa]], r[CURVE_PARAMS[self.sys.pb]]] for r in recs])
+        for k in range(1, n - 1):
+            if any(recs[i]["flag"] & (VERTEX_EDGE | VERTEX_END) for i in (k - 1, k, k + 1)):
+                continue
+            d1, d2 = P[k] - P[k - 1], P[k + 1] - P[k]
+            ua, uk, ub = us[k - 1], us[k], us[k + 1]
+            cusp = self.kind == "fold" and d1 @ d2 < 0.0
+            todo = []
+            if cusp:
+                todo.append(("cusp", d1 / np.linalg.norm(d1), True))
             else:
-                u, F, aux, _, _ = found[th]
-                return u, F, aux
-        return None
+                for j in range(2):
+                    if d1[j] * d2[j] < 0.0:
+                        e = np.zeros(2)
+                        e[j] = 1.0
+                        todo.append(("extremum", e, d1[j] > 0.0))
+            if not todo:
+                continue
+            r = self.sys(uk, True)
+            if r is None:
+                continue
+            J = r[1]
+            for what, d, maximum in todo:
+                loc = self.extremum(ua, ub, J, d, maximum)
+                if loc is None:
+                    continue
+                u, F, aux = loc
+                after = bool((u - uk) @ (ub - ua) > 0.0)
+                if what == "extremum":
+                    inserts.append((k, after, self.record(u, F, aux, np.nan, 0, VERTEX_EXTREMUM),
+                                    u))
+                    continue
+                rj = self.sys(u, True)
+                t = _tangent(rj[1], (ub - ua) / np.linalg.norm(ub - ua)) if rj is not None \
+                    else None
+                if t is None or np.linalg.norm(t[2:]) > 1e-2:
+                    continue                    # a sharp smooth turn, not a cusp
+                rec = self.record(u, F, aux, np.nan, 0, VERTEX_CODIM2 | VERTEX_EXTREMUM)
+                rec["_codim2"] = Codim2Point("cusp", self.m, rec["omega"], rec["sigma"],
+                                             rec["zeta"], u[:2].copy(), self.multipliers(rec),
+                                             float(t[2:] @ d), float(d1 @ d), float(d2 @ d),
+                                             1e-9 * float(np.linalg.norm(P[k + 1] - P[k - 1])))
+                inserts.append((k, after, rec, u))
+        if not inserts:
+            return recs, us
+        out_r, out_u = [], []
+        by_k = {}
+        for k, after, rec, u in inserts:
+            by_k.setdefault(k, []).append((after, rec, u))
+        for k in range(n):
+            before = [(r_, u_) for a, r_, u_ in by_k.get(k, []) if not a]
+            later = [(r_, u_) for a, r_, u_ in by_k.get(k, []) if a]
+            for r_, u_ in before:
+                out_r.append(r_)
+                out_u.append(u_)
+            out_r.append(recs[k])
+            out_u.append(us[k])
+            for r_, u_ in later:
+                out_r.append(r_)
+                out_u.append(u_)
+        return out_r, out_u
 
 
 def trace_curve(x0, omega, sigma, zeta, *, kind, period=1, pair=("omega", "sigma"),
@@ -1498,7 +1529,7 @@ def trace_curve(x0, omega, sigma, zeta, *, kind, period=1, pair=("omega", "sigma
         bwd, bus, bsp, bst = [], [], [], fst if fst == CLOSED else START_FAIL
     else:
         bwd, bus, bsp, bst = tracer.side(u, -t, J, rec0)
-    recs = bwd[::-1] + [rec0] + fwd
+    recs, us = tracer.turning_points(bwd[::-1] + [rec0] + fwd, bus[::-1] + [u] + fus)
     ends = []
     for side_recs, side_us, side_status, at_start in ((bwd, bus, bst, True),
                                                       (fwd, fus, fst, False)):
