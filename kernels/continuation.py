@@ -1180,7 +1180,11 @@ class _Tracer:
                 if side == 1:
                     ga *= 0.5
                 side = 1
+            # the bracket's width, or the secant's estimate |g / g'| where smaller
+            slope = abs(gb - ga) / (wp * (tb - ta)) if tb > ta and wp > 0.0 else 0.0
             width = wp * (tb - ta)
+            if slope > 0.0:
+                width = min(width, abs(g) / slope)
             best = (u, F, aux, Jt, g, width)
             if (tb - ta) * nc <= 1e-13 * (1.0 + np.linalg.norm(u)):
                 break
@@ -1224,20 +1228,21 @@ class _Tracer:
         if ok.sum() < 3:
             return None
         idx = np.nonzero(ok)[0]
-        idx = idx[np.argsort(asym[idx])][:5]
+        idx = idx[np.argsort(asym[idx])][:8]
         if len(idx) < 3:
             return None
         A = asym[idx] ** 2
         U = np.array([us[i] for i in idx])
         end = np.empty(4)
         spread = 0.0
-        deg = 2 if len(idx) >= 4 else 1
+        deg = 3 if len(idx) >= 7 else (2 if len(idx) >= 4 else 1)
         for j in range(4):
             y = U[:, j]
             if j < 2:      # the 1T orbit's start point: the mean of x and its T-shift
                 y = np.array([us[i][j] + 0.5 * recs[i]["_shift"][j] for i in idx])
             c_hi = np.polyfit(A, y, deg)
-            c_lo = np.polyfit(A[:deg + 1], y[:deg + 1], deg - 1) if deg > 1 else c_hi
+            # the spread: the same fit one degree lower, over the closest points
+            c_lo = np.polyfit(A[:-1], y[:-1], deg - 1) if deg > 1 else c_hi
             end[j] = c_hi[-1]
             if j >= 2:
                 spread = max(spread, abs(c_hi[-1] - c_lo[-1]))
@@ -1258,6 +1263,10 @@ class _Tracer:
         while len(recs) < self.max_points:
             tp = np.abs(t[2:])
             cap = np.min(np.where(tp > 0, self.dp_max / np.maximum(tp, 1e-300), np.inf))
+            if self.m == 2 and np.isfinite(prev.get("asym", np.nan)):
+                # steps no longer than a fifth of the distance to the 1T orbit: a 2T curve
+                # that ends there leaves ~10 vertices at asym 0.03..0.3 for the extrapolation
+                cap = min(cap, 0.2 * prev["asym"])
             h = max(self.ds_min, min(h, cap, self.ds_max))
             step = None
             while h >= self.ds_min and step is None:
