@@ -53,6 +53,8 @@ def trace_task(spec: dict[str, Any]) -> dict[str, Any]:
 def warm_curve_kernels() -> float:
     """Load (or compile) the curve kernels in this process: a three-vertex trace. Returns the
     seconds it took (numba's disk cache: about 1 s per process)."""
+    import scipy.optimize  # noqa: F401  (the extremum search's; ~0.4 s on a first import)
+
     from kernels.continuation import trace_curve
 
     t0 = time.perf_counter()
