@@ -156,8 +156,9 @@ def trace_seed(seed: Seed, bounds: dict[str, tuple[float, float]], *, exponent: 
     curve = cont.trace_curve((seed.q0, seed.v0), p["omega"], p["sigma"], p["zeta"],
                              kind=seed.kind, period=seed.period, pair=seed.plane,
                              bounds=bounds, exponent=exponent, model=model, rtol=rtol, **opts)
-    vert = {k: np.asarray(v) for k, v in curve.vertices.items()}
-    n = len(curve)
+    vert = {k: np.asarray(curve.vertices.get(k, np.zeros(0)), float)
+            for k in cont.VERTEX_FIELDS}          # a failed trace: every field, empty
+    n = len(vert["omega"])
     mult = np.full((n, 2), complex(np.nan, np.nan))
     for i in range(n):
         M = np.array([[vert["m11"][i], vert["m12"][i]], [vert["m21"][i], vert["m22"][i]]])

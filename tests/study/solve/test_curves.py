@@ -144,3 +144,13 @@ def test_product_round_trip_and_isola_boundary(flip_trace):
     iso = isola_boundary(both)
     assert np.isnan(iso["sigma_isola"].values).all() and iso["curve"].values.tolist() == [-1]
     assert CODIM2_CODES["fold_flip"] == 2
+
+
+def test_a_seed_that_does_not_converge_is_a_failed_trace():
+    seed = C.Seed(0, ("omega", "sigma"), Z, "fold", 2, 1.0, 0.5, Z, 50.0, 50.0)
+    r = C.trace_seed(seed, {"omega": (0.5, 2.5), "sigma": (0.05, 1.0)},
+                     options={"max_points": 5})
+    assert r["status"] == ("start_fail", "start_fail")
+    assert all(len(v) == 0 for v in r["vertices"].values())
+    part = traced_curves_dataset([r])
+    assert part.sizes["vertex"] == 0 and part["curve_vertices"].values.tolist() == [0]
