@@ -322,3 +322,144 @@ def trajectory(x0, t0, t1, t_eval, omega, sigma, zeta, n=1.5, rtol=1e-12, atol=1
             continue
         return out[0], out[1], np.array(switches).reshape(-1, 3)
     raise RuntimeError("too many events")
+
+
+# ---- curves: points of fold, flip and grazing curves at a fixed parameter -------------------
+
+def min_q(x, omega, sigma, zeta, m=1, *, n=1.5, rtol=1e-12, method="DOP853"):
+    """Lowest q over the orbit started at x (period m T): the values where q' turns from
+    negative to positive (events, located by solve_ivp), in contact and in flight alike (the
+    flight is integrated as the same ODE with F = 0, not in closed form)."""
+    T = m * 2.0 * pi / omega
+
+    def rhs(t, y):
+        return [y[1], 1.0 + sigma * np.cos(omega * t) - 2.0 * zeta * y[1] - force(y[0], n)]
+
+    def turn(t, y):
+        return y[1]
+    turn.direction = 1.0
+    lowest = float(x[0])
+    t0, y0 = 0.0, np.array(x, float)
+    # restarts at the contact switches keep every piece smooth (as in flow)
+    def surface(t, y):
+        return y[0] + n
+    surface.terminal = True
+    direction = -1.0 if y0[0] + n > 0.0 or (y0[0] + n == 0.0 and y0[1] >= 0.0) else 1.0
+    for _ in range(10_000):
+        surface.direction = direction
+        sol = solve_ivp(rhs, (t0, T), y0, method=method, rtol=rtol, atol=rtol,
+                        events=(surface, turn))
+        if sol.t_events[1].size:
+            lowest = min(lowest, float(np.min(sol.y_events[1][:, 0])))
+        lowest = min(lowest, float(sol.y[0, -1]))
+        if sol.status == 1 and sol.t_events[0].size:
+            t0 = float(sol.t_events[0][0])
+            y0 = sol.y_events[0][0].copy()
+            y0[0] = -n
+            lowest = min(lowest, -n)
+            direction = -direction
+            continue
+        return lowest
+    raise RuntimeError("too many contact events")
+
+
+def _is_fixed_point(x, omega, sigma, zeta, m, rtol, n, tol=1e-9):
+    """hybr can report failure at a point it cannot improve on: accept it when it maps onto
+    itself to ``tol`` (1 + |x|)."""
+    r = period_map(x, omega, sigma, zeta, m, rtol=rtol, atol=rtol, n=n) - np.asarray(x)
+    return bool(np.all(np.isfinite(r)) and np.hypot(*r) <= tol * (1.0 + np.hypot(*x)))
+
+
+def _line_params(fixed_name, fixed_value, free_name, free_value, others):
+    p = dict(others)
+    p[fixed_name] = fixed_value
+    p[free_name] = free_value
+    return p["omega"], p["sigma"], p["zeta"]
+
+
+def monodromy_richardson(x, omega, sigma, zeta, m=1, delta=5e-4, **kw):
+    """Central differences of the period map at steps delta and delta / 2, extrapolated
+    (Richardson): truncation O(delta^4), integration noise ~ rtol / delta. Long orbits with
+    contact loss and impacts need it: the plain central difference of :func:`orbit` moved a
+    2T -> 4T flip point (zeta 0.01, omega 0.535) by 6e-8 in sigma, this one at delta 1e-4 by
+    2e-8, at 3e-4 and 1e-3 by 1.5e-10 (against kernels.continuation at rtol 1e-10..1e-13)."""
+    a = monodromy_fd(x, omega, sigma, zeta, m, delta=delta, **kw)
+    b = monodromy_fd(x, omega, sigma, zeta, m, delta=delta / 2, **kw)
+    return (4.0 * b - a) / 3.0
+
+
+def flip_point(guess, bracket, *, fixed, free, params, m=1, rtol=1e-13, n=1.5):
+    """The flip of the period-m orbit on the line where ``fixed`` (a name of omega, sigma,
+    zeta) keeps its value in ``params`` and ``free`` varies in ``bracket``: the zero of
+    1 + tr M + det M (M by finite differences) by brentq, the orbit re-solved from the last
+    one at every trial. Returns (free value, orbit start point)."""
+    from scipy.optimize import brentq
+
+    state = {"x": np.asarray(guess, float)}
+    kw = dict(rtol=rtol, atol=rtol, n=n)
+
+    def g(p):
+        w, s, z = _line_params(fixed, params[fixed], free, p, params)
+        x, ok = fixed_point(state["x"], w, s, z, m, **kw)
+        if not (ok or _is_fixed_point(x, w, s, z, m, rtol, n)):
+            raise RuntimeError(f"oracle orbit failed at {free} = {p}")
+        state["x"] = x
+        return flip_function(monodromy_richardson(x, w, s, z, m, **kw))
+    root_p = brentq(g, *bracket, xtol=1e-13, rtol=1e-15)
+    return root_p, state["x"]
+
+
+def grazing_point(guess, bracket, *, fixed, free, params, m=1, rtol=1e-12, n=1.5):
+    """The grazing of the period-m orbit (min q = -n) on a line, as :func:`flip_point`."""
+    from scipy.optimize import brentq
+
+    state = {"x": np.asarray(guess, float)}
+
+    def g(p):
+        w, s, z = _line_params(fixed, params[fixed], free, p, params)
+        x, ok = fixed_point(state["x"], w, s, z, m, rtol=rtol, atol=rtol, n=n)
+        if not (ok or _is_fixed_point(x, w, s, z, m, rtol, n)):
+            raise RuntimeError(f"oracle orbit failed at {free} = {p}")
+        state["x"] = x
+        return min_q(x, w, s, z, m, n=n, rtol=rtol) + n
+    root_p = brentq(g, *bracket, xtol=1e-13, rtol=1e-15)
+    return root_p, state["x"]
+
+
+def fold_on_line(guess, *, fixed, free, params, m=1, half_width=0.05, rtol=1e-12, n=1.5,
+               maximum=None):
+    """The fold of the period-m orbit on a line (``fixed`` held, ``free`` varies): the extremum
+    of the free parameter along the branch, the branch parametrised by q(0) = c (Phi(x) = x
+    solved for (q'(0), free) at each c by scipy's root) and the extremum over c in
+    guess[0] +- half_width by a bounded scalar search. ``maximum``: True for a fold where the
+    branch turns back towards lower values (decided from the two ends when None). Returns
+    (free value, orbit start point)."""
+    from scipy.optimize import minimize_scalar
+
+    state = {"v": float(guess[1]), "p": float(params[free])}
+
+    def branch(c):
+        def eqs(z):
+            w, s, zz = _line_params(fixed, params[fixed], free, z[1], params)
+            return period_map((c, z[0]), w, s, zz, m, rtol=rtol, atol=rtol, n=n) \
+                - np.array([c, z[0]])
+        sol = root(eqs, [state["v"], state["p"]], method="hybr", options={"xtol": 1e-13})
+        res = eqs(sol.x)
+        # hybr may report failure at a point it cannot improve on: accept a small residual
+        if not (np.all(np.isfinite(res)) and np.max(np.abs(res)) <= 1e-9 * (1 + abs(c))):
+            return np.nan
+        state["v"], state["p"] = float(sol.x[0]), float(sol.x[1])
+        return state["p"]
+    c0 = float(guess[0])
+    if maximum is None:
+        p_mid = branch(c0)
+        maximum = p_mid >= max(branch(c0 - half_width), branch(c0 + half_width))
+        branch(c0)
+    sign = -1.0 if maximum else 1.0
+    def objective(c):
+        p = branch(c)
+        return sign * p if np.isfinite(p) else np.inf
+    res = minimize_scalar(objective, bounds=(c0 - half_width, c0 + half_width),
+                          method="bounded", options={"xatol": 1e-9})
+    p = branch(float(res.x))
+    return p, np.array([float(res.x), state["v"]])

@@ -80,6 +80,23 @@ def fold_curve(rtol, ds_max=0.02):
     return out
 
 
+def traced_isola(rtol):
+    """zeta 0.01: the isola's fold curve as the curves output traces it (trace_curve, the
+    window of the fig09 scene): sigma** (its refined lowest vertex) and where it ends on the
+    1T orbit (extrapolated: the isola joins the flip-born branch)."""
+    iso = discover_line(np.linspace(1.0, 2.0, 21), 0.2, 0.01, rtol=rtol, transients=0)
+    lo = min((d for d in iso.special if d["kind"] == "fold" and d["period"] == 2),
+             key=lambda d: d["omega"])
+    c = cont.trace_curve((lo["q0"], lo["v0"]), lo["omega"], 0.2, 0.01, kind="fold", period=2,
+                         bounds={"omega": (1.0, 2.2), "sigma": (0.1, 0.5)}, rtol=rtol)
+    V = c.vertices
+    k = int(np.argmin(V["sigma"]))
+    join = [p for p in c.codim2 if p.kind == "fold_flip"]
+    return {"sigma_min": V["sigma"][k], "omega_at_min": V["omega"][k],
+            "join": (join[0].omega, join[0].sigma, join[0].accuracy) if join else None,
+            "vertices": len(c), "status": c.status_names}
+
+
 def flip_curve(zeta, rtol, omega_bounds=(1.85, 2.15), sigma_max=1.2):
     """The flip curve of the 1T orbit in (omega, sigma), from a flip at sigma = 0.5."""
     s = 0.5
@@ -129,6 +146,13 @@ def main(argv=None):
     v = fold_curve(rtols[-1], ds_max=0.005)
     print(f"ds_max 0.005: sigma** = {v['sigma_min']:.8f} at omega {v['omega_at_min']:.6f};"
           f" meets 1T at {v['meet']}")
+    res = {r: traced_isola(r) for r in rtols}
+    for r, v in res.items():
+        j = v["join"]
+        print(f"traced (trace_curve, the curves output), rtol {r:.0e}: sigma** = "
+              f"{v['sigma_min']:.9f} at omega {v['omega_at_min']:.7f}; joins the 1T orbit at "
+              f"omega {j[0]:.8f}, sigma {j[1]:.8f} (extrapolation spread {j[2]:.0e}); "
+              f"{v['vertices']} vertices, {v['status']}")
     r = discover_line(np.linspace(1.0, 2.1, 45), 0.336, 0.01, rtol=rtols[-1])
     print("sigma 0.336 line (1.0..2.1):", [(d["kind"], d["period"], round(d["omega"], 6))
                                           for d in r.special],

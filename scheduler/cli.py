@@ -70,6 +70,8 @@ def _run_args(p: argparse.ArgumentParser) -> None:
                    "(default 8; 0 to skip)")
     # developer hook: another block solver with the same contract (module:function)
     p.add_argument("--solver", default=None, help=argparse.SUPPRESS)
+    # developer hook: another curve tracer with trace_seed's contract (module:function)
+    p.add_argument("--curve-tracer", default=None, help=argparse.SUPPRESS)
 
 
 def run_command_line(args: argparse.Namespace) -> str:
@@ -128,6 +130,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         error_sample=8 if args.error_sample is None else args.error_sample,
         command=run_command_line(args),
     )
+    if args.curve_tracer:
+        opts.curve_tracer = args.curve_tracer
     try:
         if args.dry_run:
             print(describe(study, opts.store, opts.task_seconds, opts.cluster))
@@ -141,7 +145,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(f"\nhertzmap: interrupted; to resume, run again: {opts.command}",
                   file=sys.stderr)
         return EXIT_INTERRUPTED
-    return EXIT_OK if not summary["failed"] else EXIT_FAILED
+    curves_failed = bool(summary.get("curves")) and not summary["curves"].get("complete")
+    return EXIT_OK if not summary["failed"] and not curves_failed else EXIT_FAILED
 
 
 # -- status -----------------------------------------------------------------------------------
@@ -205,7 +210,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
     """Compute the products of a store (study.products), store them in its products/ groups
     (scheduler.store) unless --no-products, and draw the figures (study.plots)."""
     from scheduler.errors import StoreError
-    from scheduler.store import list_products, write_products
+    from scheduler.store import list_products, read_product, write_products
     from study import plots
     from study import products as P
 
@@ -220,8 +225,16 @@ def cmd_plot(args: argparse.Namespace) -> int:
             prods = P.compute_products(ds)
             if plots.wants_time_histories(ds, args.which):
                 prods["time_histories"] = P.time_histories(ds, rig=P.rig_of(ds))
+            # the traced curves are written by hertzmap run (the "curves" output); they are
+            # read here, and the isola boundary read off them
+            traced = read_product(args.store, "traced_curves") \
+                if "traced_curves" in list_products(args.store) else None
+            if traced is not None:
+                prods["isola_boundary"] = P.isola_boundary(traced)
             if not args.no_products:
                 write_products(args.store, prods)
+            if traced is not None:
+                prods["traced_curves"] = traced
             paths += plots.plot_results(ds, prods, args.out, args.which,
                                         prefix=ds.attrs.get("hertzmap_study_name")
                                         or Path(args.store).stem)

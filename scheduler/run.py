@@ -20,6 +20,7 @@ from typing import Any, TextIO
 from kernels.status import TIME_LIMIT
 from scheduler.cluster import (JOBQUEUE, ClusterSpec, WorkerJobsEnded, close_quietly,
                                make_client, wait_for_first_worker, worker_count)
+from scheduler.curve_tasks import DEFAULT_TRACER, CurveRun
 from scheduler.dry_run import plan_for
 from scheduler.error_estimate import ERROR_SAMPLE, Sampler, estimate_error, record_error_estimate
 from scheduler.errors import RunError
@@ -45,6 +46,8 @@ class RunOptions:
     error_sample: int = ERROR_SAMPLE
     #: the command as the user ran it: resume hints tell them to run exactly this again
     command: str = "hertzmap run"
+    #: what traces a curve (the "curves" output), module:function
+    curve_tracer: str = DEFAULT_TRACER
 
 
 def default_store_path(study: Study) -> Path:
@@ -145,6 +148,9 @@ class StudyRun:
         self.futures: list = []
         self.summary: dict[str, Any] = {"store": str(store.path), "tasks_total": len(self.plan.tasks),
                                         "tasks_done_before": 0, "tasks_run": 0, "failed": []}
+        # the traced curves of a study with the "curves" output, after its grid
+        self.curves = CurveRun(study, store, out, err, self.interrupt, opts.command,
+                               opts.curve_tracer)
 
     # -- before computing -----------------------------------------------------------------
     def repair(self) -> None:
@@ -192,6 +198,8 @@ class StudyRun:
             print(f"{self.store.path}: all {len(self.plan.tasks)} tasks done, nothing to compute",
                   file=self.out)
             self.summary.update(complete=True, wall=0.0)
+            if self.curves.pending():
+                return self.curves_only(client, early)
             return self.summary
         own_client = client is None
         cluster = None
@@ -331,7 +339,33 @@ class StudyRun:
             summary["error"] = {"n": 0, "failed": f"{type(exc).__name__}: {exc}"}
         record_error_estimate(store, summary)
         print_summary(summary, self.out)
+        if summary["complete"] and self.curves.pending():
+            summary["curves"] = self.curves.run(client, n_workers)
         return summary
+
+    # -- traced curves --------------------------------------------------------------------
+    def curves_only(self, client, early) -> dict[str, Any]:
+        """The grid is complete but its curves are not: trace (or resume) them."""
+        own_client = client is None
+        cluster = None
+        if own_client:
+            client, cluster = early if early is not None else make_client(self.opts.cluster)
+        try:
+            with self.interrupt:
+                client.wait_for_workers(1)
+                self.summary["curves"] = self.curves.run(client, worker_count(client))
+        except KeyboardInterrupt as exc:
+            with contextlib.suppress(Exception):
+                self.store.add_history(f"{self.opts.command}: interrupted while tracing curves")
+            print(f"\nhertzmap: interrupted: the curves committed so far are kept in "
+                  f"{self.store.path}; to resume, run again: {self.opts.command}", file=self.err,
+                  flush=True)
+            exc.reported = True
+            raise
+        finally:
+            if own_client:
+                close_quietly(client, cluster)
+        return self.summary
 
     def scheduler_lost(self) -> dict[str, Any]:
         n = int(self.store.done_mask().sum())

@@ -49,6 +49,8 @@ def _quiet():
     # so that xr.open_zarr(path) opens the store quickly and silently.
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=".*[Cc]onsolidated metadata.*")
+        # the traced curves' parts folder (CURVE_PARTS) is not a zarr node of the store
+        warnings.filterwarnings("ignore", message=".*not recognized as a component of a Zarr")
         yield
 
 
@@ -402,13 +404,14 @@ def store_status(path: str | Path, check: bool = False) -> dict[str, Any]:
 
 # -- products ----------------------------------------------------------------------------------
 
-def write_product(store: str | Path, name: str, product: xr.Dataset) -> str:
+def write_product(store: str | Path, name: str, product: xr.Dataset, *, lock: bool = True) -> str:
     """Write a product (study.products) into the store as the zarr group
     ``products/<name>`` (replacing it). Returns the group path.
 
     Only that group is written: the main group's arrays and attrs are untouched (zarr's
     consolidated metadata at the root is refreshed to list the group). Takes the store's lock
-    for the write, so it is refused while a ``hertzmap run`` holds it.
+    for the write, so it is refused while a ``hertzmap run`` holds it (``lock=False``: the
+    caller is that run and holds it already).
     """
     store = Path(store)
     if not (store / "zarr.json").is_file():
@@ -421,17 +424,18 @@ def write_product(store: str | Path, name: str, product: xr.Dataset) -> str:
                      for k, v in product.attrs.items()}
     for v in product.variables.values():
         v.encoding = {}
-    try:
-        lock = Lock(store)
-        lock.acquire()
-    except StoreError:
-        raise StoreError(f"{store} is locked by a running hertzmap run ({lock_path(store)}); "
-                         "write products when it has finished") from None
+    held = Lock(store)
+    if lock:
+        try:
+            held.acquire()
+        except StoreError:
+            raise StoreError(f"{store} is locked by a running hertzmap run ({lock_path(store)}); "
+                             "write products when it has finished") from None
     try:
         with _quiet():
             product.to_zarr(str(store), group=group, mode="w", consolidated=True)
     finally:
-        lock.release()
+        held.release()
     return group
 
 
@@ -452,3 +456,79 @@ def list_products(store: str | Path) -> list[str]:
     if not root.is_dir():
         return []
     return sorted(p.name for p in root.iterdir() if (p / "zarr.json").is_file())
+
+
+# -- traced curves (products/traced_curves, written one curve at a time by hertzmap run) -------
+#
+# A study with the "curves" output traces its curves after the grid (scheduler.curve_tasks).
+# Each finished curve is committed as its own small zarr group under CURVE_PARTS, built next to
+# its place and renamed into it (a reader or a resumed run finds a whole part or none), in the
+# order of the study's seeds. Once every seed is decided, the parts are combined into the
+# product group products/traced_curves and removed: a run killed at any point resumes the
+# missing curves and ends with the same product as an undisturbed one.
+
+#: folder of the committed one-curve parts, under the store's products group
+CURVE_PARTS = "traced_curves_parts"
+TRACED_CURVES = "traced_curves"
+
+
+def _parts_dir(store: str | Path) -> Path:
+    return Path(store) / PRODUCT_GROUP / CURVE_PARTS
+
+
+def write_curve_part(store: str | Path, index: int, part: xr.Dataset) -> Path:
+    """Commit the traced curve of seed ``index`` (a one-curve products dataset). The caller
+    holds the store's lock (hertzmap run)."""
+    root = _parts_dir(store)
+    root.mkdir(parents=True, exist_ok=True)
+    final = root / f"{int(index):06d}"
+    building = root / f".{int(index):06d}.writing"
+    if building.exists():
+        shutil.rmtree(building)         # left by a write cut short
+    part = part.copy()
+    part.attrs = {k: (json.dumps(v) if isinstance(v, (dict, list, tuple)) else v)
+                  for k, v in part.attrs.items()}
+    for v in part.variables.values():
+        v.encoding = {}
+    with _quiet():
+        part.to_zarr(zarr.storage.LocalStore(building), mode="w", zarr_format=3,
+                     consolidated=False)
+    if final.exists():
+        shutil.rmtree(final)
+    os.rename(building, final)
+    return final
+
+
+def read_curve_parts(store: str | Path) -> dict[int, xr.Dataset]:
+    """The committed one-curve parts, by seed index (in memory)."""
+    root = _parts_dir(store)
+    out: dict[int, xr.Dataset] = {}
+    if not root.is_dir():
+        return out
+    for p in sorted(root.iterdir()):
+        if p.name.startswith(".") or not (p / "zarr.json").is_file():
+            continue
+        with _quiet():
+            out[int(p.name)] = xr.open_zarr(zarr.storage.LocalStore(p), consolidated=False,
+                                            chunks=None).load()
+    return out
+
+
+def has_traced_curves(store: str | Path, study_hash: str) -> bool:
+    """True when the store holds the finished traced-curves product of this study."""
+    meta = Path(store) / PRODUCT_GROUP / TRACED_CURVES / "zarr.json"
+    if not meta.is_file():
+        return False
+    try:
+        attrs = json.loads(meta.read_text()).get("attributes", {})
+    except (OSError, ValueError):
+        return False
+    return attrs.get("hertzmap_study_hash") == study_hash
+
+
+def finish_traced_curves(store: str | Path, product: xr.Dataset) -> str:
+    """Write the combined product ``products/traced_curves`` (the caller, hertzmap run, holds
+    the store's lock), then remove the parts it was combined from."""
+    group = write_product(store, TRACED_CURVES, product, lock=False)
+    shutil.rmtree(_parts_dir(store), ignore_errors=True)
+    return group

@@ -119,10 +119,12 @@ def _zlabel(z: float) -> str:
 
 
 def _draw_curves(ax, curves, zeta, names, labelled=None):
+    """Grid contours of ``names``: names, or (name, label suffix) pairs."""
     labelled = set() if labelled is None else labelled
     for name in names:
+        name, suffix = (name, "") if isinstance(name, str) else name
         st = dict(_CURVE_STYLE[name])
-        label = st.pop("label")
+        label = st.pop("label") + suffix
         for seg in P.curve_segments(curves, name, zeta):
             ax.plot(seg[:, 0], seg[:, 1], **st, label=None if name in labelled else label)
             labelled.add(name)
@@ -139,12 +141,95 @@ def _draw_mms(ax, mms, zeta, sigma1=True):
 
 
 # ---------------------------------------------------------------------------------------------
+# traced curves (products/traced_curves): drawn instead of the grid's contours where present
+# ---------------------------------------------------------------------------------------------
+
+#: Style of each traced curve (kind, period).
+_TRACED_STYLE = {
+    ("flip", 1): dict(color="k", lw=1.6, ls="-", label="flip of 1T (traced)"),
+    ("flip", 2): dict(color="0.35", lw=1.2, ls="--", label="flip of 2T, 2T -> 4T (traced)"),
+    ("fold", 1): dict(color="tab:cyan", lw=1.4, ls="-", label="fold of 1T (traced)"),
+    ("fold", 2): dict(color="tab:orange", lw=1.8, ls="-",
+                      label="fold of 2T (traced; the isola boundary)"),
+    ("grazing", 1): dict(color="tab:purple", lw=1.2, ls="--", label="grazing of 1T (traced)"),
+    ("grazing", 2): dict(color="tab:red", lw=1.2, ls="--", label="grazing of 2T (traced)"),
+}
+#: The grid contour each traced (kind, period) replaces (study.products.curves CURVES names).
+_GRID_FOR_TRACED = {"flip_1T": ("flip", 1), "grazing_1T": ("grazing", 1),
+                    "grazing_2T": ("grazing", 2), "boundary_2T": ("fold", 2),
+                    "isola": ("fold", 2), "coexistence_1T": ("fold", 1)}
+_CODIM2_STYLE = {1: ("v", "cusp"), 2: ("*", "fold meets flip (isola joins)"),
+                 3: ("D", "grazing meets fold"), 4: ("s", "grazing meets flip")}
+
+
+def _draw_traced(ax, traced, zeta, kinds=None):
+    """The traced curves of the (omega, sigma) plane at ``zeta``, their codimension-2 points
+    and sigma** of the isola; returns the (kind, period) pairs drawn."""
+    drawn = set()
+    if traced is None or not traced.sizes.get("vertex", 0):
+        return drawn
+    for (kind, period), style in _TRACED_STYLE.items():
+        if kinds is not None and (kind, period) not in kinds:
+            continue
+        st = dict(style)
+        label = st.pop("label")
+        for seg in P.traced_segments(traced, kind=kind, period=period, zeta=zeta):
+            ax.plot(seg[:, 0], seg[:, 1], **st, label=None if (kind, period) in drawn else label)
+            drawn.add((kind, period))
+    c2 = traced.sizes.get("codim2", 0)
+    if c2:
+        z = np.isclose(traced["codim2_zeta"].values, zeta)
+        plane = traced["curve_plane"].values[traced["codim2_curve"].values] == 1
+        for code, (marker, label) in _CODIM2_STYLE.items():
+            sel = z & plane & (traced["codim2_kind"].values == code)
+            if sel.any():
+                ax.plot(traced["codim2_omega"].values[sel], traced["codim2_sigma"].values[sel],
+                        marker, ms=8, mfc="gold", mec="k", ls="none", zorder=5,
+                        label=f"{label} (codim 2)")
+    if ("fold", 2) in drawn:
+        iso = P.isola_boundary(traced)
+        if iso.sizes["zeta"] and np.isclose(iso["zeta"].values, zeta).any():
+            row = iso.sel(zeta=zeta, method="nearest")
+            if np.isfinite(float(row["sigma_isola"])):
+                ax.plot(float(row["omega_isola"]), float(row["sigma_isola"]), "X", ms=9,
+                        mfc="tab:orange", mec="k", ls="none", zorder=5,
+                        label=f"sigma** = {float(row['sigma_isola']):.6f} (isola)")
+    return drawn
+
+
+def _grid_fallback(traced, zeta, names):
+    """The grid contours to draw when curves were asked for but some are missing: (name,
+    label suffix with the reason) for each grid curve whose traced counterpart is absent."""
+    if traced is None:
+        return [(n, "") for n in names]
+    present = set()
+    for kind_period in set(_GRID_FOR_TRACED.values()):
+        if P.traced_segments(traced, kind=kind_period[0], period=kind_period[1], zeta=zeta):
+            present.add(kind_period)
+    failed = {}
+    for f in P.failed_traces(traced, zeta):
+        kind = {1: "fold", 2: "flip", 3: "grazing"}[f["kind"]]
+        failed.setdefault((kind, f["period"]), f["status"])
+    out = []
+    for n in names:
+        kp = _GRID_FOR_TRACED.get(n)
+        if kp is None or kp in present:
+            continue
+        reason = (f"trace failed: {failed[kp]}" if kp in failed
+                  else "no located point to trace from")
+        out.append((n, f" (grid; not traced: {reason})"))
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
 # maps
 # ---------------------------------------------------------------------------------------------
 
-def plot_loss_of_contact_map(lcm, curves, path, *, zeta=None, mms=None, title=None) -> Path:
-    """Kinds of stable response over (omega, sigma) with the contoured curves (flip, grazing,
-    isolas) and the MMS flip curve."""
+def plot_loss_of_contact_map(lcm, curves, path, *, zeta=None, mms=None, title=None,
+                             traced=None) -> Path:
+    """Kinds of stable response over (omega, sigma) with the flip, grazing and isola curves
+    (traced ones where the study has them, ``traced``: products/traced_curves; else the
+    grid's contours) and the MMS flip curve."""
     zeta = float(lcm["zeta"].values[0] if zeta is None else zeta)
     m = lcm.sel(zeta=zeta, method="nearest")
     field = "map_class" if "map_class" in m else "stable_set"
@@ -158,7 +243,9 @@ def plot_loss_of_contact_map(lcm, curves, path, *, zeta=None, mms=None, title=No
     ax.pcolormesh(m["omega"], m["sigma"], codes, cmap=cmap, norm=norm, shading="nearest",
                   rasterized=True)
     handles = [Patch(facecolor=SET_COLORS[c], edgecolor="0.6", label=SET_LABELS[c]) for c in present]
-    _draw_curves(ax, curves, zeta, ("flip_1T", "grazing_1T", "grazing_2T", "isola"))
+    _draw_traced(ax, traced, zeta)
+    _draw_curves(ax, curves, zeta, _grid_fallback(traced, zeta, ("flip_1T", "grazing_1T",
+                                                                   "grazing_2T", "isola")))
     _draw_mms(ax, mms, zeta, sigma1=False)
     ax.set_xlim(float(m["omega"].min()), float(m["omega"].max()))
     ax.set_ylim(float(m["sigma"].min()), float(m["sigma"].max()))
@@ -277,15 +364,38 @@ def _located_segments(located, zeta, kind, period):
 
 
 def plot_bifurcation_set(curves, mms, path, *, zeta=None, lcm=None, omega_range=None,
-                         sigma_range=None, title=None, located=None) -> Path:
+                         sigma_range=None, title=None, located=None, traced=None) -> Path:
     """Bifurcation set in (omega, sigma) (paper Fig. 3, 7, 9): MMS sigma1/sigma2 against the
-    numerical flip curve (squares), 2T existence boundary (folds) and isolas. With
-    ``located`` (the ``located_bifurcations`` product) the flip curve and the 2T folds are the
-    located points (solver accuracy); else the contours of grid indicators."""
+    numerical flip curve (squares), 2T existence boundary (folds) and isolas. With ``traced``
+    (products/traced_curves) the traced fold, flip and grazing curves, their codimension-2
+    points and sigma** (the grid's curves only where a kind could not be traced, labelled with
+    the reason); else with ``located`` (the ``located_bifurcations`` product) the flip curve
+    and the 2T folds are the located points (solver accuracy); else the contours of grid
+    indicators."""
     if zeta is None:
         zs = np.unique(curves["zeta"].values) if curves.sizes["vertex"] else mms["zeta"].values
         zeta = float(zs[0])
     fig, ax = plt.subplots(figsize=(7.2, 4.8), layout="constrained")
+    if traced is not None:
+        _draw_mms(ax, mms, zeta)
+        _draw_traced(ax, traced, zeta)
+        fallback = _grid_fallback(traced, zeta, ("flip_1T", "boundary_2T", "isola"))
+        if lcm is not None and any(n == "isola" for n, _ in fallback):
+            m = lcm.sel(zeta=zeta, method="nearest")
+            iso = m["isola_2T"].transpose("sigma", "omega").values
+            if iso.any():
+                ax.pcolormesh(m["omega"], m["sigma"], np.where(iso, 1.0, np.nan), cmap="RdPu",
+                              vmin=0, vmax=2, shading="nearest", rasterized=True)
+        _draw_curves(ax, curves, zeta, fallback)
+        if omega_range:
+            ax.set_xlim(*omega_range)
+        if sigma_range:
+            ax.set_ylim(*sigma_range)
+        ax.set_xlabel("omega")
+        ax.set_ylabel("sigma")
+        ax.set_title(title or f"Bifurcation set (traced curves), {_zlabel(zeta)}")
+        ax.legend(fontsize=6.5, loc="best")
+        return _save(fig, path)
     if lcm is not None:
         m = lcm.sel(zeta=zeta, method="nearest")
         iso = m["isola_2T"].transpose("sigma", "omega").values
@@ -589,7 +699,8 @@ def plot_results(ds, prods, out: str | Path = "results", which: Sequence[str] = 
         zs = f"_zeta{z:g}" if multi_z else ""
         if is_map and (auto or "map" in which):
             paths.append(plot_loss_of_contact_map(lcm, curves, out / f"{name}_map{zs}.png",
-                                                  zeta=z, mms=mms))
+                                                  zeta=z, mms=mms,
+                                                  traced=prods.get("traced_curves")))
         if is_map and (auto or "measures" in which):
             paths.append(plot_map_measures(lcm, out / f"{name}_measures{zs}.png", zeta=z,
                                            curves=curves))
@@ -600,7 +711,8 @@ def plot_results(ds, prods, out: str | Path = "results", which: Sequence[str] = 
                                               omega_range=(float(om.min()), float(om.max())),
                                               sigma_range=(float(ds["sigma"].min()),
                                                            float(ds["sigma"].max())),
-                                              located=prods.get("located_bifurcations")))
+                                              located=prods.get("located_bifurcations"),
+                                              traced=prods.get("traced_curves")))
         if is_map and (auto or "lyapunov" in which) and "lyapunov_exponent" in lcm \
                 and np.isfinite(lcm["lyapunov_exponent"].values).any():
             paths.append(plot_lyapunov_map(lcm, out / f"{name}_lyapunov{zs}.png", zeta=z))

@@ -294,6 +294,8 @@ PRODUCT_VARIABLES: dict[str, tuple[str, ...]] = {
     "bifurcations": ("bifurcation_omega", "bifurcation_kind", "bifurcation_period",
                      "bifurcation_q0", "bifurcation_v0", "bifurcation_count"),
     "attractors": ATTRACTOR_VARIABLES,
+    # traced curves: a products group written by the run (study.products.traced_curves)
+    "curves": (),
 }
 
 _COORD_ATTRS = {

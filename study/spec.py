@@ -41,8 +41,10 @@ MAX_GRID_POINTS = 20_000_000
 AXES = ("omega", "sigma", "zeta")
 
 #: Output groups a study can ask for; the variables of each group are defined in study/dataset.py.
+#: "curves" (traced fold, flip and grazing curves, products/traced_curves, written by the run)
+#: stores no grid variable of its own; it implies "bifurcations" (its seeds).
 PRODUCTS = ("orbits", "measures", "force_harmonics", "diagnostics", "bifurcations",
-            "attractors")
+            "attractors", "curves")
 #: "orbits" is always stored (period, q0, v0, status, multipliers, stable).
 CORE_PRODUCT = "orbits"
 DEFAULT_PRODUCTS = ("orbits", "measures")
@@ -462,6 +464,16 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
     if "attractors" in outputs and attractors == "never":
         raise StudyError("products.outputs", '"attractors" needs search.attractors other than '
                          '"never"')
+    # -- traced curves (issue 19): seeded by the located points, in planes of two swept axes
+    if "curves" in outputs:
+        swept = [ax for ax in AXES if len(axes[ax]) >= 2]
+        if len(swept) < 2:
+            raise StudyError("products.outputs", "\"curves\" traces curves in a plane of two "
+                             "swept parameters; this grid sweeps "
+                             f"{' and '.join(swept) if swept else 'no axis'} only (give two of "
+                             "grid.omega, grid.sigma, grid.zeta two or more values, or drop "
+                             "\"curves\")")
+        outputs = list(outputs) + ["bifurcations"]
     # the census's results are stored whenever it runs
     products = tuple(p for p in PRODUCTS if p in outputs or p == CORE_PRODUCT
                      or (p == "attractors" and attractors != "never"))

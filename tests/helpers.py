@@ -267,3 +267,17 @@ def write_results(ds: xr.Dataset, path) -> Path:
         warnings.filterwarnings("ignore", message=".*[Cc]onsolidated metadata.*")
         ds.to_zarr(str(path), mode="w", consolidated=True)
     return Path(path)
+
+
+# -- a slow curve tracer (the "curves" output's developer hook --curve-tracer) -------------------
+
+SLOW_TRACER = "tests.helpers:slow_trace_seed"
+
+
+def slow_trace_seed(seed, bounds, **kwargs):
+    """study.solve.curves.trace_seed after a pause ($HERTZMAP_CURVE_DELAY s, default 1): a
+    curve stage slow enough for a test to kill it between two committed curves."""
+    from study.solve.curves import trace_seed
+
+    time.sleep(float(os.environ.get("HERTZMAP_CURVE_DELAY", "1")))
+    return trace_seed(seed, bounds, **kwargs)

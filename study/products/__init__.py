@@ -19,6 +19,9 @@ One module per topic (docs/products.md has the reference):
 * ``response``: :func:`frequency_response`, :func:`force_harmonics`, :func:`time_histories`;
 * ``paper_numbers``: :func:`flip_minimum`, :func:`branch_end` (VALIDATION.md);
 * ``attractors``: :func:`stroboscopic_diagram` (the brute-force bifurcation diagram).
+* ``traced_curves``: the stored traced curves (``products/traced_curves``, written by
+  ``hertzmap run`` for studies with the ``curves`` output): :func:`traced_segments`,
+  :func:`failed_traces`, :func:`isola_boundary` (sigma** and where the isola joins the flip).
 
 numpy / xarray / contourpy / scipy.ndimage only: no Dask, no scheduler, no writes.
 """
@@ -38,6 +41,8 @@ from study.products.maps import MAP_CLASSES, STABLE_SET_FLAGS, isola_mask, loss_
 from study.products.multiple_scales import MMS_HALF_WIDTH, mms_curves, mms_response
 from study.products.paper_numbers import branch_end, flip_minimum
 from study.products.response import force_harmonics, frequency_response, time_histories
+from study.products.traced_curves import (TRACED_VARIABLES, failed_traces, isola_boundary,
+                                          traced_segments)
 from study.products.results import (completed, contact_threshold, exponent_of, open_store,
                                     rig_of, source_attrs)
 
@@ -48,6 +53,7 @@ __all__ = [
     "contour_lines", "bifurcation_curves", "located_curves", "curve_segments",
     "mms_curves", "mms_response", "frequency_response", "force_harmonics", "time_histories",
     "flip_minimum", "branch_end", "compute_products", "stroboscopic_diagram", "MAP_CLASSES",
+    "TRACED_VARIABLES", "traced_segments", "failed_traces", "isola_boundary",
 ]
 
 

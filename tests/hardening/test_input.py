@@ -506,3 +506,15 @@ def test_subprocess_refusals(tmp_path, doc, args, needle):
     assert r.returncode == 2, r.stderr
     assert needle in r.stderr and "Traceback" not in r.stderr
     assert sorted(os.listdir(tmp_path)) == ["case.toml"]
+
+
+# -- the "curves" output needs two swept axes ------------------------------------------------------
+
+@pytest.mark.parametrize("grid", [{"sigma": 0.1}, {"omega": 1.0, "sigma": [0.1]},
+                                  {"omega": [1.0], "sigma": 0.2, "zeta": [0.01]}])
+def test_curves_on_a_grid_with_one_swept_axis_are_refused(grid):
+    doc = base()
+    doc["grid"].update(grid)
+    doc["products"]["outputs"] = ["orbits", "curves"]
+    err = check_refused(to_toml(doc), {"products.outputs"})
+    assert "two swept" in err

@@ -159,3 +159,202 @@ def test_failures_are_bounded():
     b = cont.continue_orbit(0.01, (0.0, 0.0), omega=1.5, sigma=0.1, period=1, max_points=7,
                             p_min=0.0, p_max=100.0)
     assert b.status == cont.MAX_POINTS and len(b) == 7
+
+
+# ---- traced curves (trace_curve) against the independent scipy oracle ----------------------
+#
+# Each check solves the curve's condition with benchmarks/oracle.py (scipy solve_ivp with the
+# contact switches as events, scipy root/brentq/minimize_scalar, finite-difference monodromy)
+# on a line through a vertex (one parameter held at the vertex's value) and compares the other
+# parameter. The oracle shares no code with kernels/.
+
+from benchmarks import oracle as O  # noqa: E402
+
+
+def _vertex(curve, i):
+    V = curve.vertices
+    return V["omega"][i], V["sigma"][i], V["zeta"][i], (V["q0"][i], V["v0"][i])
+
+
+@pytest.fixture(scope="module")
+def flip_curve_0005():
+    """The 1T flip curve at zeta 0.005 (paper Fig. 7) across omega 1.9..2.1, sigma 0.15..0.5."""
+    z = 0.005
+    b = cont.continue_orbit(z, linear_response_seed(2.1, 0.3, z), omega=2.1, sigma=0.3,
+                            period=1, direction=-1, p_min=1.95, p_max=2.15, dp_max=0.01)
+    f = [p for p in b.special if p.kind == "flip"][0]
+    return cont.trace_curve(f.x0, f.omega, 0.3, z, kind="flip", period=1,
+                            bounds={"omega": (1.9, 2.1), "sigma": (0.15, 0.5)})
+
+
+def test_flip_curve_points_match_the_oracle(flip_curve_0005):
+    c = flip_curve_0005
+    V = c.vertices
+    assert c.status == (cont.BOUNDARY, cont.BOUNDARY)
+    assert np.all(np.abs(V["flip"]) < 1e-9) and np.all(V["residual"] < 1e-9)
+    # both ends on the window's edge (sigma = 0.5), the lowest sigma a refined vertex
+    assert np.allclose(V["sigma"][[0, -1]], 0.5, atol=1e-12)
+    flags = V["flag"].astype(int)
+    k = int(np.argmin(V["sigma"]))
+    assert flags[k] & cont.VERTEX_EXTREMUM
+    assert abs(V["sigma"][k] - float(ms.sigma_star(0.005, "min"))) < 1e-4
+    for i in (k, len(c) // 5):
+        w, s, z, x = _vertex(c, i)
+        so, xo = O.flip_point(x, (s - 1e-3, s + 1e-3), fixed="omega", free="sigma",
+                              params=dict(omega=w, sigma=s, zeta=z))
+        assert abs(s - so) < 1e-8, (i, s, so)
+        assert np.hypot(*(np.array(x) - xo)) < 1e-7
+
+
+@pytest.fixture(scope="module")
+def isola_fold_curve():
+    """The 2T fold curve of the isola at zeta 0.01 (paper Fig. 8-9), from a fold located on
+    the sigma = 0.2 line, across omega 1..2.2, sigma 0.1..0.5: orbits with long flights."""
+    from study.solve.discovery import discover_line
+
+    line = discover_line(np.linspace(1.0, 2.0, 21), 0.2, 0.01, transients=0)
+    f = min((d for d in line.special if d["kind"] == "fold" and d["period"] == 2),
+            key=lambda d: d["omega"])
+    return cont.trace_curve((f["q0"], f["v0"]), f["omega"], 0.2, 0.01, kind="fold", period=2,
+                            bounds={"omega": (1.0, 2.2), "sigma": (0.1, 0.5)})
+
+
+def test_isola_fold_curve_sigma_star2_and_join(isola_fold_curve):
+    c = isola_fold_curve
+    V = c.vertices
+    assert set(c.status) == {cont.BRANCH_POINT, cont.BOUNDARY}
+    assert np.all(np.abs(V["fold"][V["flag"].astype(int) & cont.VERTEX_END == 0]) < 1e-9)
+    assert np.nanmin(V["min_q"]) < -1.5                   # the isola's orbits lose contact
+    # sigma**: the curve's lowest sigma, a refined extremum vertex; against the oracle's fold
+    # at fixed omega (the extremum of sigma along the oracle's branch)
+    k = int(np.argmin(V["sigma"]))
+    assert V["flag"][k].astype(int) & cont.VERTEX_EXTREMUM
+    w, s, z, x = _vertex(c, k)
+    so, _ = O.fold_on_line(x, fixed="omega", free="sigma", params=dict(omega=w, sigma=s, zeta=z),
+                         m=2)
+    assert abs(s - so) < 1e-8, (s, so)
+    assert 0.16 < s < 0.17 and 1.45 < w < 1.55               # paper: sigma** ~ 0.165 near 1.5
+    # the end on the 1T orbit: where the isola joins the flip-born branch; the 1T orbit there
+    # has a multiplier -1 (the oracle's own monodromy)
+    join = [p for p in c.codim2 if p.kind == "fold_flip"]
+    assert len(join) == 1 and join[0].accuracy < 1e-7
+    p = join[0]
+    xo, ok = O.fixed_point(p.x0, p.omega, p.sigma, p.zeta, 1, rtol=1e-12, atol=1e-12)
+    assert ok
+    g = O.flip_function(O.monodromy_richardson(xo, p.omega, p.sigma, p.zeta, 1, rtol=1e-12,
+                                               atol=1e-12))
+    assert abs(g) < 1e-6, g
+    assert abs(p.sigma - 0.3596) < 1e-3 and abs(p.omega - 1.9996) < 1e-3
+    # the grazing of the 2T orbit met on the way: the grazing function changes sign across it
+    fg = [p for p in c.codim2 if p.kind == "fold_grazing"]
+    assert len(fg) == 1 and fg[0].left * fg[0].right < 0 and abs(fg[0].value) < 1e-9
+
+
+def test_isola_fold_vertex_with_contact_loss_matches_the_oracle(isola_fold_curve):
+    c = isola_fold_curve
+    V = c.vertices
+    i = int(np.argmin(np.where(V["omega"] > 1.1, V["min_q"], np.inf)))   # deep in flight
+    assert V["min_q"][i] < -5
+    w, s, z, x = _vertex(c, i)
+    so, _ = O.fold_on_line(x, fixed="omega", free="sigma", params=dict(omega=w, sigma=s, zeta=z),
+                         m=2)
+    assert abs(s - so) < 1e-8, (s, so)
+
+
+def test_grazing_curve_of_2t_orbits_matches_the_oracle(branch_2t):
+    g = [p for p in branch_2t.special if p.kind == "grazing"][0]
+    c = cont.trace_curve(g.x0, g.omega, S, Z, kind="grazing", period=2,
+                         bounds={"omega": (1.8, 2.0), "sigma": (0.25, 0.6)})
+    V = c.vertices
+    assert np.all(np.abs(V["min_q"] + 1.5) < 1e-9)
+    # the grazing curve meets the 2T fold curve (the isola's) at its lower end
+    assert any(p.kind == "fold_grazing" for p in c.codim2)
+    i = len(c) // 3
+    w, s, z, x = _vertex(c, i)
+    so, xo = O.grazing_point(x, (s - 2e-3, s + 2e-3), fixed="omega", free="sigma",
+                             params=dict(omega=w, sigma=s, zeta=z), m=2)
+    assert abs(s - so) < 1e-8, (s, so)
+
+
+def test_2t_to_4t_flip_curve_with_contact_loss_matches_the_oracle():
+    """The flip of 2T orbits (a multiplier -1 of the 2T monodromy: the 4T orbit is born) near
+    omega 0.52 at zeta 0.01, sigma 0.65, where the 2T orbits lose contact."""
+    c = cont.trace_curve((2.19, 1.59), 0.519, 0.65, 0.01, kind="flip", period=2,
+                         bounds={"omega": (0.5, 0.6), "sigma": (0.6, 0.9)})
+    V = c.vertices
+    assert len(c) > 10 and np.all(np.abs(V["flip"]) < 1e-9)
+    assert np.all(V["min_q"] < -1.5)                    # every orbit on it loses contact
+    i = len(c) // 2
+    w, s, z, x = _vertex(c, i)
+    so, _ = O.flip_point(x, (s - 2e-3, s + 2e-3), fixed="omega", free="sigma",
+                         params=dict(omega=w, sigma=s, zeta=z), m=2)
+    assert abs(s - so) < 1e-8, (s, so)
+
+
+def test_cusp_of_the_primary_resonance_folds():
+    """The two 1T folds of the primary resonance (softening, with contact loss) at zeta 0.01
+    are one fold curve with a cusp near sigma 0.017: located where the curve's projection
+    turns back; the 1T folds exist just above its sigma and not just below."""
+    b = cont.continue_orbit(Z, linear_response_seed(0.6, 0.05, Z), omega=0.6, sigma=0.05,
+                            period=1, direction=1, p_min=0.55, p_max=1.2, dp_max=0.01)
+    f = [p for p in b.special if p.kind == "fold"][0]
+    c = cont.trace_curve(f.x0, f.omega, 0.05, Z, kind="fold", period=1,
+                         bounds={"omega": (0.55, 1.2), "sigma": (0.0, 0.2)})
+    cusps = [p for p in c.codim2 if p.kind == "cusp"]
+    assert len(cusps) == 1
+    p = cusps[0]
+    assert p.left > 0 > p.right                     # the projection's direction reverses
+    assert 0.005 < p.sigma < 0.05
+    V = c.vertices
+    assert np.all(V["sigma"] >= p.sigma - 1e-12)    # the lowest point of the fold curve
+
+    def folds_near(sigma):
+        """1T folds within 0.02 of the cusp's omega on the line at sigma (one-parameter
+        continuation from the linear response, steps of 1e-4 in omega)."""
+        w0 = p.omega - 0.02
+        r = cont.continue_orbit(Z, linear_response_seed(w0, sigma, Z), omega=w0, sigma=sigma,
+                                period=1, direction=1, p_min=w0, p_max=p.omega + 0.02,
+                                dp_max=1e-4, locate=("fold",))
+        return sorted(q.omega for q in r.special if q.kind == "fold")
+    above = folds_near(p.sigma + 2e-3)
+    assert len(above) == 2
+    # the traced curve crosses sigma_cusp + 2e-3 at the same two omegas
+    crossing = np.nonzero(np.diff(np.sign(V["sigma"] - (p.sigma + 2e-3))))[0]
+    w_curve = sorted(V["omega"][k] + (p.sigma + 2e-3 - V["sigma"][k]) / (V["sigma"][k + 1]
+                     - V["sigma"][k]) * (V["omega"][k + 1] - V["omega"][k]) for k in crossing)
+    np.testing.assert_allclose(above, w_curve, atol=1e-4)
+    assert folds_near(p.sigma - 2e-3) == []
+
+
+def test_curves_in_the_omega_zeta_and_sigma_zeta_planes():
+    """The 1T flip curve in (omega, zeta) at sigma 0.5 and in (sigma, zeta) at a fixed omega,
+    against the oracle's flip at a fixed omega (solving for zeta)."""
+    b = cont.continue_orbit(Z, linear_response_seed(2.2, S, Z), omega=2.2, sigma=S, period=1,
+                            direction=-1, p_min=1.9, p_max=2.3, dp_max=0.01)
+    f = max((p for p in b.special if p.kind == "flip"), key=lambda p: p.omega)
+    c = cont.trace_curve(f.x0, f.omega, S, Z, kind="flip", period=1, pair=("omega", "zeta"),
+                         bounds={"omega": (1.9, 2.1), "zeta": (0.005, 0.02)})
+    V = c.vertices
+    assert np.all(V["sigma"] == S) and V["zeta"].max() > 0.012 and V["zeta"].min() < 0.006
+    i = int(np.argmax(V["zeta"]))
+    w, s, z, x = _vertex(c, i)
+    if not (V["flag"][i].astype(int) & cont.VERTEX_EXTREMUM):
+        i = len(c) // 3
+        w, s, z, x = _vertex(c, i)
+    zo, _ = O.flip_point(x, (z - 5e-4, z + 5e-4), fixed="omega", free="zeta",
+                         params=dict(omega=w, sigma=s, zeta=z))
+    assert abs(z - zo) < 1e-9, (z, zo)
+    c2 = cont.trace_curve(f.x0, f.omega, S, Z, kind="flip", period=1, pair=("sigma", "zeta"),
+                          bounds={"sigma": (0.3, 0.8), "zeta": (0.005, 0.02)})
+    assert len(c2) > 10 and np.all(c2.vertices["omega"] == f.omega)
+    assert np.all(np.abs(c2.vertices["flip"]) < 1e-9)
+
+
+def test_trace_failures_are_statuses():
+    c = cont.trace_curve((50.0, 50.0), 1.0, 0.5, 0.01, kind="fold", period=2, max_points=5)
+    assert c.status == (cont.START_FAIL, cont.START_FAIL) and len(c) == 0
+    c = cont.trace_curve((0.0, 0.0), 2.0, 0.5, 0.01, kind="flip", period=1, max_points=4,
+                         bounds={"omega": (1.9, 2.1), "sigma": (0.0, 5.0)})
+    assert cont.MAX_POINTS in c.status and len(c) <= 9
+    with pytest.raises(ValueError):
+        cont.trace_curve((0.0, 0.0), 2.0, 0.5, 0.01, kind="fold", pair=("omega", "omega"))

@@ -1,0 +1,131 @@
+"""The "curves" output end to end: a small study near omega = 2 at zeta = 0.01 whose located
+points seed the 1T flip curve, the isola's 2T fold curve (it ends where the isola joins the
+flip-born branch) and the two arms of the 2T grazing curve; its client killed between two committed curves and
+rerun, against an undisturbed run; curves (re)traced on a complete store; the figures."""
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from scheduler.cli import main
+from scheduler.store import CURVE_PARTS, PRODUCT_GROUP, Store, read_product
+from tests.helpers import SLOW_TRACER, hertzmap_cmd, subprocess_env, wait_until
+from tests.scheduler.test_run import assert_same_store
+
+pytestmark = [pytest.mark.slow]
+
+STUDY = """
+[study]
+name = "traced"
+[grid]
+omega = {start = 1.85, stop = 2.1, num = 11}
+sigma = [0.3, 0.4, 0.5]
+zeta = 0.01
+[products]
+outputs = ["orbits", "measures", "curves"]
+"""
+ARGS = ["--workers", "2", "--task-seconds", "0.01", "--error-sample", "0"]
+
+
+@pytest.fixture(scope="module")
+def paths(tmp_path_factory):
+    d = tmp_path_factory.mktemp("traced")
+    (d / "traced.toml").write_text(STUDY)
+    ref = d / "ref.zarr"
+    r = subprocess.run(hertzmap_cmd("run", str(d / "traced.toml"), "--store", str(ref), *ARGS),
+                       env=subprocess_env(), capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "Traceback" not in r.stdout + r.stderr
+    return d, ref, r.stdout
+
+
+def traced(store) -> xr.Dataset:
+    return read_product(store, "traced_curves")
+
+
+def test_curves_of_the_study(paths):
+    _, ref, out = paths
+    assert "curves: 4 traced" in out, out
+    t = traced(ref)
+    kinds = sorted(zip(t.curve_kind.values.tolist(), t.curve_period.values.tolist()))
+    # the 2T fold (isola), the 1T flip, and both arms of the 2T grazing curve (they meet at
+    # sigma 0.273, below the window, on the 2T fold curve)
+    assert kinds == [(1, 2), (2, 1), (3, 2), (3, 2)]
+    assert (t.curve_vertices.values > 20).all()
+    assert np.all(t.residual.values < 1e-9)
+    # the isola's fold curve ends on the 1T orbit where it joins the flip-born branch
+    fold = int(np.nonzero(t.curve_kind.values == 1)[0][0])
+    assert t.curve_status_start.values[fold] == 2 or t.curve_status_end.values[fold] == 2
+    join = t.codim2_kind.values == 2
+    assert join.sum() == 1
+    assert abs(float(t.codim2_sigma.values[join][0]) - 0.3596) < 1e-3
+    # every located point of the store lies on a traced curve (one seed per curve)
+    assert t.attrs["hertzmap_curve_seeds"] > 3
+    # the vertices stay in the window, the flip curve's lowest point is a refined extremum
+    assert t.omega.min() >= 1.85 - 1e-12 and t.sigma.max() <= 0.5 + 1e-12
+    flip = t.where(t.curve_id == int(np.nonzero(t.curve_kind.values == 2)[0][0]), drop=True)
+    k = int(np.argmin(flip.sigma.values))
+    assert int(flip.flag.values[k]) & 2 and abs(float(flip.sigma[k]) - 0.35904) < 1e-4
+    assert not (ref / PRODUCT_GROUP / CURVE_PARTS).exists()
+
+
+def test_client_killed_between_curves_then_rerun_identical(paths, tmp_path):
+    d, ref, _ = paths
+    store = tmp_path / "killed.zarr"
+    cmd = hertzmap_cmd("run", str(d / "traced.toml"), "--store", str(store), *ARGS,
+                       "--curve-tracer", SLOW_TRACER)
+    env = subprocess_env(HERTZMAP_CURVE_DELAY="1.5")
+    parts = store / PRODUCT_GROUP / CURVE_PARTS
+    p = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                         start_new_session=True)
+    try:
+        wait_until(lambda: (parts.is_dir() and any(not q.name.startswith(".")
+                                                  for q in parts.iterdir()))
+                   or p.poll() is not None, 240, "a committed curve")
+        os.killpg(p.pid, signal.SIGKILL)
+        p.wait(timeout=30)
+    finally:
+        if p.poll() is None:
+            os.killpg(p.pid, signal.SIGKILL)
+    committed = [q for q in parts.iterdir() if not q.name.startswith(".")]
+    assert 1 <= len(committed) < 4, "the kill landed after the curve stage"
+    assert Store(store).done_mask().all()                 # the grid was complete
+    r = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "all 3 tasks done" in r.stdout and "committed" in r.stdout
+    assert f"{len(committed)} resumed" in r.stdout
+    assert_same_store(store, ref)
+    xr.testing.assert_identical(traced(store), traced(ref))
+
+
+def test_curves_retraced_on_a_complete_store(paths, tmp_path):
+    d, ref, _ = paths
+    store = tmp_path / "copy.zarr"
+    shutil.copytree(ref, store)
+    shutil.rmtree(store / PRODUCT_GROUP / "traced_curves")
+    rc = main(["run", str(d / "traced.toml"), "--store", str(store), *ARGS])
+    assert rc == 0
+    xr.testing.assert_identical(traced(store), traced(ref))
+
+
+def test_figures_draw_the_traced_curves(paths, tmp_path, capsys):
+    _, ref, _ = paths
+    store = tmp_path / "plot.zarr"
+    shutil.copytree(ref, store)
+    assert main(["plot", str(store), "--out", str(tmp_path), "--which", "map",
+                 "bifurcation"]) == 0
+    out = capsys.readouterr().out
+    assert "traced_curves" in out and "isola_boundary" in out
+    assert (tmp_path / "traced_map.png").is_file()
+    assert (tmp_path / "traced_bifurcation.png").is_file()
+    iso = read_product(store, "isola_boundary")
+    assert abs(float(iso.sigma_join.sel(zeta=0.01)) - 0.3596) < 1e-3
+    assert np.isnan(float(iso.sigma_isola.sel(zeta=0.01)))     # sigma** is below the window
+    # the product was read, not rewritten: identical to the run's
+    xr.testing.assert_identical(traced(store), traced(ref))
