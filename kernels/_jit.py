@@ -1,19 +1,44 @@
 """How the kernels are compiled: ``kernel``, numba's njit with one fixed signature compiled (or
-loaded from the disk cache) on first use, never at import.
+loaded from the disk cache) on first use, never at import, and compiled by one process at a
+time for all the processes that share the cache.
 
-Why. numba compiles a function decorated with a signature when the module is imported; without
-one, it compiles a new specialisation for every new combination of argument types, and a
-constant argument in a caller (``integrate(..., True, False, ...)``, ``mode = MODE_T``) is a
-*literal* type: each constant seen made another copy of the integrator (four of
-``integrate`` and two of ``_locate_crossing`` for one orbit and a study, each compiled in full).
-A ``kernel`` has exactly one specialisation, its signature: callers' literal arguments convert
-to it; and nothing compiles before something calls it, so ``import kernels`` (which every
-process of a study does, the client included) compiles nothing, and a process that only
+Why one signature, on first use. numba compiles a function decorated with a signature when
+its module is imported; without one, it compiles a new specialisation for every new combination
+of argument types, and a constant argument in a caller (``integrate(..., True, False, ...)``,
+``mode = MODE_T``) is a *literal* type: each constant seen made another copy of the integrator
+(four of ``integrate`` and two of ``_locate_crossing`` for one orbit and a study, each compiled
+in full). A ``kernel`` has exactly one specialisation, its signature: callers' literal arguments
+convert to it; and nothing compiles before something calls it, so ``import kernels`` (which
+every process of a study does, the client included) compiles nothing, and a process that only
 shoots never compiles the attractor code.
+
+Why a lock. The workers of a study start together and, with an empty cache, each compiled
+every kernel itself, at the same time (the same minute of CPU, once per worker). A kernel is
+now compiled under an exclusive lock on a file next to its cache entry: a second process that
+needs it waits, then loads the first one's machine code from the disk cache. Processes that
+walk the kernels in different orders (``compile_kernels``) share the work instead of repeating
+it. The lock is released when its holder ends, however it ends (``flock``); where it cannot be
+taken (no ``fcntl``, a read-only cache) kernels compile as before.
 """
 from __future__ import annotations
 
+import os
+import time
+from contextlib import contextmanager
+
+import numba
 from numba import njit
+
+try:
+    import fcntl
+except ImportError:     # not on POSIX: no lock, each process compiles what it needs
+    fcntl = None
+
+#: every kernel with a fixed signature, in definition order (modules are imported callees
+#: first, so a kernel's callees mostly come before it)
+KERNELS: list = []
+#: a process waits this long for another's compile before compiling the kernel itself
+LOCK_TIMEOUT = 900.0
 
 
 def kernel(signature=None, *, inline: str | None = None, cache: bool = True):
@@ -31,26 +56,31 @@ def kernel(signature=None, *, inline: str | None = None, cache: bool = True):
     * ``"llvm"`` (numba's ``forceinline``): typed and lowered once, then LLVM inlines it into
       each caller, as if written there. For large bodies in hot loops (the DOP853 step).
     * ``"ir"`` (numba's ``inline='always'``): its IR is copied into each caller before typing,
-      so it is typed again at every call site, but it is no library of its own. For thin
-      wrappers, which would otherwise cost a full compile of everything below them.
+      so it is typed again at every call site (with the caller's argument types: the signature
+      documents them), but it is no library of its own. For thin wrappers, which would
+      otherwise cost a full compile of everything below them.
     """
     def wrap(fn):
         dispatcher = njit(cache=cache, nogil=True, forceinline=inline == "llvm",
                           inline="always" if inline == "ir" else "never")(fn)
         if signature is not None:
-            _fix_signature(dispatcher, signature)
+            _fix_signature(dispatcher, signature, locked=cache)
+            if inline != "ir":
+                KERNELS.append(dispatcher)
         return dispatcher
     return wrap
 
 
-def _fix_signature(dispatcher, signature) -> None:
+def _fix_signature(dispatcher, signature, locked: bool) -> None:
     """Compile ``signature`` when the dispatcher is first typed (by a jitted caller) or called
     (from Python), then disable compilation: every later call resolves to that one overload."""
     typed_call = dispatcher.get_call_template
 
     def compile_once():
         if dispatcher._can_compile:
-            dispatcher.compile(signature)
+            with (_compile_lock(dispatcher) if locked else _no_lock()):
+                # after another process's compile this loads its entry from the disk cache
+                dispatcher.compile(signature)
             dispatcher.disable_compile()
 
     def get_call_template(args, kws):
@@ -67,3 +97,80 @@ def _fix_signature(dispatcher, signature) -> None:
     dispatcher.get_call_template = get_call_template
     dispatcher._compile_for_args = _compile_for_args
     dispatcher.fixed_signature = signature
+    dispatcher.compile_fixed = compile_once
+
+
+def compiled(dispatcher) -> bool:
+    """Has this process compiled or loaded the kernel yet?"""
+    return not dispatcher._can_compile
+
+
+def compile_kernels(dispatchers) -> int:
+    """Compile (or load from the disk cache) each kernel in the given order; returns how many
+    were compiled or loaded now. Processes that share a cache and call this with different
+    orders split the compile work between them (each kernel is compiled once, under its lock)."""
+    done = 0
+    for d in dispatchers:
+        if not compiled(d):
+            d.compile_fixed()
+            done += 1
+    return done
+
+
+def kernel_name(dispatcher) -> str:
+    return f"{dispatcher.py_func.__module__}.{dispatcher.py_func.__qualname__}"
+
+
+_held: set[str] = set()
+
+
+@contextmanager
+def _no_lock():
+    yield
+
+
+@contextmanager
+def _compile_lock(dispatcher):
+    """An exclusive lock on ``<cache dir>/locks/<kernel>.lock`` while the kernel compiles; the
+    wait is bounded (LOCK_TIMEOUT) and any failure to lock means compiling without it."""
+    name = kernel_name(dispatcher)
+    if fcntl is None or name in _held:
+        yield
+        return
+    fd = None
+    try:
+        folder = os.path.join(numba.config.CACHE_DIR or ".", "locks")
+        os.makedirs(folder, exist_ok=True)
+        fd = os.open(os.path.join(folder, name + ".lock"), os.O_RDWR | os.O_CREAT, 0o666)
+        deadline = time.monotonic() + LOCK_TIMEOUT
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                if time.monotonic() > deadline:
+                    raise TimeoutError(name) from None
+                time.sleep(0.02)
+    except (OSError, TimeoutError):
+        if fd is not None:
+            os.close(fd)
+        yield
+        return
+    _held.add(name)
+    try:
+        yield
+    finally:
+        _held.discard(name)
+        os.close(fd)        # releases the lock
+
+
+#: modules whose kernels call no other module's kernels but the model's: the leaves of every
+#: compiled entry point (the DOP853 steps are most of a cold compile)
+LEAF_MODULES = ("kernels.model", "kernels.flight", "kernels._dop853")
+
+
+def leaf_kernels() -> list:
+    """The leaf kernels (LEAF_MODULES), in definition order; importing the integrator defines
+    them."""
+    import kernels.integrate  # noqa: F401  (imports the leaf modules)
+    return [d for d in KERNELS if d.py_func.__module__ in LEAF_MODULES]
