@@ -19,10 +19,20 @@ needs it waits, then loads the first one's machine code from the disk cache. Pro
 walk the kernels in different orders (``compile_kernels``) share the work instead of repeating
 it. The lock is released when its holder ends, however it ends (``flock``); where it cannot be
 taken (no ``fcntl``, a read-only cache) kernels compile as before.
+
+Why helper processes. A kernel called from Python with nothing of it in the disk cache (a new
+clone, venv, version or node) compiles its whole tree: about 20 s of one core for the first
+orbit, most of it in the leaves (the generated DOP853 steps) that do not depend on each other.
+That first call starts HELPERS background processes (at most one fewer than the cores) that
+compile the leaves from the other end of the list, under the same locks, while this process
+compiles in its own order and loads what they have finished; they exit when the list is
+done. ``HERTZMAP_COMPILE_HELPERS=0`` turns them off.
 """
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 import time
 from contextlib import contextmanager
 
@@ -39,6 +49,9 @@ except ImportError:     # not on POSIX: no lock, each process compiles what it n
 KERNELS: list = []
 #: a process waits this long for another's compile before compiling the kernel itself
 LOCK_TIMEOUT = 900.0
+#: environment variable: how many helper processes a cold first call may start (default: one
+#: fewer than the cores, at most 3; 0 = none)
+HELPERS_ENV = "HERTZMAP_COMPILE_HELPERS"
 
 
 def kernel(signature=None, *, inline: str | None = None, cache: bool = True):
@@ -91,6 +104,8 @@ def _fix_signature(dispatcher, signature, locked: bool) -> None:
         # the C dispatcher found no overload and calls what this returns with the same
         # arguments: the dispatcher itself, now holding the signature (an argument that does
         # not convert to it gets numba's TypeError: compilation is disabled)
+        if dispatcher._can_compile:
+            start_helpers(dispatcher)
         compile_once()
         return dispatcher
 
@@ -166,11 +181,79 @@ def _compile_lock(dispatcher):
 
 #: modules whose kernels call no other module's kernels but the model's: the leaves of every
 #: compiled entry point (the DOP853 steps are most of a cold compile)
-LEAF_MODULES = ("kernels.model", "kernels.flight", "kernels._dop853")
+LEAF_MODULES = ("model", "flight", "_dop853")
+#: the integrator's module: its kernels other than ``integrate`` are independent of each other
+INTEGRATOR_MODULE = "integrate"
+
+
+def _module_tail(dispatcher) -> str:
+    return dispatcher.py_func.__module__.rsplit(".", 1)[-1]
 
 
 def leaf_kernels() -> list:
     """The leaf kernels (LEAF_MODULES), in definition order; importing the integrator defines
     them."""
-    import kernels.integrate  # noqa: F401  (imports the leaf modules)
-    return [d for d in KERNELS if d.py_func.__module__ in LEAF_MODULES]
+    from kernels import integrate  # noqa: F401  (imports the leaf modules)
+    return [d for d in KERNELS if _module_tail(d) in LEAF_MODULES]
+
+
+def helper_kernels(package: str) -> list:
+    """What a helper process compiles: the leaves and the integrator's own small kernels
+    (everything ``integrate`` calls), of the kernels package ``package``, in definition
+    order."""
+    mods = LEAF_MODULES + (INTEGRATOR_MODULE,)
+    return [d for d in KERNELS if d.py_func.__module__.split(".")[0] == package
+            and _module_tail(d) in mods and d.py_func.__name__ != "integrate"]
+
+
+_helpers_started = False
+_helpers: list[subprocess.Popen] = []     # kept, so that they are reaped, not warned about
+
+
+def helper_count() -> int:
+    value = os.environ.get(HELPERS_ENV)
+    if value is not None:
+        try:
+            return max(0, int(value))
+        except ValueError:
+            return 0
+    return max(0, min(3, (os.cpu_count() or 1) - 1))
+
+
+def start_helpers(entry) -> int:
+    """Before ``entry`` (a kernel called from Python) compiles with nothing in the disk cache:
+    start helper processes that compile helper_kernels() from the other end (helper i of n
+    starts at its own share of the list, backwards). Returns how many were started (0 when
+    the entry is cached, the helpers already ran in this process, or HELPERS_ENV says 0)."""
+    global _helpers_started
+    n = helper_count()
+    if n == 0 or _helpers_started or fcntl is None:
+        return 0
+    try:
+        if os.path.exists(entry._cache._cache_file._index_path):
+            return 0        # in the disk cache: nothing to share
+    except AttributeError:
+        return 0
+    package = entry.py_func.__module__.split(".")[0]
+    if all(compiled(d) for d in helper_kernels(package)):
+        return 0
+    root = os.path.dirname(os.path.dirname(sys.modules[package].__file__))
+    env = dict(os.environ, **{HELPERS_ENV: "0"})
+    code = (f"import sys; sys.path.insert(0, {root!r}); "
+            f"from {package}._jit import run_helper; run_helper({package!r}, {{i}}, {n})")
+    _helpers_started = True
+    for i in range(n):
+        _helpers.append(subprocess.Popen(
+            [sys.executable, "-c", code.format(i=i)], env=env, stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True))
+    return n
+
+
+def run_helper(package: str, index: int, count: int) -> None:
+    """A helper process's work: helper_kernels backwards, starting at its share of the list."""
+    import importlib
+    importlib.import_module(package)      # sets the cache folder
+    importlib.import_module(package + ".integrate")
+    todo = helper_kernels(package)[::-1]
+    start = index * len(todo) // count
+    compile_kernels(todo[start:] + todo[:start])
