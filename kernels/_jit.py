@@ -146,8 +146,9 @@ def _no_lock():
 
 @contextmanager
 def _compile_lock(dispatcher):
-    """An exclusive lock on ``<cache dir>/locks/<kernel>.lock`` while the kernel compiles; the
-    wait is bounded (LOCK_TIMEOUT) and any failure to lock means compiling without it."""
+    """An exclusive flock on ``<cache dir>/locks/<kernel>.compiling`` while the kernel
+    compiles; the wait is bounded (LOCK_TIMEOUT) and any failure to lock means compiling
+    without it. (The numba cache's own lock: the store's locks are scheduler.store's.)"""
     name = kernel_name(dispatcher)
     if fcntl is None or name in _held:
         yield
@@ -156,7 +157,7 @@ def _compile_lock(dispatcher):
     try:
         folder = os.path.join(numba.config.CACHE_DIR or ".", "locks")
         os.makedirs(folder, exist_ok=True)
-        fd = os.open(os.path.join(folder, name + ".lock"), os.O_RDWR | os.O_CREAT, 0o666)
+        fd = os.open(os.path.join(folder, name + ".compiling"), os.O_RDWR | os.O_CREAT, 0o666)
         deadline = time.monotonic() + LOCK_TIMEOUT
         while True:
             try:
