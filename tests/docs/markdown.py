@@ -34,6 +34,7 @@ MARKER_WORDS = {
     "fresh": "run this Python block in a namespace of its own (not the page's)",
     "file": "the reader saves this block as 'file PATH': the test writes it there first",
     "edits": "rewrites a file of the repository: parsed, not run",
+    "run": "run a benchmarks/ script (they are parsed only by default: they measure, for minutes)",
 }
 
 #: first words of a line that make it a command
@@ -222,9 +223,19 @@ def inline_commands(path: Path, text: str | None = None) -> list[Command]:
         markers = [m for mk in _MARKER.finditer(ln) for m in parse_marker(mk.group(1), k)]
         for span in _INLINE.findall(ln):
             if is_command(span):
-                for part in split_and(span):
-                    out.append(Command(path, k, part, markers, inline=True, context=ln))
+                parts = split_and(span)
+                for j, part in enumerate(parts):
+                    out.append(Command(path, k, part, _markers_of_part(markers, j, len(parts)),
+                                       inline=True, context=ln))
     return out
+
+
+#: markers about what a command prints: in ``a && b`` they are b's (a makes what b reads)
+_OUTPUT_WORDS = {"prints", "output"}
+
+
+def _markers_of_part(markers: list[Marker], j: int, n: int) -> list[Marker]:
+    return [m for m in markers if j == n - 1 or m.word not in _OUTPUT_WORDS]
 
 
 def split_and(text: str) -> list[str]:
@@ -279,8 +290,9 @@ def block_commands(block: Block) -> list[Command]:
         if not is_command(s):
             continue
         parts = split_and(s)
-        for p in parts:
-            out.append(Command(block.path, block.line + n, p, list(block.markers), context=s))
+        for j, p in enumerate(parts):
+            out.append(Command(block.path, block.line + n, p,
+                               _markers_of_part(block.markers, j, len(parts)), context=s))
     return out
 
 
