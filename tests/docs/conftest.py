@@ -12,7 +12,9 @@ TALLY: dict[str, int] = {}
 @pytest.fixture(scope="session")
 def small_ws(tmp_path_factory) -> Workspace:
     """Commands run here: the scenes cut down, results/ empty to start with."""
-    return Workspace(tmp_path_factory.mktemp("docs-small"), small=True)
+    ws = Workspace(tmp_path_factory.mktemp("docs-small"), small=True)
+    yield ws
+    ws.close()
 
 
 @pytest.fixture(scope="session")

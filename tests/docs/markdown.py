@@ -220,13 +220,19 @@ def inline_commands(path: Path, text: str | None = None) -> list[Command]:
     for k, ln in enumerate(lines, 1):
         if k in inside:
             continue
-        markers = [m for mk in _MARKER.finditer(ln) for m in parse_marker(mk.group(1), k)]
-        for span in _INLINE.findall(ln):
-            if is_command(span):
-                parts = split_and(span)
-                for j, part in enumerate(parts):
-                    out.append(Command(path, k, part, _markers_of_part(markers, j, len(parts)),
-                                       inline=True, context=ln))
+        found = [(mk.start(), m) for mk in _MARKER.finditer(ln)
+                 for m in parse_marker(mk.group(1), k)]
+        spans = [(sp.start(), sp.group(1)) for sp in _INLINE.finditer(ln)
+                 if is_command(sp.group(1))]
+        for i, (at, span) in enumerate(spans):
+            # a `prints` or `output` marker is about the command span just before it
+            after = spans[i + 1][0] if i + 1 < len(spans) else len(ln)
+            markers = [m for pos, m in found
+                       if m.word not in _OUTPUT_WORDS or at < pos < after]
+            parts = split_and(span)
+            for j, part in enumerate(parts):
+                out.append(Command(path, k, part, _markers_of_part(markers, j, len(parts)),
+                                   inline=True, context=ln))
     return out
 
 

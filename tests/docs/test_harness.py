@@ -14,8 +14,9 @@ from tests.docs.harness import (DocError, Workspace, check_command, check_python
 
 @pytest.fixture(scope="module")
 def spaces(tmp_path_factory):
-    return (Workspace(tmp_path_factory.mktemp("h-small"), small=True),
-            Workspace(tmp_path_factory.mktemp("h-real"), small=False))
+    small = Workspace(tmp_path_factory.mktemp("h-small"), small=True)
+    yield small, Workspace(tmp_path_factory.mktemp("h-real"), small=False)
+    small.close()
 
 
 def _page(tmp_path: Path, text: str) -> Path:
