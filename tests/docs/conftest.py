@@ -5,8 +5,8 @@ import pytest
 
 from tests.docs.harness import Workspace
 
-#: what the doc tests did: 'ran' or 'parsed' -> count (printed at the end of the run)
-TALLY: dict[str, int] = {}
+#: what the doc tests did, per page: (page, 'ran' or 'parsed') -> count (printed at the end)
+TALLY: dict[tuple[str, str], int] = {}
 
 
 @pytest.fixture(scope="session")
@@ -24,8 +24,13 @@ def real_ws(tmp_path_factory) -> Workspace:
 
 
 def pytest_terminal_summary(terminalreporter):
-    if TALLY:
-        terminalreporter.write_line(
-            "doc tests: " + ", ".join(f"{n} {k}" for k, n in sorted(TALLY.items()))
-            + " (commands and snippets of README.md, VALIDATION.md, BENCHMARKS.md, "
-              "RELIABILITY.md, docs/*.md)")
+    if not TALLY:
+        return
+    pages = sorted({p for p, _ in TALLY})
+    ran = sum(n for (_, k), n in TALLY.items() if k == "ran")
+    parsed = sum(n for (_, k), n in TALLY.items() if k == "parsed")
+    terminalreporter.write_line(f"doc tests: {ran} commands and snippets run, {parsed} parsed "
+                                f"(or dry-run) only:")
+    for p in pages:
+        terminalreporter.write_line(f"  {p}: {TALLY.get((p, 'ran'), 0)} run, "
+                                    f"{TALLY.get((p, 'parsed'), 0)} parsed")

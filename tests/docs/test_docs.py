@@ -54,4 +54,5 @@ def test_doc(item, small_ws, real_ws):
         done = check_python(item, small_ws, text)
     else:
         done = check_command(item, small_ws, real_ws)
-    TALLY[done] = TALLY.get(done, 0) + 1
+    key = (item.path.relative_to(REPO).as_posix(), done)
+    TALLY[key] = TALLY.get(key, 0) + 1
