@@ -55,6 +55,7 @@ from dataclasses import dataclass, field
 from math import pi
 
 import numpy as np
+from numba import njit
 
 from kernels import status as st
 from kernels._jit import kernel
