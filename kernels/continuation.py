@@ -59,7 +59,6 @@ from numba import njit
 
 from kernels import status as st
 from kernels._jit import kernel
-from numba import njit     # the traced-curve kernels below (issue 19): lazy, not yet given signatures
 from kernels.api import DEFAULT_MAX_STEPS, DEFAULT_RTOL, _check_exponent, _model_code, shoot
 from kernels.integrate import N_HARMONICS, N_STATS, S_MIN_Q
 from kernels.model import contact_loss_level
