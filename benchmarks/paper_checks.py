@@ -34,7 +34,8 @@ def low_fold_sigma05(rtol):
     folds = [p for p in b2.special if p.kind == "fold"]
     return {"flips": [p.omega for p in flips], "fold": min(p.omega for p in folds),
             "fold_acc": folds[0].accuracy, "status": b2.status_name, "points": len(b2),
-            "end": [p.omega for p in b2.special if p.kind == "branch_point"]}
+            "end": [p.omega for p in b2.special if p.kind == "branch_point"],
+            "grazing": sorted((p.omega for p in b2.special if p.kind == "grazing"), reverse=True)}
 
 
 def isola_sigma02(rtol):
@@ -122,7 +123,7 @@ def main(argv=None):
     for r, v in res.items():
         print(f"rtol {r:.0e}: flips {np.round(v['flips'], 9)}, 2T fold omega = {v['fold']:.10f}"
               f" (bracket {v['fold_acc']:.1e}), branch {v['status']} at {np.round(v['end'], 5)}"
-              f" after {v['points']} points")
+              f" after {v['points']} points; grazing at {np.round(v['grazing'], 7)}")
     ref = res[rtols[-1]]["fold"]
     print("spread of the fold vs tightest:", max(abs(v["fold"] - ref) for v in res.values()))
 

@@ -5,8 +5,9 @@ orbit table from the DOM and compares it with the store and with an independent
 ``kernels.simulate``; then box-zooms, refines the window (6 x 6) and waits for the new store
 and the page showing it. Bad input: not a store, a port in use, a store still being written.
 
-Screenshots go to pytest's tmp_path, or to results/explore/ (the README gallery) when
-HERTZMAP_SAVE_SCREENSHOTS=1. Without chromium, chromedriver, selenium or bokeh the browser
+Screenshots go to pytest's tmp_path, or to the folder $HERTZMAP_SCREENSHOTS names
+(scripts/make-figures.sh: docs/figures/explore/, the gallery's; the tests never write there
+themselves). Without chromium, chromedriver, selenium or bokeh the browser
 tests skip, naming what is missing.
 """
 from __future__ import annotations
@@ -99,23 +100,24 @@ function deep(root, sel, out) {
 
 
 def _shots(tmp_path: Path) -> Path:
-    if os.environ.get("HERTZMAP_SAVE_SCREENSHOTS") == "1":
-        d = REPO / "results" / "explore"
-    else:
-        d = tmp_path / "screenshots"
+    """Where the gallery's screenshots go: $HERTZMAP_SCREENSHOTS (scripts/make-figures.sh sets
+    it to docs/figures/explore), else the test's tmp_path."""
+    named = os.environ.get("HERTZMAP_SCREENSHOTS")
+    d = Path(named).resolve() if named else tmp_path / "screenshots"
     d.mkdir(parents=True, exist_ok=True)
     return d
 
 
 def _screenshot(driver, path: Path) -> None:
     """The page as a PNG, without the focus ring of the last click; into the gallery with 256
-    colours (a quarter of the bytes, no visible change: the page is flat colours and text)."""
+    colours when they are kept (a quarter of the bytes, no visible change: the page is flat
+    colours and text)."""
     driver.execute_script("""
         let e = document.activeElement;
         while (e && e.shadowRoot && e.shadowRoot.activeElement) e = e.shadowRoot.activeElement;
         if (e && e.blur) e.blur();""")
     png = driver.get_screenshot_as_png()
-    if path.parent == REPO / "results" / "explore":
+    if os.environ.get("HERTZMAP_SCREENSHOTS"):
         import io
         from PIL import Image
         img = Image.open(io.BytesIO(png)).convert("RGB").quantize(256)

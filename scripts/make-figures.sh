@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# Remake every figure the docs ship (docs/figures/): each scene is run into
+# results/make-figures/<scene>.zarr (git ignores results/; a rerun resumes there, delete the
+# folder to run afresh) and the figures the README and docs/gallery.md show are drawn into docs/figures/;
+# then the paper's analytic figures, and the explore page's screenshots (the browser test, when
+# chromium is there). Prints the wall time of each scene's run and plot.
+#
+#   bash scripts/make-figures.sh              # everything (about 10 minutes on 2 cores)
+#   bash scripts/make-figures.sh fig06 fig08  # those scenes only
+#   WORKERS=4 bash scripts/make-figures.sh    # workers of each run (default 2)
+#
+# `hertzmap bench --out docs/figures` remakes docs/figures/bench.png (BENCHMARKS.md section 1).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+HM=.venv/bin/hertzmap
+OUT=docs/figures
+mkdir -p "$OUT/explore"
+
+# scene -> the figures of it that the docs show (hertzmap plot --which)
+declare -A FIGURES=(
+    [default]="map measures bifurcation"
+    [fig03]="map"
+    [fig06]="response"
+    [fig07]="bifurcation"
+    [fig08]="response"
+    [fig09]="map bifurcation"
+    [fig10]="response"
+    [fig12]="harmonics"
+    [fig13]="harmonics"
+    [fig14]="histories"
+    [fig15]="histories"
+    [vibro_impact]="map lyapunov strobe"
+)
+ORDER="default fig03 fig06 fig07 fig08 fig09 fig10 fig12 fig13 fig14 fig15 vibro_impact"
+SCENES="${*:-$ORDER paper explore}"
+
+ms() { date +%s%3N; }
+STORES=results/make-figures
+for scene in $SCENES; do
+    case "$scene" in
+    paper)
+        "$HM" plot --paper fig02 fig03 fig04 fig05 --out "$OUT" ;;
+    explore)
+        HERTZMAP_SCREENSHOTS="$OUT/explore" .venv/bin/python -m pytest -q -p no:cacheprovider \
+            tests/end_to_end/test_explore.py -k click_gives_the_orbits ;;
+    *)
+        [ -n "${FIGURES[$scene]+x}" ] || { echo "no figures listed for scene $scene" >&2; exit 2; }
+        t0=$(ms)
+        "$HM" run "studies/$scene.toml" --store "$STORES/$scene.zarr" --workers "${WORKERS:-2}"
+        t1=$(ms)
+        "$HM" plot "$STORES/$scene.zarr" --out "$OUT" --which ${FIGURES[$scene]}
+        t2=$(ms)
+        awk -v s="$scene" -v r=$((t1 - t0)) -v p=$((t2 - t1)) \
+            'BEGIN { printf "make-figures: %s: run %.1f s, plot %.1f s\n", s, r / 1000, p / 1000 }' ;;
+    esac
+done

@@ -1,0 +1,29 @@
+"""The end-of-run summary's overhead line says what it measures (issue 20): with fewer tasks than
+workers, the idle workers are not counted as Dask's overhead, and the line says how many idled."""
+from __future__ import annotations
+
+import pytest
+
+from scheduler.report import overhead_line
+
+
+def _summary(workers, tasks_run, compute, wall):
+    busy = min(workers, max(1, tasks_run))
+    return {"workers": workers, "tasks_run": tasks_run, "compute": compute, "wall": wall,
+            "per_task": compute / max(1, tasks_run), "overhead": 1.0 - compute / (busy * wall)}
+
+
+def test_overhead_of_busy_workers_when_every_worker_had_a_task():
+    line = overhead_line(_summary(workers=2, tasks_run=20, compute=18.0, wall=10.0))
+    # 1 - 18 / (2 x 10) = 10 %
+    assert line == ("dask overhead: 10.0 % (task compute 18.00 s over 2 busy workers x 10.00 s "
+                    "wall; 900 ms per task)")
+
+
+@pytest.mark.parametrize("workers, idle", [(2, 1), (4, 3)])
+def test_one_task_for_several_workers_counts_one_busy_worker_and_says_the_rest_idled(workers, idle):
+    line = overhead_line(_summary(workers=workers, tasks_run=1, compute=0.9, wall=1.0))
+    # over the one busy worker: 1 - 0.9 / 1.0 = 10 %, not 1 - 0.9 / (workers x 1.0)
+    assert line.startswith("dask overhead: 10.0 % (task compute 0.90 s over 1 busy worker x "
+                           "1.00 s wall; 900 ms per task)")
+    assert line.endswith(f"; 1 task for {workers} workers, so {idle} stayed idle")
