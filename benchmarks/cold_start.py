@@ -79,7 +79,7 @@ def main(argv=None) -> int:
           f"{os.environ.get('HERTZMAP_TYPING_MEMO', 'on')}", flush=True)
 
     rows = []
-    for r in range(a.rounds):
+    for r in range(a.rounds):      # --rounds 0: the study only
         with tempfile.TemporaryDirectory(prefix="hertzmap-cold-") as cache:
             cold = first_orbit(cache)
             warm = first_orbit(cache)
@@ -88,11 +88,12 @@ def main(argv=None) -> int:
               f"warm cache {warm[0]:.2f} s wall ({warm[2]:.2f} s CPU); cold / warm "
               f"{cold[0] / warm[0]:.1f}x wall", flush=True)
     med = statistics.median
-    print(f"first orbit in a new process, median of {a.rounds}: empty numba cache "
-          f"{med(c[0] for c, _ in rows):.2f} s wall, {med(c[2] for c, _ in rows):.2f} s CPU; "
-          f"warm disk cache {med(w[0] for _, w in rows):.2f} s wall, "
-          f"{med(w[2] for _, w in rows):.2f} s CPU; cold / warm "
-          f"{med(c[0] / w[0] for c, w in rows):.1f}x (pair by pair); {load()}", flush=True)
+    if rows:
+        print(f"first orbit in a new process, median of {a.rounds}: empty numba cache "
+              f"{med(c[0] for c, _ in rows):.2f} s wall, {med(c[2] for c, _ in rows):.2f} s CPU; "
+              f"warm disk cache {med(w[0] for _, w in rows):.2f} s wall, "
+              f"{med(w[2] for _, w in rows):.2f} s CPU; cold / warm "
+              f"{med(c[0] / w[0] for c, w in rows):.1f}x (pair by pair); {load()}", flush=True)
 
     if not a.no_study:
         with tempfile.TemporaryDirectory(prefix="hertzmap-cold-") as tmp:
