@@ -27,6 +27,14 @@ That first call starts HELPERS background processes (at most one fewer than the 
 compile the leaves from the other end of the list, under the same locks, while this process
 compiles in its own order and loads what they have finished; they exit when the list is
 done. ``HERTZMAP_COMPILE_HELPERS=0`` turns them off.
+
+Why a typing memo. Most of a cold compile is numba's own Python, not LLVM: typing the generated
+DOP853 steps (thousands of scalar ``+ - * /`` on float64) asked numba's function templates the
+same question at every operation (about 11 templates each, the numpy ufunc loop search among
+them): a fifth of the CPU of a first orbit. ``memo_scalar_typing`` keeps the answer numba gave
+for a function type and scalar argument types (float, integer, boolean; no literals, no
+keywords) and gives it again: the same signature object, so typing, lowering and the machine
+code are those numba would make without it. ``HERTZMAP_TYPING_MEMO=0`` turns it off.
 """
 from __future__ import annotations
 
@@ -52,6 +60,44 @@ LOCK_TIMEOUT = 900.0
 #: environment variable: how many helper processes a cold first call may start (default: one
 #: fewer than the cores, at most 3; 0 = none)
 HELPERS_ENV = "HERTZMAP_COMPILE_HELPERS"
+
+
+#: environment variable: 0 turns the scalar typing memo off (benchmarks/cold_start.py compares)
+TYPING_MEMO_ENV = "HERTZMAP_TYPING_MEMO"
+
+
+def memo_scalar_typing() -> bool:
+    """Memoise numba's ``types.Function.get_call_type`` for scalar argument types (see the
+    module's docstring). Idempotent; returns whether the memo is on."""
+    from numba.core import types
+    from numba.core.types import functions
+
+    if os.environ.get(TYPING_MEMO_ENV, "1") == "0":
+        return False
+    if getattr(functions.Function.get_call_type, "_hertzmap_memo", False):
+        return True
+    original = functions.Function.get_call_type
+    scalar = (types.Float, types.Integer, types.Boolean)
+    memo: dict = {}
+
+    def get_call_type(self, context, args, kws):
+        if kws or not all(isinstance(a, scalar) and not isinstance(a, types.Literal)
+                          for a in args):
+            return original(self, context, args, kws)
+        key = (self, type(context), tuple(args))
+        sig = memo.get(key)
+        if sig is None:
+            sig = original(self, context, args, kws)
+            if sig is not None:     # failures are not kept: numba reports them each time
+                memo[key] = sig
+        return sig
+
+    get_call_type._hertzmap_memo = True
+    functions.Function.get_call_type = get_call_type
+    return True
+
+
+TYPING_MEMO = memo_scalar_typing()
 
 
 def kernel(signature=None, *, inline: str | None = None, cache: bool = True):

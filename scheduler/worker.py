@@ -37,13 +37,19 @@ def load_solver(path: str = DEFAULT_SOLVER) -> Callable[..., dict]:
 def warm_up(solver: str = DEFAULT_SOLVER, kwargs: dict[str, Any] | None = None,
             order: int = 0) -> float:
     """Import the solver and solve one grid point; returns the seconds it took. For the
-    default solver, first compile (or load) the kernels' leaves, backward when ``order`` is
-    odd: two workers starting together with an empty cache then compile half each."""
+    default solver, first compile (or load) the kernels' leaves, then the entry points the
+    study's blocks call (study.solve.block.entry_kernels), each list backward when ``order``
+    is odd: two workers starting together with an empty cache then compile half each."""
     t0 = time.perf_counter()
     if solver == DEFAULT_SOLVER:
         from kernels import compile_kernels, leaf_kernels
+        from study.solve.block import entry_kernels
         leaves = leaf_kernels()
         compile_kernels(leaves[::-1] if order % 2 else leaves)
+        # then the entry points this study's blocks call, in the same order: each compiles
+        # its own (large) code on one worker while the other compiles another
+        entries = entry_kernels(**(kwargs or {}))
+        compile_kernels(entries[::-1] if order % 2 else entries)
     fn = load_solver(solver)
     one = np.array([1.0])
     fn(one, np.array([0.1]), np.array([0.05]), **(kwargs or {}))

@@ -80,6 +80,25 @@ def _record_bifurcations(arrays, j, k, points):
         arrays["bifurcation_v0"][0, j, k, slot] = d["v0"]
 
 
+def entry_kernels(*, attractors="never", turn_folds=True, discover=False, locate=False,
+                  **_ignored) -> list:
+    """The numba entry points a block with these options calls (kernels._jit kernels):
+    the batch shooting kernel; the period map of the continuation when folds are turned or
+    branches continued; the census's batch kernel when it runs. A worker's warm-up compiles
+    these (kernels._jit.compile_kernels), so that with an empty cache two workers share them
+    instead of meeting in their first tasks, where one waits for the other's compile."""
+    from kernels.attractors import attractor_batch_into
+    from kernels.continuation import period_map_into
+    from kernels.shooting import shoot_batch_into
+
+    out = [shoot_batch_into]
+    if turn_folds or discover or locate:
+        out.append(period_map_into)
+    if attractors != "never":
+        out.append(attractor_batch_into)
+    return out
+
+
 def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hertz", rtol=1e-10,
                 max_solutions=4, discover=False, transients=16, locate=False,
                 harmonics=True, time_budget=None, seeds=(), turn_folds=True,
