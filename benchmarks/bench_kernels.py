@@ -15,9 +15,11 @@ multipliers; hertzmap adds min/max q, flight fraction, impact velocity) and, col
 with the contact-force harmonics as well; scipy solve_ivp (DOP853,
 event restarts) + scipy.optimize.root at a tolerance reaching the same error, and the arithmetic
 floor: hertzmap's number of DOP853 steps times the cost of one bare step. Ratios are of times
-measured in this run on this machine (each the fastest of 7 rounds). Last line: the speed-up
-over the paper's scheme each case would have if a solve cost only its steps x bare step (the
-ceiling of the present step counts). Also: numba cold start with and without the disk cache.
+measured in this run on this machine (each the fastest of 7 rounds). Column "shoot": the
+Python entry point kernels.shoot per call (same solve, same options), and its ratio to the batch
+kernel's time per orbit. Last lines: the speed-up over the paper's scheme each case would have
+if a solve cost only its steps x bare step (the ceiling of the present step counts); numba cold
+start with and without the disk cache (benchmarks/cold_start.py has more).
 """
 from __future__ import annotations
 
@@ -96,11 +98,13 @@ def main():
     header = (f"{'case':24s} {'paper err':>9s} {'xtol':>6s} {'it':>3s} {'paper ms':>9s} "
               f"{'tuned':>6s} | "
               f"{'rtol':>6s} {'err':>8s} "
-              f"{'us':>8s} {'+harm':>7s} {'steps':>6s} | {'scipy err':>9s} {'scipy ms':>9s} | "
+              f"{'us':>8s} {'+harm':>7s} {'steps':>6s} {'shoot':>7s} {'/batch':>6s} | "
+              f"{'scipy err':>9s} {'scipy ms':>9s} | "
               f"{'x paper':>8s} {'x tuned':>8s} {'x scipy':>8s} {'/floor':>7s}")
     print(header)
     print("-" * len(header))
     ratios_paper, ratios_tuned, ratios_scipy, floors, ceilings = [], [], [], [], []
+    shoot_ratios = []
     for name, w, s, z, m, rough in CASES:
         ref = shoot(w, s, z, m, guess=rough, rtol=1e-13)
         assert ref.converged, name
@@ -128,8 +132,8 @@ def main():
                 chosen = (rtol, err, o.steps)
                 break
         rtol, err, steps = chosen
-        # time the numba entry point the grid solver uses (shoot() adds ~20 us of Python to
-        # build its Orbit dataclass): a batch of identical solves, per orbit
+        # time the numba entry point the grid solver uses: a batch of identical solves, per
+        # orbit
         nb = 64
         args = [np.full(nb, v) for v in (w, s, z)] + [np.full(nb, m, np.int64)] + \
             [np.full(nb, guess[0]), np.full(nb, guess[1])]
@@ -140,6 +144,11 @@ def main():
         t_hm = per_call(batch, 0.5) / nb
         batch_h = lambda: shoot_batch_into(*args, n_exp, 0, rtol, rtol, 40, 200_000, True, res)
         t_hm_h = per_call(batch_h, 0.3) / nb
+        # the Python entry point, one call per orbit, same solve and options (like for like)
+        single = lambda: shoot(w, s, z, m, guess=guess, rtol=rtol, exponent=n_exp,
+                               harmonics=False)
+        t_shoot = per_call(single, 0.3)
+        shoot_ratios.append(t_shoot / t_hm)
         # scipy: tolerance reaching the same accuracy
         for srtol in (1e-9, 1e-10, 1e-11, 1e-12):
             t0 = time.perf_counter()
@@ -157,7 +166,8 @@ def main():
         print(f"{name:24s} {err_cd:9.1e} {xtol_cd:6.0e} {it_cd:3d} {t_cd * 1e3:9.2f} "
               f"{t_tuned * 1e3:6.2f} | "
               f"{rtol:6.0e} {err:8.1e} "
-              f"{t_hm * 1e6:8.1f} {t_hm_h * 1e6:7.1f} {steps:6d} | {err_sp:9.1e} {t_sp * 1e3:9.1f} | "
+              f"{t_hm * 1e6:8.1f} {t_hm_h * 1e6:7.1f} {steps:6d} {t_shoot * 1e6:7.1f} "
+              f"{t_shoot / t_hm:6.2f} | {err_sp:9.1e} {t_sp * 1e3:9.1f} | "
               f"{t_cd / t_hm:8.0f} {t_tuned / t_hm:8.0f} {t_sp / t_hm:8.0f} {t_hm / floor:7.2f}")
     print("-" * len(header))
     print(f"speed-up over the paper's scheme at equal or better accuracy: min {min(ratios_paper):.0f}x,"
@@ -165,6 +175,8 @@ def main():
     print(f"speed-up over the paper's scheme tuned (cd_shoot_tuned: same scheme and iterates, "
           f"coded for speed): min {min(ratios_tuned):.0f}x, "
           f"median {np.median(ratios_tuned):.0f}x")
+    print(f"kernels.shoot per call / batch kernel per orbit: max {max(shoot_ratios):.2f}, "
+          f"median {np.median(shoot_ratios):.2f}")
     print(f"speed-up over scipy solve_ivp + root: min {min(ratios_scipy):.0f}x, "
           f"median {np.median(ratios_scipy):.0f}x")
     print(f"time / arithmetic floor (steps x bare step): max {max(floors):.2f}, "

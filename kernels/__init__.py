@@ -16,8 +16,9 @@ from kernels._cache import configure_cache_dir
 CACHE_DIR = configure_cache_dir()   # before any kernel module is compiled
 
 from kernels import status  # noqa: E402
+from kernels._jit import compile_kernels, leaf_kernels  # noqa: E402
 from kernels.api import (Attractor, Orbit, attractor, attractor_batch, lyapunov,  # noqa: E402
                          shoot, shoot_batch, simulate)
 
-__all__ = ["Attractor", "Orbit", "attractor", "attractor_batch", "lyapunov", "shoot",
-           "shoot_batch", "simulate", "status"]
+__all__ = ["Attractor", "Orbit", "attractor", "attractor_batch", "compile_kernels",
+           "leaf_kernels", "lyapunov", "shoot", "shoot_batch", "simulate", "status"]

@@ -33,8 +33,7 @@ The error norm is Hairer's combined 5th/3rd order estimate (as in scipy) on all 
 """
 from math import cos, sin, sqrt
 
-from numba import float64, int64, njit
-
+from kernels._jit import kernel
 from kernels.model import contact_side_force as rhs_force
 from kernels.model import cos_shifted
 from kernels.model import contact_side_force_and_stiffness as rhs_force_and_stiffness
@@ -81,8 +80,8 @@ def _step(name: str, variational: bool, timemap: bool = False, heightmap: bool =
     if timemap or heightmap:
         sig = sig.replace(", float64, float64)", ", float64, float64, float64, float64)")
         extra = ", t_ref, sgn"
-    inlined = ", inline='always'" if inline else ""
-    L.append(f"@njit({sig}, cache=True, nogil=True{inlined})")
+    inlined = ', inline="llvm"' if inline else ""
+    L.append(f'@kernel("{sig}"{inlined})')
     L.append(f"def {name}(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol{extra}):")
     L.append("    tz = 2.0 * zeta")
     # the excitation at the stages: cos(omega t0 + theta) from one cos/sin at the step start
@@ -165,9 +164,8 @@ def _dense(name: str = "dense_coefficients", timemap: bool = False,
     L = []
     extra_sig = ", float64, float64" if timemap or heightmap else ""
     extra = ", t_ref, sgn" if timemap or heightmap else ""
-    L.append("@njit(\"void(float64, float64, float64[::1], float64[::1], float64[:, ::1], "
-             f"float64, float64, float64, float64, int64, float64[:, ::1]{extra_sig})\", "
-             "cache=True, nogil=True)")
+    L.append("@kernel(\"void(float64, float64, float64[::1], float64[::1], float64[:, ::1], "
+             f"float64, float64, float64, float64, int64, float64[:, ::1]{extra_sig})\")")
     L.append(f"def {name}(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P{extra}):")
     L.append("    \"\"\"Fill P (7, 2) so that dense_eval(P, y_old, x) is (q, v) at t + x h, 0 <= x <= 1.\"\"\"")
     L.append("    tz = 2.0 * zeta")

@@ -13,14 +13,13 @@ The error norm is Hairer's combined 5th/3rd order estimate (as in scipy) on all 
 """
 from math import cos, sin, sqrt
 
-from numba import float64, int64, njit
-
+from kernels._jit import kernel
 from kernels.model import contact_side_force as rhs_force
 from kernels.model import cos_shifted
 from kernels.model import contact_side_force_and_stiffness as rhs_force_and_stiffness
 
 
-@njit(float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64), cache=True, nogil=True, inline='always')
+@kernel("float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64)", inline="llvm")
 def step_var(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol):
     tz = 2.0 * zeta
     phi0 = omega * t
@@ -293,7 +292,7 @@ def step_var(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, at
     return abs(h) * e5 / sqrt(6.0 * (e5 + 0.01 * e3))
 
 
-@njit(float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64), cache=True, nogil=True)
+@kernel("float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64)")
 def step_state(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol):
     tz = 2.0 * zeta
     phi0 = omega * t
@@ -434,7 +433,7 @@ def step_state(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     return abs(h) * e5 / sqrt(2.0 * (e5 + 0.01 * e3))
 
 
-@njit("void(float64, float64, float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64[:, ::1])", cache=True, nogil=True)
+@kernel("void(float64, float64, float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64[:, ::1])")
 def dense_coefficients(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P):
     """Fill P (7, 2) so that dense_eval(P, y_old, x) is (q, v) at t + x h, 0 <= x <= 1."""
     tz = 2.0 * zeta
@@ -503,7 +502,7 @@ def dense_coefficients(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P):
     P[6, 1] = h * (-25.69393346270375 * k0v + -154.18974869023643 * k5v + -231.5293791760455 * k6v + 357.6391179106141 * k7v + 93.40532418362432 * k8v + -37.45832313645163 * k9v + 104.0996495089623 * k10v + 29.8402934266605 * k11v + -43.53345659001114 * k12v + 96.32455395918828 * k13v + -39.17726167561544 * k14v + -149.72683625798564 * k15v)
 
 
-@njit(float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64), cache=True, nogil=True)
+@kernel("float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64)")
 def step_var_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol, t_ref, sgn):
     tz = 2.0 * zeta
     phi0 = omega * (t_ref + sgn * t * t)
@@ -800,7 +799,7 @@ def step_var_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     return abs(h) * e5 / sqrt(6.0 * (e5 + 0.01 * e3))
 
 
-@njit(float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64), cache=True, nogil=True)
+@kernel("float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64)")
 def step_state_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol, t_ref, sgn):
     tz = 2.0 * zeta
     phi0 = omega * (t_ref + sgn * t * t)
@@ -965,7 +964,7 @@ def step_state_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol
     return abs(h) * e5 / sqrt(2.0 * (e5 + 0.01 * e3))
 
 
-@njit("void(float64, float64, float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64[:, ::1], float64, float64)", cache=True, nogil=True)
+@kernel("void(float64, float64, float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64[:, ::1], float64, float64)")
 def dense_coefficients_w(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P, t_ref, sgn):
     """Fill P (7, 2) so that dense_eval(P, y_old, x) is (q, v) at t + x h, 0 <= x <= 1."""
     tz = 2.0 * zeta
@@ -1040,7 +1039,7 @@ def dense_coefficients_w(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P,
     P[6, 1] = h * (-25.69393346270375 * k0v + -154.18974869023643 * k5v + -231.5293791760455 * k6v + 357.6391179106141 * k7v + 93.40532418362432 * k8v + -37.45832313645163 * k9v + 104.0996495089623 * k10v + 29.8402934266605 * k11v + -43.53345659001114 * k12v + 96.32455395918828 * k13v + -39.17726167561544 * k14v + -149.72683625798564 * k15v)
 
 
-@njit(float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64), cache=True, nogil=True)
+@kernel("float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64)")
 def step_var_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol, t_ref, sgn):
     tz = 2.0 * zeta
     phi0 = omega * (t_ref + y[0])
@@ -1337,7 +1336,7 @@ def step_var_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     return abs(h) * e5 / sqrt(6.0 * (e5 + 0.01 * e3))
 
 
-@njit(float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64), cache=True, nogil=True)
+@kernel("float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64)")
 def step_state_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol, t_ref, sgn):
     tz = 2.0 * zeta
     phi0 = omega * (t_ref + y[0])
@@ -1502,7 +1501,7 @@ def step_state_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol
     return abs(h) * e5 / sqrt(2.0 * (e5 + 0.01 * e3))
 
 
-@njit("void(float64, float64, float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64[:, ::1], float64, float64)", cache=True, nogil=True)
+@kernel("void(float64, float64, float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64[:, ::1], float64, float64)")
 def dense_coefficients_h(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P, t_ref, sgn):
     """Fill P (7, 2) so that dense_eval(P, y_old, x) is (q, v) at t + x h, 0 <= x <= 1."""
     tz = 2.0 * zeta

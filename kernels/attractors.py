@@ -53,9 +53,9 @@ Everything is dimensionless (paper Eq. 5-8). Kernels never raise and never alloc
 from math import exp, hypot, log, pi, sqrt
 
 import numpy as np
-from numba import njit
 
 from kernels import status as st
+from kernels._jit import kernel
 from kernels.integrate import (N_HARMONICS, N_STATS, S_ACCEPTED, S_EVENTS, S_FLIGHT_TIME,
                                S_H_FIRST, S_MAX_IMPACT, S_MAX_Q, S_MIN_Q, S_PARTIAL, S_REJECTED,
                                integrate)
@@ -107,7 +107,7 @@ N_LYAPUNOV_FIELDS = len(LYAPUNOV_FIELDS)
 
 # ---- period detection ----------------------------------------------------------------------
 
-@njit(cache=True, nogil=True)
+@kernel("float64(float64[:, ::1], int64, int64, int64)")
 def cycle_mismatch(ring, count, m, repeats):
     """max |x_j - x_{j-m}| / (1 + |x_K|) over the last ``repeats`` m points j of the ring of
     stroboscopic points (x_K the last; ring[j % len] holds x_j, count points so far); inf when
@@ -128,7 +128,7 @@ def cycle_mismatch(ring, count, m, repeats):
     return worst
 
 
-@njit(cache=True, nogil=True)
+@kernel("Tuple((int64, float64))(float64[:, ::1], int64, int64, float64, int64)")
 def detect_period(ring, count, m_max, tol, repeats):
     """Smallest m in 1..m_max whose cycle repeats within tol over ``repeats`` returns (see
     cycle_mismatch); (0, inf) if none. The last pair is tested first: most m fail on it."""
@@ -149,7 +149,7 @@ def detect_period(ring, count, m_max, tol, repeats):
     return 0, np.inf
 
 
-@njit(cache=True, nogil=True)
+@kernel("int64(float64[:, ::1], int64, int64, float64, int64)")
 def detect_period_in(points, count, m_max, tol, repeats):
     """detect_period on the first ``count`` rows of a chronological array of stroboscopic
     points (as written by attractor_into): the smallest m, 0 if none."""
@@ -163,7 +163,7 @@ def detect_period_in(points, count, m_max, tol, repeats):
 
 # ---- one forcing period ------------------------------------------------------------------
 
-@njit(cache=True, nogil=True)
+@kernel("Tuple((int64, float64))(float64[::1], float64, float64, float64, float64, float64, int64, float64, float64, float64, int64, boolean, float64[::1], float64[:, ::1], float64[::1], float64[:, ::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64[:, ::1])", inline="ir")
 def _period(y, T, omega, sigma, zeta, n, model, rtol, atol, h, max_steps, measure, t_eval,
             out_eval, stats, harm, f, y_new, f_new, K, P):
     """Advance y (2-D, or 6-D with the variational matrix) over one forcing period [0, T]
@@ -176,7 +176,7 @@ def _period(y, T, omega, sigma, zeta, n, model, rtol, atol, h, max_steps, measur
     return code, h
 
 
-@njit(cache=True, nogil=True)
+@kernel("void(float64[::1], float64, float64)")
 def _start_tangent(y6, q, v):
     y6[0] = q
     y6[1] = v
@@ -186,7 +186,7 @@ def _start_tangent(y6, q, v):
     y6[5] = 1.0
 
 
-@njit(cache=True, nogil=True)
+@kernel("UniTuple(float64, 2)(float64[::1], float64[::1], float64, float64)")
 def _tangent_step(y6, w, zeta, T):
     """w <- M w / |M w| with M = Phi_T's Jacobian in y6[2:6]; returns (log |M w|, Liouville
     error of M: |det M - exp(-2 zeta T)| relative to what a 2x2 determinant resolves)."""
@@ -201,7 +201,7 @@ def _tangent_step(y6, w, zeta, T):
     return log(g), abs(det - liou) / max(liou, abs(m11 * m22) + abs(m12 * m21), 1e-300)
 
 
-@njit(cache=True, nogil=True)
+@kernel("void(float64[::1], int64, float64, float64, float64, float64[::1])")
 def _block_statistics(blocks, nb, tau_per_block, total_log, total_tau, out):
     """out[0..2] = (lambda, standard error over the nb blocks, |first half - second half|)."""
     lam = total_log / total_tau
@@ -231,7 +231,7 @@ def _block_statistics(blocks, nb, tau_per_block, total_log, total_tau, out):
 
 # ---- the stand-alone exponent ----------------------------------------------------------------
 
-@njit(cache=True, nogil=True)
+@kernel("void(float64, float64, float64, float64, float64, float64, int64, int64, int64, float64, float64, int64, float64[::1])")
 def lyapunov_into(omega, sigma, zeta, q0, v0, n, model, periods, discard, rtol, atol, max_steps,
                   out):
     """Largest Lyapunov exponent (per unit tau) of paper Eq. 7 along the trajectory from
@@ -301,7 +301,7 @@ def lyapunov_into(omega, sigma, zeta, q0, v0, n, model, periods, discard, rtol, 
 
 # ---- measures over a window --------------------------------------------------------------
 
-@njit(cache=True, nogil=True)
+@kernel("void(float64[::1])")
 def _window_start(acc):
     """acc: (flight time, max impact, min q, max q, sum F, sum F^2, samples, q0, v0, tau)."""
     acc[0] = 0.0
@@ -314,7 +314,7 @@ def _window_start(acc):
     acc[9] = 0.0
 
 
-@njit(cache=True, nogil=True)
+@kernel("void(float64[::1], float64[::1], float64[:, ::1], float64)")
 def _window_add(acc, stats, out_eval, T):
     """Fold one measured period into acc (stats as left by integrate with ``measure``)."""
     acc[0] += stats[S_FLIGHT_TIME]
@@ -334,7 +334,7 @@ def _window_add(acc, stats, out_eval, T):
     acc[9] += T
 
 
-@njit(cache=True, nogil=True)
+@kernel("void(float64[::1], float64, float64, float64, float64, int64, float64[::1])")
 def _window_finish(acc, q1, v1, zeta, n, model, row):
     tau = acc[9]
     row[A_FLIGHT] = acc[0] / tau
@@ -350,7 +350,7 @@ def _window_finish(acc, q1, v1, zeta, n, model, row):
     row[A_QUAD_ERR] = abs(mean - exact)
 
 
-@njit(cache=True, nogil=True)
+@kernel("void(float64, int64, float64[::1])")
 def _sample_times(T, count, t_eval):
     for j in range(count):
         t_eval[j] = (j + 1) * T / count
@@ -359,7 +359,7 @@ def _sample_times(T, count, t_eval):
 
 # ---- the attractor from one initial state -------------------------------------------------
 
-@njit(cache=True, nogil=True)
+@kernel("boolean(float64, float64, float64, int64, float64, float64, float64, int64, float64, int64, boolean, float64[::1], float64, float64[::1])", inline="ir")
 def _confirm(omega, sigma, zeta, m, q, v, n, model, shoot_rtol, max_steps, harmonics, orbit,
              near, row):
     """Shoot period m from (q, v): True when it converged to a stable orbit of minimal period m
@@ -375,14 +375,14 @@ def _confirm(omega, sigma, zeta, m, q, v, n, model, shoot_rtol, max_steps, harmo
     return hypot(orbit[I_Q0] - q, orbit[I_V0] - v) <= near
 
 
-@njit(cache=True, nogil=True)
+@kernel("boolean(float64[::1])")
 def _flip_unstable(orbit):
     """A converged orbit that lost stability through a flip (a real multiplier below -1)."""
     return (orbit[I_STATUS] == st.CONVERGED and orbit[I_M1I] == 0.0
             and (orbit[I_M1R] < -1.0 or orbit[I_M2R] < -1.0))
 
 
-@njit(cache=True, nogil=True)
+@kernel("void(float64, float64, float64, float64, float64, float64, int64, int64, int64, boolean, int64, int64, float64, int64, float64, float64, float64, int64, boolean, float64[::1], float64[::1], float64[:, ::1])", inline="ir")
 def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, record_periods,
                    lyapunov, lyapunov_discard, force_samples, cycle_tol, cycle_repeats, rtol,
                    atol, shoot_rtol, max_steps, harmonics, row, orbit, strobe):
@@ -604,9 +604,9 @@ def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, reco
         row[A_STATUS] = st.UNSETTLED
 
 
-@njit("void(float64, float64, float64, float64[::1], float64[::1], float64, int64, int64, int64, "
-      "boolean, int64, int64, float64, int64, float64, float64, float64, int64, boolean, "
-      "float64[:, ::1], float64[:, ::1], float64[:, :, ::1])", cache=True, nogil=True)
+@kernel("void(float64, float64, float64, float64[::1], float64[::1], float64, int64, int64, int64, "
+        "boolean, int64, int64, float64, int64, float64, float64, float64, int64, boolean, "
+        "float64[:, ::1], float64[:, ::1], float64[:, :, ::1])")
 def attractor_batch_into(omega, sigma, zeta, q0, v0, n, model, transient_periods,
                          record_periods, lyapunov, lyapunov_discard, force_samples, cycle_tol,
                          cycle_repeats, rtol, atol, shoot_rtol, max_steps, harmonics, rows,
@@ -614,10 +614,9 @@ def attractor_batch_into(omega, sigma, zeta, q0, v0, n, model, transient_periods
     """attractor_into for each initial state (q0[i], v0[i]) at one parameter point: rows
     (k, N_ATTRACTOR_FIELDS), orbits (k, N_FIELDS), strobes (k, cap, 2).
 
-    The module's one entry point with a fixed signature (compiled, or loaded from the cache,
-    when the module is imported); kernels.attractor calls it with k = 1. The others compile on
-    first use: each compiled entry point carries its own optimised copy of the integrator and
-    of the shooting code (about 10 s each, cold), and a census needs only this one."""
+    The census's one compiled entry point (attractor_into is copied into it);
+    kernels.attractor calls it with k = 1. Every compiled entry point carries its own
+    optimised copy of the integrator and of the shooting code (kernels._jit)."""
     for i in range(q0.shape[0]):
         attractor_into(omega, sigma, zeta, q0[i], v0[i], n, model, transient_periods,
                        record_periods, lyapunov, lyapunov_discard, force_samples, cycle_tol,

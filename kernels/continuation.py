@@ -58,6 +58,7 @@ import numpy as np
 from numba import njit
 
 from kernels import status as st
+from kernels._jit import kernel
 from kernels.api import DEFAULT_MAX_STEPS, DEFAULT_RTOL, _check_exponent, _model_code, shoot
 from kernels.integrate import N_HARMONICS, N_STATS, S_MAX_Q, S_MIN_Q
 from kernels.model import contact_loss_level
@@ -78,7 +79,7 @@ XTOL = 1e-9
 MAX_NEWTON = 8
 
 
-@njit(cache=True, nogil=True)
+@kernel("int64(float64, float64, float64, float64, float64, int64, float64, int64, float64, float64, int64, float64[::1])")
 def period_map_into(q, v, omega, sigma, zeta, m, n, model, rtol, atol, max_steps, out):
     """Phi_{mT}(q, v) and its Jacobian M: out[0:2] = Phi, out[2:6] = (m11, m12, m21, m22).
     Returns the integrator status (kernels.status)."""

@@ -15,13 +15,15 @@ intervals, splitting each at the extremum of q (root of v) and refining with saf
 """
 from math import cos, expm1, pi, sin
 
-from numba import float64, int64, njit
+from numba import float64, int64
 from numba.types import UniTuple
+
+from kernels._jit import kernel
 
 _SCAN_PER_PERIOD = 32.0   # scan intervals per forcing period: v has at most one root in each
 
 
-@njit(UniTuple(float64, 2)(float64, float64), cache=True, nogil=True)
+@kernel(UniTuple(float64, 2)(float64, float64))
 def _phi12(a, s):
     x = a * s
     if x < 0.05:
@@ -35,15 +37,15 @@ def _phi12(a, s):
     return phi1, (s - phi1) / a
 
 
-@njit(UniTuple(float64, 3)(float64, float64), cache=True, nogil=True)
+@kernel(UniTuple(float64, 3)(float64, float64))
 def _phi12E(a, s):
     """phi1, phi2 and E = exp(-a s) = 1 - a phi1 (one expm1, no exp)."""
     phi1, phi2 = _phi12(a, s)
     return phi1, phi2, 1.0 - a * phi1
 
 
-@njit(UniTuple(float64, 2)(float64, float64, float64, float64, float64, float64, float64,
-                           float64, float64, float64, float64, float64), cache=True, nogil=True)
+@kernel(UniTuple(float64, 2)(float64, float64, float64, float64, float64, float64, float64,
+                           float64, float64, float64, float64, float64))
 def _state(q0, v0, a, omega, sigma, d, c0, s0, P0, s, c1, s1):
     """(q, v) after a flight of duration s, given the flight's constants (a = 2 zeta,
     d = a^2 + omega^2, c0, s0 = cos, sin omega t0, P0 = P(t0)) and c1, s1 = cos, sin
@@ -55,8 +57,7 @@ def _state(q0, v0, a, omega, sigma, d, c0, s0, P0, s, c1, s1):
             E * v0 + phi1 + sigma * (P1 - E * P0))
 
 
-@njit(UniTuple(float64, 4)(float64, float64, float64, float64, float64, float64, float64),
-      cache=True, nogil=True)
+@kernel(UniTuple(float64, 4)(float64, float64, float64, float64, float64, float64, float64))
 def flight_state(q0, v0, t0, s, omega, sigma, zeta):
     """State after a flight of duration s from (q0, v0) at time t0: (q, v, phi1, E)."""
     a = 2.0 * zeta
@@ -70,8 +71,8 @@ def flight_state(q0, v0, t0, s, omega, sigma, zeta):
     return q, v, phi1, E
 
 
-@njit(float64(float64, float64, float64, float64, float64, float64, float64, float64, int64,
-              int64), cache=True, nogil=True)
+@kernel(float64(float64, float64, float64, float64, float64, float64, float64, float64, int64,
+              int64))
 def _root(q0, v0, t0, lo, hi, omega, sigma, zeta, which, negative_at_lo):
     """Root in [lo, hi] of v(s) (which = 1) or of q(s) (which = 0; the caller shifts q0 so that
     the contact surface is at 0).
@@ -112,8 +113,7 @@ def _root(q0, v0, t0, lo, hi, omega, sigma, zeta, which, negative_at_lo):
     return s
 
 
-@njit(UniTuple(float64, 3)(float64, float64, float64, float64, float64, float64, float64, float64),
-      cache=True, nogil=True)
+@kernel(UniTuple(float64, 3)(float64, float64, float64, float64, float64, float64, float64, float64))
 def flight_until_recontact(q0, v0, t0, s_max, omega, sigma, zeta, n):
     """First upward crossing of q = -n after t0, searched in (0, s_max].
 

@@ -32,9 +32,10 @@ measure pass (variational + orbit measures), and time histories (dense output at
 from math import cos, pi, sin, sqrt
 
 import numpy as np
-from numba import boolean, float64, int64, njit
+from numba import boolean, float64, int64
 
 from kernels import status as st
+from kernels._jit import kernel
 from kernels._dop853 import (dense_coefficients, dense_coefficients_h, dense_coefficients_w,
                              step_state, step_state_h, step_state_w, step_var, step_var_h,
                              step_var_w)
@@ -64,7 +65,7 @@ _GL_W = np.array([0.05061426814518813, 0.11119051722668724, 0.15685332293894363,
                   0.11119051722668724, 0.05061426814518813])
 
 
-@njit(float64(float64[:, ::1], int64, float64, float64), cache=True, nogil=True)
+@kernel(float64(float64[:, ::1], int64, float64, float64))
 def dense_eval(P, i, y_old_i, x):
     """Component i of the continuous extension at fraction x of the step (scipy's layout)."""
     y = 0.0
@@ -77,8 +78,7 @@ def dense_eval(P, i, y_old_i, x):
     return y + y_old_i
 
 
-@njit(float64(float64[:, ::1], float64[::1], float64, float64, float64, int64),
-      cache=True, nogil=True)
+@kernel(float64(float64[:, ::1], float64[::1], float64, float64, float64, int64))
 def _dense_root(P, y_old, lo, hi, target, comp):
     """Root of dense component comp minus target in [lo, hi] (a sign change given), to a
     bracket of 1e-15: Illinois regula falsi, about 10 evaluations where bisection took 50."""
@@ -109,8 +109,7 @@ def _dense_root(P, y_old, lo, hi, target, comp):
     return lo if abs(flo) < abs(fhi) else hi
 
 
-@njit("void(float64, float64[::1], float64[::1], float64, float64, float64, float64, int64)",
-      cache=True, nogil=True)
+@kernel("void(float64, float64[::1], float64[::1], float64, float64, float64, float64, int64)")
 def derivative(t, y, f, omega, sigma, zeta, n, model):
     """f = dy/dt for the state (q, v) and, if len(y) == 6, the variational matrix."""
     F, dF = rhs_force_and_stiffness(y[0], n, model)
@@ -125,7 +124,7 @@ def derivative(t, y, f, omega, sigma, zeta, n, model):
 
 
 # inlined, with step_var (kernels/_codegen.py source()), into the integration loop
-@njit(cache=True, nogil=True, inline='always')
+@kernel("float64(int64, int64, float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64)", inline="ir")
 def _step(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol,
           t_ref):
     """One step in the mode's variable (t; w with t = t_ref + mode w^2; or x = -sqrt(q + n))."""
@@ -147,7 +146,7 @@ def _step(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, 
                         t_ref, sgn)
 
 
-@njit(cache=True, nogil=True)
+@kernel("void(int64, float64, float64, float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64[:, ::1], float64)")
 def _dense(mode, x, h, y, y_new, K, omega, sigma, zeta, n, model, P, t_ref):
     if mode == MODE_T:
         dense_coefficients(x, h, y, y_new, K, omega, sigma, zeta, n, model, P)
@@ -156,7 +155,7 @@ def _dense(mode, x, h, y, y_new, K, omega, sigma, zeta, n, model, P, t_ref):
                              float(mode))
 
 
-@njit(cache=True, nogil=True)
+@kernel("float64(int64, float64, float64)")
 def _time(mode, x, t_ref):
     """Physical time of the mode's variable x."""
     if mode == MODE_T:
@@ -164,7 +163,7 @@ def _time(mode, x, t_ref):
     return t_ref + mode * x * x
 
 
-@njit(cache=True, nogil=True)
+@kernel("float64(int64, float64, float64)")
 def _variable(mode, t, t_ref):
     """The mode's variable at physical time t (inverse of _time)."""
     if mode == MODE_T:
@@ -172,7 +171,7 @@ def _variable(mode, t, t_ref):
     return mode * sqrt(max(0.0, mode * (t - t_ref)))
 
 
-@njit(cache=True, nogil=True)
+@kernel("float64(int64, float64, float64, float64[::1], float64[::1], float64, float64, float64, float64, int64)")
 def _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model):
     """Variable value at t in the new mode, and f = dy/dx in its units (FSAL restart)."""
     derivative(t, y, f, omega, sigma, zeta, n, model)
@@ -184,7 +183,7 @@ def _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model):
     return x
 
 
-@njit(cache=True, nogil=True)
+@kernel("Tuple((float64, boolean))(float64, float64[::1], float64[::1], float64[::1], float64, float64, float64, float64, int64)")
 def _lose_contact(t, y, f, stats, omega, sigma, zeta, n, model):
     """Contact is lost at t: q = -n exactly and one more event. Returns the t-mode variable
     (with f the derivative there) and whether flight follows (q' < 0)."""
@@ -193,7 +192,7 @@ def _lose_contact(t, y, f, stats, omega, sigma, zeta, n, model):
     return _enter(MODE_T, t, t, y, f, omega, sigma, zeta, n, model), y[1] < 0.0
 
 
-@njit(float64(float64, float64, float64), cache=True, nogil=True)
+@kernel(float64(float64, float64, float64))
 def _time_to_surface(g, v, a):
     """First s > 0 with g + v s + a s^2 / 2 = 0 (g = q + n >= 0 the height above the contact
     surface, v and a the velocity and acceleration): when contact would be lost on the local
@@ -212,7 +211,7 @@ def _time_to_surface(g, v, a):
     return best
 
 
-@njit(boolean(float64, float64, float64), cache=True, nogil=True)
+@kernel(boolean(float64, float64, float64))
 def _lands_steeply(g, v, a):
     """On the local parabola (height g above the surface, velocity v < 0, acceleration a),
     does q reach the surface at a speed between |v| / 2 and 2 |v|? The condition for stepping
@@ -223,7 +222,7 @@ def _lands_steeply(g, v, a):
     return 0.25 * v * v <= landing2 <= 4.0 * v * v
 
 
-@njit(float64(float64, float64, float64, float64, float64, float64), cache=True, nogil=True)
+@kernel(float64(float64, float64, float64, float64, float64, float64))
 def _hermite_root(g0, d0, a0, g1, d1, a1):
     """Root in (0, 1) of the Hermite interpolant with values g0 > 0 > g1, slopes d0, d1 and
     (if finite) second derivatives a0, a1 (per unit of the fraction) at the ends: the first
@@ -265,7 +264,7 @@ def _hermite_root(g0, d0, a0, g1, d1, a1):
     return x
 
 
-@njit(cache=True, nogil=True)
+@kernel("UniTuple(float64, 2)(int64, int64, float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64, float64[::1])")
 def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
                      atol, t_ref, s_guess, stats_partial):
     """Increment s in (0, h] of the mode's variable from x where q = -n, the step over h ending
@@ -326,7 +325,7 @@ def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta,
     return s, -1.0
 
 
-@njit(cache=True, nogil=True)
+@kernel("int64(float64[::1], float64, float64, float64, float64, float64, float64, int64, float64, float64, float64, int64, boolean, boolean, boolean, float64, float64[:, ::1], float64[::1], float64[:, ::1], float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64[:, ::1])")
 def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
               variational, measure, harmonics, period_harm, harm, t_eval, out_eval, stats,
               f, y_new, f_new, K, P):
@@ -657,7 +656,7 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
     return st.CONVERGED
 
 
-@njit(cache=True, nogil=True)
+@kernel("int64(float64[:, ::1], float64[::1], int64, float64, float64, float64, float64[::1], float64[:, ::1], int64, float64, int64)")
 def _emit(P, y, mode, x, h, t_ref, t_eval, out_eval, i_eval, n, model):
     """Write the dense output at every t_eval inside the step (x, x + h] of the mode's variable."""
     n_eval = t_eval.shape[0]
@@ -673,7 +672,7 @@ def _emit(P, y, mode, x, h, t_ref, t_eval, out_eval, i_eval, n, model):
     return i_eval
 
 
-@njit(cache=True, nogil=True)
+@kernel("void(float64[:, ::1], float64[::1], float64[::1], int64, float64, float64, float64, float64, int64, boolean, boolean, float64, float64[:, ::1], float64[::1])")
 def _measure_step(P, y, y_new, mode, x, h, t_ref, n, model, extremum, harmonics, w_h, harm,
                   stats):
     """Orbit measures over one contact step: extrema of q (``extremum``: q' changes sign
@@ -704,7 +703,7 @@ def _measure_step(P, y, y_new, mode, x, h, t_ref, n, model, extremum, harmonics,
             _add_harmonics(Fe, _time(mode, xx, t_ref), w_h, harm)
 
 
-@njit(cache=True, nogil=True)
+@kernel("void(float64[:, ::1], float64[::1], float64, float64, float64, float64, int64, float64, float64[:, ::1])")
 def _height_step_harmonics(P, y, x, h, t_ref, n, model, w_h, harm):
     """The contact-force harmonics over one step in x = -sqrt(q + n) (P: its continuous
     extension of (tau, q')): q = x^2 - n at the Gauss nodes, dt = 2 x / q' dx."""
@@ -717,7 +716,7 @@ def _height_step_harmonics(P, y, x, h, t_ref, n, model, w_h, harm):
             _add_harmonics(Fe, t_ref + dense_eval(P, 0, y[0], xi), w_h, harm)
 
 
-@njit(cache=True, nogil=True)
+@kernel("void(float64, float64, float64, float64[:, ::1])")
 def _add_harmonics(Fe, tt, w_h, harm):
     """harm[0, k] += Fe cos(k w_h tt), harm[1, k] += Fe sin(k w_h tt), k = 0..N_HARMONICS."""
     c1 = cos(w_h * tt)

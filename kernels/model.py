@@ -17,8 +17,10 @@ surface and the saltation matrix of a contact loss or recontact is the identity.
 """
 from math import cos, sqrt
 
-from numba import float64, int64, njit
+from numba import float64, int64
 from numba.types import UniTuple
+
+from kernels._jit import kernel
 
 HERTZ = 0
 TAYLOR = 1
@@ -40,7 +42,7 @@ def contact_loss_level(model: str, exponent: float) -> float:
     return -float(exponent)
 
 
-@njit(float64(float64, float64, int64), cache=True, nogil=True)
+@kernel(float64(float64, float64, int64))
 def rhs_force(q, n, model):
     """Contact force F(q) / N (dimensionless)."""
     if model == TAYLOR:
@@ -55,7 +57,7 @@ def rhs_force(q, n, model):
     return s ** n
 
 
-@njit(UniTuple(float64, 2)(float64, float64, int64), cache=True, nogil=True)
+@kernel(UniTuple(float64, 2)(float64, float64, int64))
 def rhs_force_and_stiffness(q, n, model):
     """F(q) and its derivative F'(q) (the contact stiffness, 1 at the static point)."""
     if model == TAYLOR:
@@ -72,7 +74,7 @@ def rhs_force_and_stiffness(q, n, model):
     return p * s, p
 
 
-@njit(float64(float64, float64, int64), cache=True, nogil=True)
+@kernel(float64(float64, float64, int64))
 def contact_side_force(q, n, model):
     """F(q) continued past q = -n as the odd extension sign(s) |s|^n, s = 1 + q/n.
 
@@ -94,7 +96,7 @@ def contact_side_force(q, n, model):
     return f if s >= 0.0 else -f
 
 
-@njit(UniTuple(float64, 2)(float64, float64, int64), cache=True, nogil=True)
+@kernel(UniTuple(float64, 2)(float64, float64, int64))
 def contact_side_force_and_stiffness(q, n, model):
     """contact_side_force and its derivative |s|^(n-1)."""
     if model == TAYLOR:
@@ -110,7 +112,7 @@ def contact_side_force_and_stiffness(q, n, model):
     return (p * a if s >= 0.0 else -p * a), p
 
 
-@njit(float64(float64, float64, float64, float64), cache=True, nogil=True)
+@kernel(float64(float64, float64, float64, float64))
 def cos_shifted(c0, s0, phi0, theta):
     """cos(phi0 + theta) from c0 = cos(phi0) and s0 = sin(phi0) (the excitation of Eq. 7 at
     the stages of one integration step, phi0 = omega t at the step start).

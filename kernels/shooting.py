@@ -16,9 +16,9 @@ code says what happened (kernels.status).
 from math import exp, hypot, pi, sqrt
 
 import numpy as np
-from numba import float64, int64, njit
 
 from kernels import status as st
+from kernels._jit import kernel
 from kernels.integrate import (N_HARMONICS, N_STATS, S_ACCEPTED, S_EVENTS, S_FLIGHT_TIME,
                                S_H_FIRST, S_H_RECONTACT, S_MAX_IMPACT, S_MAX_Q, S_MIN_Q,
                                S_REJECTED, BIG,
@@ -45,7 +45,7 @@ XTOL_MEASURE = 1e-3    # Newton hands over to the measure pass below this step (
 STALL_LIMIT = 2
 
 
-@njit("void(float64[::1], float64, float64)", cache=True, nogil=True)
+@kernel("void(float64[::1], float64, float64)")
 def _start(y, q, v):
     """y = (q, v, Phi = I): the start of a period map with its variational matrix."""
     y[0] = q
@@ -56,7 +56,7 @@ def _start(y, q, v):
     y[5] = 1.0
 
 
-@njit(cache=True, nogil=True)
+@kernel("int64(float64, float64, float64, float64, float64, float64, float64, int64, float64, float64, float64, int64, float64[::1], float64[::1], float64[:, ::1], float64[::1], float64[:, ::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64[:, ::1])", inline="ir")
 def _map(x0, v0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps, y, stats, harm,
          t_eval, out_eval, f, y_new, f_new, K, W):
     """Phi_P(x) and its Jacobian into y (6,). Returns the status."""
@@ -67,7 +67,7 @@ def _map(x0, v0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps, y, s
                      True, False, False, P, harm, t_eval, out_eval, stats, f, y_new, f_new, K, W)
 
 
-@njit(cache=True, nogil=True)
+@kernel("Tuple((boolean, float64, float64))(float64, float64, float64, float64, float64, float64)")
 def _newton_step(m11, m12, m21, m22, rq, rv):
     """Solve (M - I) dx = -r for the 2x2 monodromy M; ok is False when M - I is singular to
     round-off (a multiplier +1: a fold)."""
@@ -79,7 +79,7 @@ def _newton_step(m11, m12, m21, m22, rq, rv):
     return True, -(d * rq - m12 * rv) / det, -(-m21 * rq + a * rv) / det
 
 
-@njit(cache=True, nogil=True)
+@kernel("int64(float64, float64, float64, float64, float64, float64, float64, int64, float64, float64, float64, int64, float64[::1], float64[::1], boolean, float64[:, ::1], float64[::1], float64[:, ::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64[:, ::1])", inline="ir")
 def _measure_pass(x0, v0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps, y, stats,
                   harmonics, harm, t_eval, out_eval, f, y_new, f_new, K, W):
     """Phi_P(x) and its Jacobian, with the orbit measures into stats (and, with
@@ -94,7 +94,7 @@ def _measure_pass(x0, v0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_st
                      K, W)
 
 
-@njit(cache=True, nogil=True)
+@kernel("void(float64, float64, float64, int64, float64, float64, float64, int64, float64, float64, int64, int64, boolean, float64[::1])")
 def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, max_iter,
                max_steps, harmonics, res):
     """Find the period-m orbit near (q_guess, v_guess); write FIELDS into res (float64[N_FIELDS]).
@@ -304,7 +304,7 @@ def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, ma
         res[I_STATUS] = st.CONVERGED
 
 
-@njit(cache=True, nogil=True)
+@kernel("void(float64[::1], float64[::1], float64[::1], int64[::1], float64[::1], float64[::1], float64, int64, float64, float64, int64, int64, boolean, float64[:, ::1])")
 def shoot_batch_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, max_iter,
                      max_steps, harmonics, out):
     """shoot_into for each i over 1-D arrays of equal length; out has shape (len, N_FIELDS)."""

@@ -3,6 +3,9 @@
 The block solver is imported by name on the worker (``study.solve.block:solve_block`` by default),
 so nothing jitted is ever pickled; the :class:`Warmup` plugin imports it and runs one tiny
 solve when a worker starts, which loads (or compiles) the numba kernels once per process.
+With an empty numba cache, the workers share the compile (kernels._jit): each compiles the
+kernels' leaves in an order of its own (forward or backward by worker number) and loads
+from the cache what another has compiled, then the warm-up solve compiles the rest.
 """
 
 from __future__ import annotations
@@ -31,13 +34,28 @@ def load_solver(path: str = DEFAULT_SOLVER) -> Callable[..., dict]:
     return fn
 
 
-def warm_up(solver: str = DEFAULT_SOLVER, kwargs: dict[str, Any] | None = None) -> float:
-    """Import the solver and solve one grid point; returns the seconds it took."""
+def warm_up(solver: str = DEFAULT_SOLVER, kwargs: dict[str, Any] | None = None,
+            order: int = 0) -> float:
+    """Import the solver and solve one grid point; returns the seconds it took. For the
+    default solver, first compile (or load) the kernels' leaves, backward when ``order`` is
+    odd: two workers starting together with an empty cache then compile half each."""
     t0 = time.perf_counter()
+    if solver == DEFAULT_SOLVER:
+        from kernels import compile_kernels, leaf_kernels
+        leaves = leaf_kernels()
+        compile_kernels(leaves[::-1] if order % 2 else leaves)
     fn = load_solver(solver)
     one = np.array([1.0])
     fn(one, np.array([0.1]), np.array([0.05]), **(kwargs or {}))
     return time.perf_counter() - t0
+
+
+def worker_number(worker) -> int:
+    """The number in a worker's name (LocalCluster: 0, 1, ...; dask-jobqueue: JOB-0, JOB-1,
+    ...), else the process id: only its parity is used, to vary the compile order."""
+    name = str(getattr(worker, "name", ""))
+    tail = name.rsplit("-", 1)[-1]
+    return int(tail) if tail.isdigit() else os.getpid()
 
 
 class Warmup(WorkerPlugin):
@@ -51,7 +69,7 @@ class Warmup(WorkerPlugin):
         self.seconds: float | None = None
 
     def setup(self, worker=None):
-        self.seconds = warm_up(self.solver, self.kwargs)
+        self.seconds = warm_up(self.solver, self.kwargs, worker_number(worker))
 
     def teardown(self, worker=None):
         pass

@@ -380,28 +380,13 @@ def plot_bifurcation_set(curves, mms, path, *, zeta=None, lcm=None, omega_range=
         _draw_mms(ax, mms, zeta)
         _draw_traced(ax, traced, zeta)
         fallback = _grid_fallback(traced, zeta, ("flip_1T", "boundary_2T", "isola"))
-        if lcm is not None and any(n == "isola" for n, _ in fallback):
-            m = lcm.sel(zeta=zeta, method="nearest")
-            iso = m["isola_2T"].transpose("sigma", "omega").values
-            if iso.any():
-                ax.pcolormesh(m["omega"], m["sigma"], np.where(iso, 1.0, np.nan), cmap="RdPu",
-                              vmin=0, vmax=2, shading="nearest", rasterized=True)
+        if any(n == "isola" for n, _ in fallback):
+            _shade_isola_cells(ax, lcm, zeta)
         _draw_curves(ax, curves, zeta, fallback)
-        if omega_range:
-            ax.set_xlim(*omega_range)
-        if sigma_range:
-            ax.set_ylim(*sigma_range)
-        ax.set_xlabel("omega")
-        ax.set_ylabel("sigma")
-        ax.set_title(title or f"Bifurcation set (traced curves), {_zlabel(zeta)}")
-        ax.legend(fontsize=6.5, loc="best")
-        return _save(fig, path)
-    if lcm is not None:
-        m = lcm.sel(zeta=zeta, method="nearest")
-        iso = m["isola_2T"].transpose("sigma", "omega").values
-        if iso.any():
-            ax.pcolormesh(m["omega"], m["sigma"], np.where(iso, 1.0, np.nan), cmap="RdPu",
-                          vmin=0, vmax=2, shading="nearest", rasterized=True)
+        return _finish_bifurcation_set(fig, ax, path, omega_range, sigma_range,
+                                       title or f"Bifurcation set (traced curves), {_zlabel(zeta)}",
+                                       legend_size=6.5)
+    _shade_isola_cells(ax, lcm, zeta)
     _draw_mms(ax, mms, zeta)
     flips = _located_segments(located, zeta, 2, 1)
     folds = _located_segments(located, zeta, 1, 2)
@@ -422,14 +407,30 @@ def plot_bifurcation_set(curves, mms, path, *, zeta=None, lcm=None, omega_range=
             ax.plot(seg[::step, 0], seg[::step, 1], "s", mfc="none", mec="k", ms=4)
         ax.plot([], [], "s", mfc="none", mec="k", ms=4, label="flip of 1T (shooting, contoured)")
         _draw_curves(ax, curves, zeta, ("boundary_2T", "isola"))
+    return _finish_bifurcation_set(fig, ax, path, omega_range, sigma_range,
+                                   title or f"Bifurcation set, {_zlabel(zeta)}", legend_size=7)
+
+
+def _shade_isola_cells(ax, lcm, zeta) -> None:
+    """The grid cells flagged isola_2T (the grid heuristic), shaded: where no curve is traced."""
+    if lcm is None:
+        return
+    m = lcm.sel(zeta=zeta, method="nearest")
+    iso = m["isola_2T"].transpose("sigma", "omega").values
+    if iso.any():
+        ax.pcolormesh(m["omega"], m["sigma"], np.where(iso, 1.0, np.nan), cmap="RdPu",
+                      vmin=0, vmax=2, shading="nearest", rasterized=True)
+
+
+def _finish_bifurcation_set(fig, ax, path, omega_range, sigma_range, title, legend_size):
     if omega_range:
         ax.set_xlim(*omega_range)
     if sigma_range:
         ax.set_ylim(*sigma_range)
     ax.set_xlabel("omega")
     ax.set_ylabel("sigma")
-    ax.set_title(title or f"Bifurcation set, {_zlabel(zeta)}")
-    ax.legend(fontsize=7, loc="best")
+    ax.set_title(title)
+    ax.legend(fontsize=legend_size, loc="best")
     return _save(fig, path)
 
 

@@ -1,0 +1,259 @@
+"""How the kernels are compiled: ``kernel``, numba's njit with one fixed signature compiled (or
+loaded from the disk cache) on first use, never at import, and compiled by one process at a
+time for all the processes that share the cache.
+
+Why one signature, on first use. numba compiles a function decorated with a signature when
+its module is imported; without one, it compiles a new specialisation for every new combination
+of argument types, and a constant argument in a caller (``integrate(..., True, False, ...)``,
+``mode = MODE_T``) is a *literal* type: each constant seen made another copy of the integrator
+(four of ``integrate`` and two of ``_locate_crossing`` for one orbit and a study, each compiled
+in full). A ``kernel`` has exactly one specialisation, its signature: callers' literal arguments
+convert to it; and nothing compiles before something calls it, so ``import kernels`` (which
+every process of a study does, the client included) compiles nothing, and a process that only
+shoots never compiles the attractor code.
+
+Why a lock. The workers of a study start together and, with an empty cache, each compiled
+every kernel itself, at the same time (the same minute of CPU, once per worker). A kernel is
+now compiled under an exclusive lock on a file next to its cache entry: a second process that
+needs it waits, then loads the first one's machine code from the disk cache. Processes that
+walk the kernels in different orders (``compile_kernels``) share the work instead of repeating
+it. The lock is released when its holder ends, however it ends (``flock``); where it cannot be
+taken (no ``fcntl``, a read-only cache) kernels compile as before.
+
+Why helper processes. A kernel called from Python with nothing of it in the disk cache (a new
+clone, venv, version or node) compiles its whole tree: about 20 s of one core for the first
+orbit, most of it in the leaves (the generated DOP853 steps) that do not depend on each other.
+That first call starts HELPERS background processes (at most one fewer than the cores) that
+compile the leaves from the other end of the list, under the same locks, while this process
+compiles in its own order and loads what they have finished; they exit when the list is
+done. ``HERTZMAP_COMPILE_HELPERS=0`` turns them off.
+"""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from contextlib import contextmanager
+
+import numba
+from numba import njit
+
+try:
+    import fcntl
+except ImportError:     # not on POSIX: no lock, each process compiles what it needs
+    fcntl = None
+
+#: every kernel with a fixed signature, in definition order (modules are imported callees
+#: first, so a kernel's callees mostly come before it)
+KERNELS: list = []
+#: a process waits this long for another's compile before compiling the kernel itself
+LOCK_TIMEOUT = 900.0
+#: environment variable: how many helper processes a cold first call may start (default: one
+#: fewer than the cores, at most 3; 0 = none)
+HELPERS_ENV = "HERTZMAP_COMPILE_HELPERS"
+
+
+def kernel(signature=None, *, inline: str | None = None, cache: bool = True):
+    """``numba.njit(cache=True, nogil=True)`` with ``signature`` compiled on first use.
+
+    Calls from Python and from other jitted functions with other argument types convert to the
+    signature (as with an eager signature) or fail with numba's TypeError; no other
+    specialisation is ever compiled. Without ``signature``: plain lazy njit (one
+    specialisation per argument types).
+
+    Every compiled function is a library of machine code that holds a copy of everything it
+    calls, optimised and compiled again with it: a chain of thin wrappers over the integrator
+    compiles the integrator once per link. ``inline`` chooses how a function joins its callers:
+
+    * ``"llvm"`` (numba's ``forceinline``): typed and lowered once, then LLVM inlines it into
+      each caller, as if written there. For large bodies in hot loops (the DOP853 step).
+    * ``"ir"`` (numba's ``inline='always'``): its IR is copied into each caller before typing,
+      so it is typed again at every call site (with the caller's argument types: the signature
+      documents them), but it is no library of its own. For thin wrappers, which would
+      otherwise cost a full compile of everything below them.
+    """
+    def wrap(fn):
+        dispatcher = njit(cache=cache, nogil=True, forceinline=inline == "llvm",
+                          inline="always" if inline == "ir" else "never")(fn)
+        if signature is not None:
+            _fix_signature(dispatcher, signature, locked=cache)
+            if inline != "ir":
+                KERNELS.append(dispatcher)
+        return dispatcher
+    return wrap
+
+
+def _fix_signature(dispatcher, signature, locked: bool) -> None:
+    """Compile ``signature`` when the dispatcher is first typed (by a jitted caller) or called
+    (from Python), then disable compilation: every later call resolves to that one overload."""
+    typed_call = dispatcher.get_call_template
+
+    def compile_once():
+        if dispatcher._can_compile:
+            with (_compile_lock(dispatcher) if locked else _no_lock()):
+                # after another process's compile this loads its entry from the disk cache
+                dispatcher.compile(signature)
+            dispatcher.disable_compile()
+
+    def get_call_template(args, kws):
+        compile_once()
+        return typed_call(args, kws)
+
+    def _compile_for_args(*args, **kws):
+        # the C dispatcher found no overload and calls what this returns with the same
+        # arguments: the dispatcher itself, now holding the signature (an argument that does
+        # not convert to it gets numba's TypeError: compilation is disabled)
+        if dispatcher._can_compile:
+            start_helpers(dispatcher)
+        compile_once()
+        return dispatcher
+
+    dispatcher.get_call_template = get_call_template
+    dispatcher._compile_for_args = _compile_for_args
+    dispatcher.fixed_signature = signature
+    dispatcher.compile_fixed = compile_once
+
+
+def compiled(dispatcher) -> bool:
+    """Has this process compiled or loaded the kernel yet?"""
+    return not dispatcher._can_compile
+
+
+def compile_kernels(dispatchers) -> int:
+    """Compile (or load from the disk cache) each kernel in the given order; returns how many
+    were compiled or loaded now. Processes that share a cache and call this with different
+    orders split the compile work between them (each kernel is compiled once, under its lock)."""
+    done = 0
+    for d in dispatchers:
+        if not compiled(d):
+            d.compile_fixed()
+            done += 1
+    return done
+
+
+def kernel_name(dispatcher) -> str:
+    return f"{dispatcher.py_func.__module__}.{dispatcher.py_func.__qualname__}"
+
+
+_held: set[str] = set()
+
+
+@contextmanager
+def _no_lock():
+    yield
+
+
+@contextmanager
+def _compile_lock(dispatcher):
+    """An exclusive flock on ``<cache dir>/locks/<kernel>.compiling`` while the kernel
+    compiles; the wait is bounded (LOCK_TIMEOUT) and any failure to lock means compiling
+    without it. (The numba cache's own lock: the store's locks are scheduler.store's.)"""
+    name = kernel_name(dispatcher)
+    if fcntl is None or name in _held:
+        yield
+        return
+    fd = None
+    try:
+        folder = os.path.join(numba.config.CACHE_DIR or ".", "locks")
+        os.makedirs(folder, exist_ok=True)
+        fd = os.open(os.path.join(folder, name + ".compiling"), os.O_RDWR | os.O_CREAT, 0o666)
+        deadline = time.monotonic() + LOCK_TIMEOUT
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                if time.monotonic() > deadline:
+                    raise TimeoutError(name) from None
+                time.sleep(0.02)
+    except (OSError, TimeoutError):
+        if fd is not None:
+            os.close(fd)
+        yield
+        return
+    _held.add(name)
+    try:
+        yield
+    finally:
+        _held.discard(name)
+        os.close(fd)        # releases the lock
+
+
+#: modules whose kernels call no other module's kernels but the model's: the leaves of every
+#: compiled entry point (the DOP853 steps are most of a cold compile)
+LEAF_MODULES = ("model", "flight", "_dop853")
+#: the integrator's module: its kernels other than ``integrate`` are independent of each other
+INTEGRATOR_MODULE = "integrate"
+
+
+def _module_tail(dispatcher) -> str:
+    return dispatcher.py_func.__module__.rsplit(".", 1)[-1]
+
+
+def leaf_kernels() -> list:
+    """The leaf kernels (LEAF_MODULES) defined so far (``import kernels`` defines them all),
+    in definition order."""
+    return [d for d in KERNELS if _module_tail(d) in LEAF_MODULES]
+
+
+def helper_kernels(package: str) -> list:
+    """What a helper process compiles: the leaves and the integrator's own small kernels
+    (everything ``integrate`` calls), of the kernels package ``package``, in definition
+    order."""
+    mods = LEAF_MODULES + (INTEGRATOR_MODULE,)
+    return [d for d in KERNELS if d.py_func.__module__.split(".")[0] == package
+            and _module_tail(d) in mods and d.py_func.__name__ != "integrate"]
+
+
+_helpers_started = False
+_helpers: list[subprocess.Popen] = []     # kept, so that they are reaped, not warned about
+
+
+def helper_count() -> int:
+    value = os.environ.get(HELPERS_ENV)
+    if value is not None:
+        try:
+            return max(0, int(value))
+        except ValueError:
+            return 0
+    return max(0, min(3, (os.cpu_count() or 1) - 1))
+
+
+def start_helpers(entry) -> int:
+    """Before ``entry`` (a kernel called from Python) compiles with nothing in the disk cache:
+    start helper processes that compile helper_kernels() from the other end (helper i of n
+    starts at its own share of the list, backwards). Returns how many were started (0 when
+    the entry is cached, the helpers already ran in this process, or HELPERS_ENV says 0)."""
+    global _helpers_started
+    n = helper_count()
+    if n == 0 or _helpers_started or fcntl is None:
+        return 0
+    try:
+        if os.path.exists(entry._cache._cache_file._index_path):
+            return 0        # in the disk cache: nothing to share
+    except AttributeError:
+        return 0
+    package = entry.py_func.__module__.split(".")[0]
+    if all(compiled(d) for d in helper_kernels(package)):
+        return 0
+    root = os.path.dirname(os.path.dirname(sys.modules[package].__file__))
+    env = dict(os.environ, **{HELPERS_ENV: "0"})
+    code = (f"import sys; sys.path.insert(0, {root!r}); "
+            f"from {package}._jit import run_helper; run_helper({package!r}, {{i}}, {n})")
+    _helpers_started = True
+    for i in range(n):
+        _helpers.append(subprocess.Popen(
+            [sys.executable, "-c", code.format(i=i)], env=env, stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True))
+    return n
+
+
+def run_helper(package: str, index: int, count: int) -> None:
+    """A helper process's work: helper_kernels backwards, starting at its share of the list."""
+    import importlib
+    importlib.import_module(package)      # sets the cache folder
+    importlib.import_module(package + ".integrate")
+    todo = helper_kernels(package)[::-1]
+    start = index * len(todo) // count
+    compile_kernels(todo[start:] + todo[:start])

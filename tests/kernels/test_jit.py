@@ -1,0 +1,104 @@
+"""kernels._jit: importing compiles nothing, a first orbit compiles only the shooting path and
+each kernel once, and processes sharing a cache wait for each other's compile instead of
+repeating it. Each case runs in a new process with an empty numba cache."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from tests.helpers import REPO, subprocess_env
+
+#: collects every numba compile of the child process: (module, function, signature count)
+LISTEN = textwrap.dedent("""
+    import json, sys
+    from numba.core import event
+    compiled = []
+    class Listener(event.Listener):
+        def on_start(self, ev):
+            pass
+        def on_end(self, ev):
+            f = ev.data["dispatcher"].py_func
+            compiled.append(f.__module__ + "." + f.__qualname__)
+    event.register("numba:compile", Listener())
+""")
+
+
+def _run(code: str, cache, **env) -> dict:
+    r = subprocess.run([sys.executable, "-c", LISTEN + textwrap.dedent(code)], cwd=REPO,
+                       env=subprocess_env(NUMBA_CACHE_DIR=str(cache), **env),
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr[-3000:]
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+def test_importing_the_kernels_and_the_study_layer_compiles_nothing(tmp_path):
+    out = _run("""
+        import kernels, kernels.attractors, kernels.continuation, kernels.central_difference
+        import study.schema, study.solve.block, study.products
+        import os
+        print(json.dumps({"compiled": compiled, "files": sorted(
+            f for _, _, fs in os.walk(kernels.CACHE_DIR) for f in fs)}))
+    """, tmp_path)
+    assert out["compiled"] == []
+    assert out["files"] == []
+
+
+@pytest.mark.slow
+def test_a_first_orbit_compiles_the_shooting_path_once(tmp_path):
+    """No attractor, continuation or baseline kernel, and one specialisation of everything
+    compiled (a literal argument used to make more: four copies of the integrator)."""
+    out = _run("""
+        import kernels
+        from kernels._jit import KERNELS
+        o = kernels.shoot(1.5, 0.2, 0.01, 1, guess=(-0.16, 0.006))
+        mine = [k for k in compiled if k.startswith("kernels.")]
+        print(json.dumps({"converged": bool(o.converged), "compiled": mine,
+                          "signatures": {d.py_func.__qualname__: len(d.signatures)
+                                         for d in KERNELS if d.signatures}}))
+    """, tmp_path, HERTZMAP_COMPILE_HELPERS="0")
+    assert out["converged"]
+    modules = {k.rsplit(".", 1)[0] for k in out["compiled"]}
+    assert modules <= {"kernels.model", "kernels.flight", "kernels._dop853",
+                       "kernels.integrate", "kernels.shooting"}, modules
+    assert "kernels.integrate.integrate" in out["compiled"]
+    assert len(out["compiled"]) == len(set(out["compiled"])), "a kernel compiled twice"
+    assert set(out["signatures"].values()) == {1}
+
+
+def test_a_second_process_waits_for_the_compile_and_loads_it(tmp_path):
+    """This process holds a kernel's compile lock while a second process asks for the same
+    kernel; only then does it compile (into the shared cache) and let go. The second process
+    must have waited: it loads the kernel from the cache instead of compiling it."""
+    code = """
+        import json, sys
+        import kernels
+        from kernels.model import cos_shifted
+        print("asking", flush=True)
+        cos_shifted.compile_fixed()
+        print(json.dumps({"hits": sum(cos_shifted.stats.cache_hits.values()),
+                          "misses": sum(cos_shifted.stats.cache_misses.values())}))
+    """
+    env = subprocess_env(NUMBA_CACHE_DIR=str(tmp_path), HERTZMAP_COMPILE_HELPERS="0")
+    script = f"import os; os.environ['NUMBA_CACHE_DIR'] = {str(tmp_path)!r}\n"
+    parent = subprocess.Popen(
+        [sys.executable, "-c", script + textwrap.dedent(f"""
+            import subprocess, sys, time
+            import kernels
+            from kernels._jit import _compile_lock
+            from kernels.model import cos_shifted
+            with _compile_lock(cos_shifted):
+                child = subprocess.Popen([sys.executable, "-c", {textwrap.dedent(code)!r}],
+                                         stdout=subprocess.PIPE, text=True)
+                assert child.stdout.readline().strip() == "asking"
+                time.sleep(1.0)     # the child would compile now if the lock did not hold it
+                cos_shifted.compile(cos_shifted.fixed_signature)
+            print(child.communicate()[0].strip().splitlines()[-1])
+        """)], cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    out, err = parent.communicate(timeout=600)
+    assert parent.returncode == 0, err[-3000:]
+    child = json.loads(out.strip().splitlines()[-1])
+    assert child == {"hits": 1, "misses": 0}
