@@ -8,8 +8,10 @@ study.solve.curves.SeedBook: a seed that lies on a curve committed from an earli
 near an earlier seed whose trace did not cover it, is skipped before it is shipped and again
 when its turn to commit comes; a trace that starts on an earlier curve is committed as a
 duplicate (no vertices); so the curves kept depend on the grid only, never on which task
-finished first. At most ``IN_FLIGHT_PER_WORKER`` traces per worker are in flight or waiting for
-their turn: a seed shipped ahead of its turn can turn out covered (its trace is then dropped).
+finished first. At most ``IN_FLIGHT_PER_WORKER`` traces per worker (and the first undecided seed's)
+are in flight or waiting for their turn, ahead of it only one per family of seeds (plane, kind,
+period: the curves are traced side by side, not one seed after another on the same curve); a
+seed shipped ahead of its turn can turn out covered (its trace is then dropped).
 When every seed is decided, the product gets the completeness check: each seed's covering
 curve or why there is none (``seed_*``).
 
@@ -130,7 +132,6 @@ class CurveRun:
         window_size = IN_FLIGHT_PER_WORKER * max(1, n_workers)
         key = self.study.hash[:12]
         pointer = 0
-        ship = 0
         try:
             while True:
                 # 1. commit, in seed order, what can be decided
@@ -160,17 +161,25 @@ class CurveRun:
                     pointer += 1
                 if pointer >= len(seeds) or summary["failed"]:
                     break
-                # 2. ship the next seeds not yet known to be skipped
-                ship = max(ship, pointer)
-                while len(in_flight) + len(finished) < window_size and ship < len(seeds):
-                    if (ship not in committed and ship not in in_flight
-                            and ship not in finished and not book.skip(ship)):
-                        seed = seeds[ship]
-                        spec = {"seed": seed.as_dict(), "bounds": window(self.axes, seed.plane),
-                                "options": self.options, "tracer": self.tracer}
-                        in_flight[ship] = client.submit(trace_task, spec, pure=False,
-                                                        key=f"hertzmap-curve-{key}-{ship}")
-                    ship += 1
+                # 2. ship the first undecided seed (always: the commits wait for it), then,
+                # ahead of it, seeds not yet known to be skipped whose family (plane, kind,
+                # period) has no trace under way -- the next seeds of a family in flight
+                # mostly lie on its curve, and shipping them would trace the curves one after
+                # the other
+                busy = {SeedBook.family(seeds[i]) for i in (*in_flight, *finished)}
+                for ship in range(pointer, len(seeds)):
+                    if ship > pointer and len(in_flight) + len(finished) >= window_size:
+                        break
+                    if (ship in committed or ship in in_flight or ship in finished
+                            or book.skip(ship)
+                            or (ship > pointer and SeedBook.family(seeds[ship]) in busy)):
+                        continue
+                    seed = seeds[ship]
+                    busy.add(SeedBook.family(seed))
+                    spec = {"seed": seed.as_dict(), "bounds": window(self.axes, seed.plane),
+                            "options": self.options, "tracer": self.tracer}
+                    in_flight[ship] = client.submit(trace_task, spec, pure=False,
+                                                    key=f"hertzmap-curve-{key}-{ship}")
                 if not in_flight:
                     break               # nothing can be decided (cannot happen; bounded anyway)
                 # 3. wait for a trace

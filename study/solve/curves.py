@@ -521,6 +521,12 @@ class SeedBook:
         self.records: dict[int, dict] = {}      # seed index -> its committed trace
         self.kept: list[int] = []               # seeds whose trace is a curve, in order
         self.untraced: list[int] = []           # seeds tried whose trace did not cover them
+        self._checked: dict[int, tuple[int, int]] = {}   # skip's memo: (kept, untraced) seen
+
+    @staticmethod
+    def family(seed: Seed) -> tuple:
+        """Seeds of one family (plane, third parameter, kind, period) may lie on one curve."""
+        return (tuple(seed.plane), seed.fixed, seed.kind, seed.period)
 
     def _steps(self, seed: Seed) -> dict[str, float]:
         return self.steps[tuple(seed.plane)]
@@ -541,9 +547,19 @@ class SeedBook:
         return -1
 
     def skip(self, index: int) -> bool:
-        """True when seed ``index`` needs no trace (given the commits so far)."""
+        """True when seed ``index`` needs no trace (given the commits so far). Memoised: the
+        kept curves and the untraced seeds only grow, so a seed is checked against each once
+        (the scheduler asks about every undecided seed after each commit)."""
         seed = self.seeds[index]
-        return self.covering(seed) >= 0 or self.near_untraced(seed) >= 0
+        k0, u0 = self._checked.get(index, (0, 0))
+        if k0 < 0:
+            return True
+        steps = self._steps(seed)
+        hit = (any(covers(self.records[i], seed, steps) for i in self.kept[k0:])
+               or any(i < seed.index and near_failure(self.seeds[i], seed, steps)
+                      for i in self.untraced[u0:]))
+        self._checked[index] = (-1, -1) if hit else (len(self.kept), len(self.untraced))
+        return hit
 
     def duplicate_of(self, trace: dict) -> int:
         """The seed of a kept curve that ``trace`` started on (a duplicate), or -1."""

@@ -290,3 +290,19 @@ def test_a_seed_that_does_not_converge_is_a_failed_trace():
     assert all(len(v) == 0 for v in r["vertices"].values())
     part = traced_curves_dataset([r])
     assert part.sizes["vertex"] == 0 and part["curve_vertices"].values.tolist() == [0]
+
+
+def test_a_committed_part_reads_back_as_it_was_written(flip_trace, tmp_path):
+    from scheduler.store import read_curve_parts, write_curve_part
+    from study.products.traced_curves import part_attrs
+    r, *_ = flip_trace
+    part = traced_curves_dataset([r], part_attrs(r, 3))
+    write_curve_part(tmp_path, 7, part)
+    back = read_curve_parts(tmp_path)
+    assert list(back) == [7]
+    for name, var in part.variables.items():
+        np.testing.assert_array_equal(back[7][name].values, var.values)
+        assert back[7][name].dtype == var.dtype and back[7][name].dims == var.dims, name
+    assert back[7].attrs == part.attrs
+    assert trace_from_part(back[7])["duplicate_of"] == 3
+    xr.testing.assert_identical(combine_traced_curves([back[7]]), combine_traced_curves([part]))
