@@ -33,7 +33,7 @@ CODIM2_CODES = {k: i + 1 for i, k in enumerate(CODIM2_KINDS)}
 #: curve that ends on the 1T orbit).
 STATUS_MEANINGS = {0: "boundary", 1: "closed", 2: "meets_1T_orbit", 3: "max_points",
                    4: "step_fail", 5: "start_fail"}
-#: What became of each seed (study.solve.curves.seed_outcomes), by code.
+#: What became of each seed (study.solve.curves.SeedBook.outcomes), by code.
 SEED_OUTCOMES = {1: "traced", 2: "covered", 3: "start_fail", 4: "on_earlier_curve",
                  5: "off_seed", 6: "near_untraced"}
 _OUTCOME_CODE = {name: code for code, name in SEED_OUTCOMES.items()}
@@ -123,7 +123,7 @@ TRACED_VARIABLES: dict[str, tuple[tuple[str, ...], str, object, dict]] = {
         "seed index", "1", "place of the curve's seed in the study's seed order "
         "(study.solve.curves.curve_seeds)")),
     "curve_seed_omega": (("curve",), "float64", np.nan, var_attrs(
-        "omega of the seed", "1", "the located point the curve was traced from")),
+        "omega of the seed", "1", "the estimated crossing of the seed the curve was traced from")),
     "curve_seed_sigma": (("curve",), "float64", np.nan, var_attrs("sigma of the seed", "1", "")),
     "curve_seed_zeta": (("curve",), "float64", np.nan, var_attrs("zeta of the seed", "1", "")),
     "curve_vertices": (("curve",), "int32", 0, var_attrs(
@@ -264,8 +264,8 @@ def traced_curves_dataset(results: list[dict], attrs: dict | None = None) -> xr.
     out.attrs = {
         "title": "bifurcation curves traced by two-parameter continuation",
         "method": "pseudo-arclength continuation of Phi(x) - x = 0, g = 0 (g: fold, flip or "
-                  "grazing test function) from the study's located points "
-                  "(kernels.continuation.trace_curve, study.solve.curves)",
+                  "grazing test function) from the grid cells where a test function changes "
+                  "sign (kernels.continuation.trace_curve, study.solve.curves)",
         "accuracy": "vertices solve the curve's equations to the integrator's tolerance "
                     "(residual); refined extrema, edges and codimension-2 points are vertices",
         **(attrs or {}),
@@ -274,7 +274,7 @@ def traced_curves_dataset(results: list[dict], attrs: dict | None = None) -> xr.
 
 
 def seeds_dataset(seeds: list[dict] | None) -> xr.Dataset:
-    """The ``seed`` dim's variables from the seeds' records (study.solve.curves.seed_outcomes:
+    """The ``seed`` dim's variables from the seeds' records (study.solve.curves.SeedBook.outcomes:
     dicts kind, period, plane, fixed, omega, sigma, zeta, curve, outcome, ref), in seed order."""
     seeds = seeds or []
     col = {

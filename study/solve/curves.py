@@ -37,7 +37,7 @@ not on which trace finished first. A trace that converges onto a curve already t
 earlier seed is dropped (:func:`lands_on`); a seed whose trace fails to start marks the seeds
 within FAILED_CELLS of it (same kind and period) as tried.
 
-**Completeness** (:func:`seed_outcomes`): after tracing, every seed (every grid cell whose test
+**Completeness** (:meth:`SeedBook.outcomes`): after tracing, every seed (every grid cell whose test
 function changes sign) is covered by a traced curve or reported with the reason it is not
 (stored in ``products/traced_curves``: ``seed_outcome``).
 
