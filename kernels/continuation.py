@@ -60,7 +60,7 @@ from numba import njit
 from kernels import status as st
 from kernels._jit import kernel
 from kernels.api import DEFAULT_MAX_STEPS, DEFAULT_RTOL, _check_exponent, _model_code, shoot
-from kernels.integrate import N_HARMONICS, N_STATS, S_MIN_Q
+from kernels.integrate import N_HARMONICS, N_STATS, S_MAX_Q, S_MIN_Q
 from kernels.model import contact_loss_level
 from kernels.shooting import _map, _measure_pass
 
@@ -757,9 +757,10 @@ MEET_1T_ASYM = 3e-2
 def _phi_g(q, v, omega, sigma, zeta, m, kind, n, model, rtol, atol, max_steps, measure, level,
            out):
     """One period map with the orbit's test function: out[0:2] = Phi_{mT}(q, v), out[2:6] = M
-    (m11, m12, m21, m22), out[6] = g (fold, flip or grazing), out[7] = min q (NaN unless
-    ``measure``; the grazing kind always measures). Returns the integrator status."""
-    for i in range(8):
+    (m11, m12, m21, m22), out[6] = g (fold, flip or grazing), out[7] = min q, out[8] = max q
+    (NaN unless ``measure``; the grazing kind always measures). Returns the integrator
+    status."""
+    for i in range(9):
         out[i] = np.nan
     if not (omega > 0.0 and sigma >= 0.0 and zeta >= 0.0 and np.isfinite(q) and np.isfinite(v)
             and np.isfinite(omega) and np.isfinite(sigma) and np.isfinite(zeta)):
@@ -779,6 +780,7 @@ def _phi_g(q, v, omega, sigma, zeta, m, kind, n, model, rtol, atol, max_steps, m
                              stats, False, harm, np.empty(0), np.empty((3, 0)), f, y_new, f_new,
                              K, W)
         out[7] = stats[S_MIN_Q]
+        out[8] = stats[S_MAX_Q]
     else:
         code = _map(q, v, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps, y, stats,
                     harm, np.empty(0), np.empty((3, 0)), f, y_new, f_new, K, W)
@@ -809,11 +811,11 @@ def curve_system_into(u, pa, pb, fixed, kind, m, n, model, rtol, atol, max_steps
     """The extended system of a fold / flip / grazing curve at u = (q, q', p[pa], p[pb]), the
     third parameter (p = (omega, sigma, zeta)) at ``fixed``: F (3,) = (Phi(x) - x, g); with
     ``jac`` the Jacobian J (3, 4) (exact M in the x columns of the Phi rows, forward differences
-    elsewhere); aux (6,) = (m11, m12, m21, m22, min q, maps used). Returns the integrator status
+    elsewhere); aux (7,) = (m11, m12, m21, m22, min q, maps used, max q). Returns the integrator status
     of the first failing map (0 when all converged)."""
     p = np.empty(3)
-    out = np.empty(8)
-    out2 = np.empty(8)
+    out = np.empty(9)
+    out2 = np.empty(9)
     _curve_params(u, pa, pb, fixed, p)
     code = _phi_g(u[0], u[1], p[0], p[1], p[2], m, kind, n, model, rtol, atol, max_steps, True,
                   level, out)
@@ -826,6 +828,7 @@ def curve_system_into(u, pa, pb, fixed, kind, m, n, model, rtol, atol, max_steps
     for i in range(4):
         aux[i] = out[2 + i]
     aux[4] = out[7]
+    aux[6] = out[8]
     if not jac:
         return code
     J[0, 0] = out[2] - 1.0
@@ -852,7 +855,7 @@ def curve_system_into(u, pa, pb, fixed, kind, m, n, model, rtol, atol, max_steps
 
 
 VERTEX_FIELDS = ("omega", "sigma", "zeta", "q0", "v0", "m11", "m12", "m21", "m22", "min_q",
-                 "fold", "flip", "grazing", "asym", "step", "residual", "iterations",
+                 "max_q", "fold", "flip", "grazing", "asym", "step", "residual", "iterations",
                  "arclength", "flag")
 
 
@@ -936,7 +939,7 @@ class _CurveSystem:
         """(F, J or None, aux) at u, or None when a map fails."""
         F = np.empty(3)
         J = np.empty((3, 4))
-        aux = np.empty(6)
+        aux = np.empty(7)
         code = curve_system_into(np.ascontiguousarray(u, dtype=np.float64), self.pa, self.pb,
                                  self.fixed, self.kind_code, self.m, self.n, self.model_code,
                                  self.rtol, self.rtol, self.max_steps, self.level, bool(jac),
@@ -1092,7 +1095,7 @@ def _chord(system, u_pred, normal, J=None, max_iter=CURVE_MAX_ITER, xtol=CURVE_X
     1T orbit). Returns (u, F, aux, J, iterations), F and aux at u, or None."""
     u = np.empty(4)
     F = np.empty(3)
-    aux = np.empty(6)
+    aux = np.empty(7)
     Jw = np.empty((3, 4)) if J is None else np.array(J, float)
     maps = np.zeros(1)
     it = _chord_into(np.ascontiguousarray(u_pred, dtype=np.float64),
@@ -1127,7 +1130,7 @@ class _Tracer:
         det = aux[0] * aux[3] - aux[1] * aux[2]
         w, s, z = self.sys.params(u)
         rec = dict(omega=w, sigma=s, zeta=z, q0=u[0], v0=u[1], m11=aux[0], m12=aux[1],
-                   m21=aux[2], m22=aux[3], min_q=aux[4], fold=1.0 - tr + det,
+                   m21=aux[2], m22=aux[3], min_q=aux[4], max_q=aux[6], fold=1.0 - tr + det,
                    flip=1.0 + tr + det, grazing=aux[4] - self.sys.level, asym=np.nan,
                    step=step, residual=float(np.max(np.abs(F))), iterations=iterations,
                    arclength=np.nan, flag=flag)
@@ -1485,12 +1488,15 @@ class _Tracer:
 def trace_curve(x0, omega, sigma, zeta, *, kind, period=1, pair=("omega", "sigma"),
                 bounds=None, exponent=1.5, model="hertz", rtol=DEFAULT_RTOL,
                 max_steps=DEFAULT_MAX_STEPS, ds=0.01, ds_min=1e-7, ds_max=0.2,
-                dp_frac=0.01, max_points=1500, both_ways=True, direction=1.0) -> Curve:
+                dp_frac=0.01, max_points=1500, both_ways=True, direction=1.0,
+                hold=None) -> Curve:
     """Trace the ``kind`` curve ("fold", "flip" or "grazing") of period-``period`` orbits in the
     plane of ``pair`` (two of "omega", "sigma", "zeta"; the third held at its given value) from
     a point near it: the orbit through x0 = (q, q') at (omega, sigma, zeta).
 
-    The start is corrected onto the curve with pair[1] held (then, failing that, pair[0]); the
+    The start is corrected onto the curve with ``hold`` held (default pair[1]; then, failing
+    that, the other parameter of the pair: a start between two grid points of a line of
+    ``hold``'s value is corrected along that line); the
     curve is followed both ways (``both_ways``; else along increasing pair[1] for direction
     +1) until it leaves ``bounds`` ({param: (lo, hi)} for the pair; the last vertex is put on
     the edge), closes, ends on the 1T orbit (a 2T curve: its end is extrapolated), or fails.
@@ -1516,7 +1522,9 @@ def trace_curve(x0, omega, sigma, zeta, *, kind, period=1, pair=("omega", "sigma
     tracer = _Tracer(system, bnd, ds, ds_min, ds_max, dp_frac, max_points)
     u0 = np.array([x0[0], x0[1], p0[pair[0]], p0[pair[1]]], float)
     start = None
-    for held in (3, 2):
+    if hold is not None and hold not in pair:
+        raise ValueError(f"hold must be one of {pair!r}, got {hold!r}")
+    for held in ((2, 3) if hold == pair[0] else (3, 2)):
         normal = np.zeros(4)
         normal[held] = 1.0
         start = _chord(system, u0, normal, max_iter=30)
@@ -1574,7 +1582,8 @@ def trace_curve(x0, omega, sigma, zeta, *, kind, period=1, pair=("omega", "sigma
                          float(g_end), float(g_last), np.nan, float(spread))
         rec = dict(omega=w, sigma=s_, zeta=z, q0=x_end[0], v0=x_end[1], m11=M2[0, 0],
                    m12=M2[0, 1], m21=M2[1, 0], m22=M2[1, 1],
-                   min_q=o.min_q if o.converged else np.nan, fold=1.0 - tr2 + det2,
+                   min_q=o.min_q if o.converged else np.nan,
+                   max_q=o.max_q if o.converged else np.nan, fold=1.0 - tr2 + det2,
                    flip=1.0 + tr2 + det2,
                    grazing=(o.min_q - system.level) if o.converged else np.nan, asym=0.0,
                    step=np.nan, residual=o.residual, iterations=o.iterations,

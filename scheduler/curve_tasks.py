@@ -1,13 +1,19 @@
 """Traced curves as Dask tasks of the same study, after its grid (the ``curves`` output).
 
-The seeds are the located points stored by the grid's tasks (study.solve.curves.curve_seeds,
-in a fixed order); one task traces one curve (study.solve.curves.trace_seed). The client
-commits the finished curves **in seed order** (scheduler.store.write_curve_part): a seed that
-lies on a curve committed from an earlier seed is skipped (study.solve.curves.covers) before it
-is shipped and again when its turn to commit comes, so the curves kept depend on the located
-points only, never on which task finished first. At most ``IN_FLIGHT_PER_WORKER`` traces per
-worker are in flight or waiting for their turn: a seed shipped ahead of its turn can turn out
-covered (its trace is then dropped).
+The seeds are the grid cells where a test function changes sign, read from the store (the
+lines' ``crossing_*`` records and the stored orbits: study.solve.curves.curve_seeds, in a fixed
+order); one task traces one curve (study.solve.curves.trace_seed). The client commits the
+finished traces **in seed order** (scheduler.store.write_curve_part) through a
+study.solve.curves.SeedBook: a seed that lies on a curve committed from an earlier seed, or
+near an earlier seed whose trace did not cover it, is skipped before it is shipped and again
+when its turn to commit comes; a trace that starts on an earlier curve is committed as a
+duplicate (no vertices); so the curves kept depend on the grid only, never on which task
+finished first. At most ``IN_FLIGHT_PER_WORKER`` traces per worker (and the first undecided seed's)
+are in flight or waiting for their turn, ahead of it only one per family of seeds (plane, kind,
+period: the curves are traced side by side, not one seed after another on the same curve); a
+seed shipped ahead of its turn can turn out covered (its trace is then dropped).
+When every seed is decided, the product gets the completeness check: each seed's covering
+curve or why there is none (``seed_*``).
 
 A run killed at any point leaves the committed parts; rerunning resumes after the last of them
 and ends with the same ``products/traced_curves`` as an undisturbed run (the parts are combined
@@ -25,10 +31,11 @@ import xarray as xr
 from scheduler.store import (Store, finish_traced_curves, has_traced_curves, read_curve_parts,
                              write_curve_part)
 from study.products.results import quiet
+from kernels.model import contact_loss_level
 from study.products.traced_curves import (combine_traced_curves, part_attrs, trace_from_part,
                                           traced_curves_dataset)
-from study.schema import PRODUCT_VARIABLES
-from study.solve.curves import Seed, covers, curve_seeds, window
+from study.schema import CROSSING_VARIABLES
+from study.solve.curves import Seed, SeedBook, curve_seeds, window
 from study.spec import Study
 
 IN_FLIGHT_PER_WORKER = 2
@@ -64,12 +71,16 @@ def warm_curve_kernels() -> float:
     return time.perf_counter() - t0
 
 
-def located_dataset(store: Store) -> xr.Dataset:
-    """The stored located points of a (complete) store, in memory."""
-    names = PRODUCT_VARIABLES["bifurcations"]
+#: The stored variables the seeds are read from (with the lines' CROSSING_VARIABLES).
+SEED_SOURCES = ("period", "status", "q0", "v0", "multipliers", "min_q", "max_q", "ptp")
+
+
+def seed_dataset(store: Store) -> xr.Dataset:
+    """What the seeds are read from, of a (complete) store, in memory."""
     with quiet():
         ds = xr.open_zarr(str(store.path), chunks=None)
-        return ds[[n for n in names if n in ds]].assign_coords(omega=ds["omega"]).load()
+        names = [n for n in SEED_SOURCES + CROSSING_VARIABLES if n in ds]
+        return ds[names].load()
 
 
 class CurveRun:
@@ -86,16 +97,13 @@ class CurveRun:
         self.command = command
         kw = study.solver_kwargs()
         self.options = {"exponent": kw["exponent"], "model": kw["model"], "rtol": kw["rtol"]}
+        self.level = contact_loss_level(kw["model"], kw["exponent"])
         self.axes = {n: study.axis(n) for n in ("omega", "sigma", "zeta")}
 
     def pending(self) -> bool:
         """True when the study asks for curves and its store does not hold them yet."""
         return "curves" in self.study.products and not has_traced_curves(self.store.path,
                                                                           self.study.hash)
-
-    def _covered(self, seed: Seed, kept: list[dict]) -> bool:
-        bounds = window(self.axes, seed.plane)
-        return any(covers(k, seed, bounds, **self.options) for k in kept)
 
     def run(self, client, n_workers: int) -> dict[str, Any]:
         """Trace, commit and combine the study's curves. Returns the curve summary (also
@@ -106,15 +114,15 @@ class CurveRun:
         # every worker loads the curve kernels first, so that the traces' times are theirs
         warm = client.run(warm_curve_kernels)
         t_warm = time.perf_counter() - t0
-        seeds = curve_seeds(located_dataset(self.store))
+        t1 = time.perf_counter()
+        seeds = curve_seeds(seed_dataset(self.store), self.level, self.study.periods)
+        book = SeedBook(seeds, self.axes)
+        t_seeds = time.perf_counter() - t1
         parts = read_curve_parts(self.store.path)
-        kept = []                 # committed traces with vertices, in seed order
-        committed: dict[int, xr.Dataset] = {}
-        for i in sorted(parts):
-            if i < len(seeds):
-                committed[i] = parts[i]
+        committed: dict[int, xr.Dataset] = {i: parts[i] for i in sorted(parts) if i < len(seeds)}
         summary = {"seeds": len(seeds), "resumed": len(committed), "traced": 0, "dropped": 0,
-                   "failed": [], "compute": 0.0, "vertices_traced": 0, "warm_up": t_warm,
+                   "duplicates": 0, "failed": [], "compute": 0.0, "vertices_traced": 0,
+                   "warm_up": t_warm, "seeding": t_seeds,
                    "warm_up_per_worker": max(warm.values()) if warm else 0.0}
         if committed:
             print(f"resuming the curves of {self.store.path}: {len(committed)} committed",
@@ -124,17 +132,14 @@ class CurveRun:
         window_size = IN_FLIGHT_PER_WORKER * max(1, n_workers)
         key = self.study.hash[:12]
         pointer = 0
-        ship = 0
         try:
             while True:
                 # 1. commit, in seed order, what can be decided
                 while pointer < len(seeds):
-                    seed = seeds[pointer]
                     if pointer in committed:
                         trace = trace_from_part(committed[pointer])
-                        if trace["vertices"]["omega"].size >= 2:
-                            kept.append(trace)
-                    elif self._covered(seed, kept):
+                        book.commit(trace, trace["duplicate_of"])
+                    elif book.skip(pointer):
                         fut = in_flight.pop(pointer, None)
                         if fut is not None:
                             fut.cancel()
@@ -142,28 +147,39 @@ class CurveRun:
                             summary["dropped"] += 1
                     elif pointer in finished:
                         res = finished.pop(pointer)
-                        part = traced_curves_dataset([res], part_attrs(res))
+                        dup = book.duplicate_of(res)
+                        if dup >= 0:         # stored without its vertices: a curve kept already
+                            summary["duplicates"] += 1
+                            res = dict(res, vertices={}, codim2=[])
+                        part = traced_curves_dataset([res], part_attrs(res, dup))
                         with self.interrupt.critical():
                             write_curve_part(self.store.path, pointer, part)
                         committed[pointer] = part
-                        if len(res["vertices"]["omega"]) >= 2:
-                            kept.append(res)
+                        book.commit(res, dup)
                     else:
                         break
                     pointer += 1
                 if pointer >= len(seeds) or summary["failed"]:
                     break
-                # 2. ship the next seeds not yet known to be covered
-                ship = max(ship, pointer)
-                while len(in_flight) + len(finished) < window_size and ship < len(seeds):
-                    if (ship not in committed and ship not in in_flight
-                            and ship not in finished and not self._covered(seeds[ship], kept)):
-                        seed = seeds[ship]
-                        spec = {"seed": seed.as_dict(), "bounds": window(self.axes, seed.plane),
-                                "options": self.options, "tracer": self.tracer}
-                        in_flight[ship] = client.submit(trace_task, spec, pure=False,
-                                                        key=f"hertzmap-curve-{key}-{ship}")
-                    ship += 1
+                # 2. ship the first undecided seed (always: the commits wait for it), then,
+                # ahead of it, seeds not yet known to be skipped whose family (plane, kind,
+                # period) has no trace under way -- the next seeds of a family in flight
+                # mostly lie on its curve, and shipping them would trace the curves one after
+                # the other
+                busy = {SeedBook.family(seeds[i]) for i in (*in_flight, *finished)}
+                for ship in range(pointer, len(seeds)):
+                    if ship > pointer and len(in_flight) + len(finished) >= window_size:
+                        break
+                    if (ship in committed or ship in in_flight or ship in finished
+                            or book.skip(ship)
+                            or (ship > pointer and SeedBook.family(seeds[ship]) in busy)):
+                        continue
+                    seed = seeds[ship]
+                    busy.add(SeedBook.family(seed))
+                    spec = {"seed": seed.as_dict(), "bounds": window(self.axes, seed.plane),
+                            "options": self.options, "tracer": self.tracer}
+                    in_flight[ship] = client.submit(trace_task, spec, pure=False,
+                                                    key=f"hertzmap-curve-{key}-{ship}")
                 if not in_flight:
                     break               # nothing can be decided (cannot happen; bounded anyway)
                 # 3. wait for a trace
@@ -186,21 +202,24 @@ class CurveRun:
         finally:
             for fut in in_flight.values():
                 fut.cancel()
-        summary["wall"] = time.perf_counter() - t0
         summary["complete"] = pointer >= len(seeds) and not summary["failed"]
         if summary["complete"]:
-            ordered = [committed[i] for i in sorted(committed)]
+            ordered = [committed[i] for i in sorted(committed)
+                       if int(committed[i].attrs.get("hertzmap_curve_duplicate_of", -1)) < 0]
+            outcomes = book.outcomes()
             product = combine_traced_curves(ordered, {
                 "hertzmap_study_name": self.study.name,
                 "hertzmap_study_hash": self.study.hash,
                 "hertzmap_curve_seeds": len(seeds),
                 "model": self.study.model,
-                "exponent": self.study.exponent if self.study.exponent is not None else "none"})
+                "exponent": self.study.exponent if self.study.exponent is not None else "none"},
+                outcomes)
             summary.update(product_summary(product))
             with self.interrupt.critical():
                 finish_traced_curves(self.store.path, product)
                 self.store.add_history(f"{self.command}: traced {summary['curves']} curves "
-                                       f"from {len(seeds)} located points")
+                                       f"from {len(seeds)} seeds")
+        summary["wall"] = time.perf_counter() - t0
         print_curve_summary(summary, self.out)
         return summary
 
@@ -209,25 +228,38 @@ def product_summary(product: xr.Dataset) -> dict[str, Any]:
     """Counts read off the combined product (for the run's summary)."""
     n = product.sizes.get("curve", 0)
     verts = product["curve_vertices"].values if n else np.zeros(0, int)
+    outcome = product["seed_outcome"]
+    names = dict(zip(outcome.attrs["flag_values"].tolist(), outcome.attrs["flag_meanings"].split()))
+    uncovered = {}
+    for code in outcome.values[product["seed_curve"].values < 0].tolist():
+        uncovered[names[code]] = uncovered.get(names[code], 0) + 1
     return {"curves": int((verts > 0).sum()), "curves_failed": int((verts == 0).sum()),
             "vertices": int(product.sizes.get("vertex", 0)),
             "codim2": int(product.sizes.get("codim2", 0)),
-            "maps": int(product["curve_maps"].values.sum()) if n else 0}
+            "maps": int(product["curve_maps"].values.sum()) if n else 0,
+            "uncovered": uncovered}
 
 
 def print_curve_summary(s: dict[str, Any], out: TextIO) -> None:
     lines = []
     if s.get("complete"):
         per = 1e3 * s["compute"] / max(1, s["vertices_traced"])
+        unc = s.get("uncovered", {})
         lines.append(
             f"curves: {s['curves']} traced ({s['curves_failed']} seeds failed to start) from "
-            f"{s['seeds']} located points, {s['vertices']} vertices, {s['codim2']} "
-            f"codimension-2 points; {s['traced']} traces run"
+            f"{s['seeds']} seeds (grid cells where a test function changes sign), "
+            f"{s['vertices']} vertices, {s['codim2']} codimension-2 points; {s['traced']} "
+            "traces run"
             + (f" ({s['dropped']} dropped: covered by an earlier seed's curve)"
                if s["dropped"] else "")
+            + (f", {s['duplicates']} onto earlier curves" if s.get("duplicates") else "")
             + (f", {s['resumed']} resumed" if s["resumed"] else "")
             + f", {s['wall']:.2f} s wall ({s['warm_up']:.2f} s loading the curve kernels on "
-            f"the workers), {per:.2f} ms per vertex traced (products/traced_curves)")
+            f"the workers, {s.get('seeding', 0.0):.2f} s reading the seeds), {per:.2f} ms per "
+            "vertex traced (products/traced_curves)")
+        lines.append("  seeds not covered by a traced curve: "
+                     + (", ".join(f"{v} {k}" for k, v in sorted(unc.items())) if unc else "none")
+                     + " (seed_outcome)")
     else:
         lines.append(f"curves: incomplete ({s['traced']} traces run); rerun the same command to "
                      "resume them")

@@ -20,6 +20,15 @@ Two orbits are the same when they have the same period and the same invariants: 
 from the 2T solve that landed on it (whose monodromy is M^2). The tolerance is four orders above
 the solver's accuracy (rtol 1e-10 gives start points within ~1e-9) and far below the distance
 between distinct coexisting orbits on the paper's maps.
+
+Continuity
+----------
+Two orbits at neighbouring grid points lie on one branch when they have the same period, their
+invariants (min q, max q) differ by at most ``CONTINUITY_SHARE (1 + ptp)`` and their fold
+functions (1 - mu1)(1 - mu2) do not have opposite signs (a branch changes that sign only at a
+fold, where it turns back): :func:`match_neighbours` pairs them one to one, closest first. The
+line search (study.solve.line) finds its branch ends with it, the traced curves' seeds
+(study.solve.curves) the sign changes of the test functions between neighbouring grid points.
 """
 from __future__ import annotations
 
@@ -36,6 +45,11 @@ __all__ = [
     "class_codes",
     "same_orbit",
     "first_of_duplicates",
+    "CONTINUITY_SHARE",
+    "FOLD_SIGN_FLOOR",
+    "fold_function",
+    "continuity_distance",
+    "match_neighbours",
 ]
 
 #: (code, flag name, description) of every orbit class.
@@ -139,3 +153,50 @@ def first_of_duplicates(ok, period, min_q, max_q, trace) -> np.ndarray:
                            <= SAME_ORBIT_TOL * (1.0 + np.abs(tr[..., i]))))
                 keep[..., j] &= ~same
     return keep
+
+
+#: Two orbits at neighbouring grid points are one branch when their invariants (min q, max q)
+#: differ by less than this share of (1 + ptp); beyond it the branch is taken as ended there.
+#: A false end costs one turn attempt that finds nothing new; a missed end loses a branch: the
+#: share is on the generous side of the jumps seen at folds (primary resonance: the upper and
+#: lower branches differ by 2-5 in max q at ptp 3-8).
+CONTINUITY_SHARE = 0.2
+#: Fold functions below this are taken as zero (a fold at the grid point itself) when matching.
+FOLD_SIGN_FLOOR = 1e-6
+
+
+def fold_function(orbit) -> float:
+    """(1 - mu1)(1 - mu2) = 1 - tr M + det M of an orbit (a mapping with ``multipliers``): zero
+    at a fold, positive on its stable side."""
+    mu = orbit["multipliers"]
+    return float(((1.0 - mu[0]) * (1.0 - mu[1])).real)
+
+
+def continuity_distance(a, b) -> float:
+    """Distance of two orbits' invariants (min q, max q): unchanged by the T-shift of an orbit
+    of period > 1, unlike their start points."""
+    return abs(a["min_q"] - b["min_q"]) + abs(a["max_q"] - b["max_q"])
+
+
+def match_neighbours(A, B) -> list[tuple[int, int]]:
+    """The continuity rule (module docstring) between the orbits ``A`` and ``B`` (mappings with
+    period, min_q, max_q, ptp, multipliers) at two neighbouring grid points: (index in A, index
+    in B) of the pairs on one branch, one to one, closest pairs first."""
+    pairs = sorted((continuity_distance(x, y), ia, ib) for ia, x in enumerate(A)
+                   for ib, y in enumerate(B) if x["period"] == y["period"])
+    used_a, used_b = set(), set()
+    out = []
+    for d, ia, ib in pairs:
+        if ia in used_a or ib in used_b:
+            continue
+        # along a branch the fold function (1 - mu1)(1 - mu2) changes sign only at a fold,
+        # where the branch turns back: neighbours with opposite signs are two branches,
+        # however close their invariants
+        ga, gb = fold_function(A[ia]), fold_function(B[ib])
+        if ga * gb < 0.0 and min(abs(ga), abs(gb)) > FOLD_SIGN_FLOOR:
+            continue
+        if d <= CONTINUITY_SHARE * (1.0 + max(A[ia]["ptp"], B[ib]["ptp"])):
+            used_a.add(ia)
+            used_b.add(ib)
+            out.append((ia, ib))
+    return out

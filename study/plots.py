@@ -216,7 +216,7 @@ def _grid_fallback(traced, zeta, names):
         if kp is None or kp in present:
             continue
         reason = (f"trace failed: {failed[kp]}" if kp in failed
-                  else "no located point to trace from")
+                  else "no grid cell with a sign change to trace from")
         out.append((n, f" (grid; not traced: {reason})"))
     return out
 

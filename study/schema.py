@@ -35,6 +35,9 @@ __all__ = [
     "VARIABLES",
     "ORBIT_VARIABLES",
     "LINE_VARIABLES",
+    "BIFURCATION_VARIABLES",
+    "CROSSING_VARIABLES",
+    "CROSSING_SLOTS",
     "BIFURCATION_SLOTS",
     "BIFURCATION_KINDS",
     "empty_arrays",
@@ -68,7 +71,10 @@ BLOCK_DIMS = ("omega_block", "sigma", "zeta")
 #: Located bifurcation points kept per omega line of a block; more are dropped
 #: (``bifurcation_count`` says how many were found).
 BIFURCATION_SLOTS = 16
-#: Codes of ``bifurcation_kind`` (0: empty slot).
+#: Sign changes of the test functions recorded per omega line of a block (the traced curves'
+#: seeds); more are dropped (``crossing_count`` says how many were found).
+CROSSING_SLOTS = 32
+#: Codes of ``bifurcation_kind`` and ``crossing_kind`` (0: empty slot).
 BIFURCATION_KINDS = {"fold": 1, "flip": 2, "grazing": 3}
 BIFURCATION_FLAGS = ((0, "empty"),) + tuple((c, k) for k, c in BIFURCATION_KINDS.items())
 CHUNK_DIMS = ("omega_chunk", "sigma_chunk", "zeta_chunk")
@@ -200,6 +206,42 @@ VARIABLES: dict[str, VarSpec] = {v.name: v for v in [
             "points located along the line in the block's omega range; more than the "
             f"{BIFURCATION_SLOTS} slots means the extra ones (highest omega) were dropped; "
             "-1: not located (block not computed, or its time budget ran out)", layout="line"),
+    # -- crossings (per omega block and (sigma, zeta) line): the traced curves' seeds ----------
+    VarSpec("crossing_omega", "float64", math.nan, "omega of a test function's sign change", "1",
+            "estimated omega where a fold, flip or grazing curve crosses the omega line (sigma, "
+            "zeta) between two neighbouring grid points of the block: the test function "
+            "interpolated linearly between the two matched orbits (flip, grazing), the midpoint "
+            "where a branch ends in a fold; the seed of a traced curve (study.solve.curves); "
+            "ordered by omega; NaN: empty slot", extra=(("crossing", CROSSING_SLOTS),),
+            layout="line"),
+    VarSpec("crossing_kind", "int8", 0, "kind of the test function's sign change", "1",
+            "1 fold (a branch ends: both halves of a fold, or a census orbit with a multiplier "
+            "near +1), 2 flip (1 + tr M + det M changes sign), 3 grazing (min q + n changes "
+            "sign), 0 empty slot", extra=(("crossing", CROSSING_SLOTS),),
+            flags=BIFURCATION_FLAGS, layout="line"),
+    VarSpec("crossing_period", "int8", 0, "period of the orbits at the sign change", "1",
+            "in forcing periods", extra=(("crossing", CROSSING_SLOTS),), flags=PERIOD_FLAGS,
+            layout="line"),
+    VarSpec("crossing_q0", "float64", math.nan, "displacement at tau = 0 of the nearer orbit", "1",
+            "start point q(0) of the orbit at the grid point nearer the crossing (for a fold of "
+            "1T orbits: the mean of its two halves)", extra=(("crossing", CROSSING_SLOTS),),
+            layout="line"),
+    VarSpec("crossing_v0", "float64", math.nan, "velocity at tau = 0 of the nearer orbit", "1",
+            "start point dq/dtau(0), as crossing_q0", extra=(("crossing", CROSSING_SLOTS),),
+            layout="line"),
+    VarSpec("crossing_min_q", "float64", math.nan, "minimum displacement at the crossing", "1",
+            "min q of the orbits interpolated to the crossing (a fold: the mean of its halves)",
+            extra=(("crossing", CROSSING_SLOTS),), layout="line"),
+    VarSpec("crossing_max_q", "float64", math.nan, "maximum displacement at the crossing", "1",
+            "max q, as crossing_min_q", extra=(("crossing", CROSSING_SLOTS),), layout="line"),
+    VarSpec("crossing_spread", "float64", math.nan, "spread of the invariants at the crossing",
+            "1", "|d min q| + |d max q| between the two orbits the crossing lies between (a "
+            "fold: its two halves): how well crossing_min_q and crossing_max_q are known",
+            extra=(("crossing", CROSSING_SLOTS),), layout="line"),
+    VarSpec("crossing_count", "int16", -1, "number of test function sign changes", "1",
+            "sign changes found along the line in the block's omega range; more than the "
+            f"{CROSSING_SLOTS} slots means the extra ones (highest omega) were dropped; -1: not "
+            "recorded (block not computed, or its time budget ran out)", layout="line"),
     # -- the orbit count (always stored) --------------------------------------------------------
     VarSpec("orbits_found", "int16", -1, "distinct periodic orbits found at the point", "1",
             "distinct converged orbits (all periods searched, stable or not) the solver found at "
@@ -267,8 +309,15 @@ VARIABLES: dict[str, VarSpec] = {v.name: v for v in [
 
 #: Per-slot variables of an orbit (dims GRID_DIMS + extra), in schema order.
 ORBIT_VARIABLES: tuple[str, ...] = tuple(n for n, v in VARIABLES.items() if v.layout == "slot")
-#: Per-line variables (dims BLOCK_DIMS + extra): the located bifurcation points.
+#: Per-line variables (dims BLOCK_DIMS + extra): the located bifurcation points and the
+#: crossings.
 LINE_VARIABLES: tuple[str, ...] = tuple(n for n, v in VARIABLES.items() if v.layout == "line")
+#: The located bifurcation points (``locate=True``).
+BIFURCATION_VARIABLES: tuple[str, ...] = tuple(n for n in LINE_VARIABLES
+                                               if n.startswith("bifurcation_"))
+#: The crossings (``crossings=True``): the traced curves' seeds along each line.
+CROSSING_VARIABLES: tuple[str, ...] = tuple(n for n in LINE_VARIABLES
+                                            if n.startswith("crossing_"))
 #: Per-point variables of the attractor census (dims POINT_DIMS + extra).
 ATTRACTOR_VARIABLES: tuple[str, ...] = tuple(
     n for n, v in VARIABLES.items() if v.layout == "point" and n != "orbits_found")
@@ -291,11 +340,11 @@ PRODUCT_VARIABLES: dict[str, tuple[str, ...]] = {
     "measures": ("min_q", "max_q", "ptp", "loses_contact", "flight_fraction", "max_impact_velocity"),
     "force_harmonics": ("force_harmonics",),
     "diagnostics": ("newton_iterations", "residual"),
-    "bifurcations": ("bifurcation_omega", "bifurcation_kind", "bifurcation_period",
-                     "bifurcation_q0", "bifurcation_v0", "bifurcation_count"),
+    "bifurcations": BIFURCATION_VARIABLES,
     "attractors": ATTRACTOR_VARIABLES,
-    # traced curves: a products group written by the run (study.products.traced_curves)
-    "curves": (),
+    # traced curves: a products group written by the run (study.products.traced_curves),
+    # seeded by the crossings along the lines and the stored orbits' measures
+    "curves": CROSSING_VARIABLES,
 }
 
 _COORD_ATTRS = {
@@ -323,6 +372,9 @@ _COORD_ATTRS = {
     "bifurcation": {"long_name": "bifurcation point slot", "units": "1",
                     "description": "index of a located bifurcation point along the line "
                                    "(ordered by omega); empty slots have bifurcation_kind 0"},
+    "crossing": {"long_name": "crossing slot", "units": "1",
+                 "description": "index of a test function's sign change along the line "
+                                "(ordered by omega); empty slots have crossing_kind 0"},
 }
 
 _TASK_DONE_ATTRS = {

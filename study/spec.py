@@ -42,7 +42,8 @@ AXES = ("omega", "sigma", "zeta")
 
 #: Output groups a study can ask for; the variables of each group are defined in study/dataset.py.
 #: "curves" (traced fold, flip and grazing curves, products/traced_curves, written by the run)
-#: stores no grid variable of its own; it implies "bifurcations" (its seeds).
+#: stores the sign changes of the test functions along each line (``crossing_*``, its seeds)
+#: and implies "measures" (the stored orbits' min q and max q match neighbouring grid points).
 PRODUCTS = ("orbits", "measures", "force_harmonics", "diagnostics", "bifurcations",
             "attractors", "curves")
 #: "orbits" is always stored (period, q0, v0, status, multipliers, stable).
@@ -154,6 +155,8 @@ class Study:
             kw["harmonics"] = False  # not stored: skip their quadrature (a quarter of the time)
         if "bifurcations" in self.products:
             kw["locate"] = True     # only then: other studies call the solver as before
+        if "curves" in self.products:
+            kw["crossings"] = True  # the curves' seeds along each line (no kernel call)
         if self.discover:
             kw["discover"] = True   # transients + continuation per line (study.solve.discovery)
             kw["transients"] = int(self.transients)
@@ -464,7 +467,8 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
     if "attractors" in outputs and attractors == "never":
         raise StudyError("products.outputs", '"attractors" needs search.attractors other than '
                          '"never"')
-    # -- traced curves (issue 19): seeded by the located points, in planes of two swept axes
+    # -- traced curves (issue 19): seeded by the grid's sign changes, in planes of two swept
+    #    axes
     if "curves" in outputs:
         swept = [ax for ax in AXES if len(axes[ax]) >= 2]
         if len(swept) < 2:
@@ -473,7 +477,7 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
                              f"{' and '.join(swept) if swept else 'no axis'} only (give two of "
                              "grid.omega, grid.sigma, grid.zeta two or more values, or drop "
                              "\"curves\")")
-        outputs = list(outputs) + ["bifurcations"]
+        outputs = list(outputs) + ["measures"]
     # the census's results are stored whenever it runs
     products = tuple(p for p in PRODUCTS if p in outputs or p == CORE_PRODUCT
                      or (p == "attractors" and attractors != "never"))

@@ -166,7 +166,8 @@ outputs = ["orbits", "measures", "force_harmonics"]
 #: The same grid with every output.
 ALL_OUTPUTS_STUDY = STORE_TEST_STUDY.replace(
     'outputs = ["orbits", "measures", "force_harmonics"]',
-    'outputs = ["orbits", "measures", "force_harmonics", "diagnostics", "bifurcations"]')
+    'outputs = ["orbits", "measures", "force_harmonics", "diagnostics", "bifurcations",'
+    ' "curves"]')
 
 #: A [rig] table (the paper's rig, section 4.1).
 RIG_TABLE = """

@@ -7,9 +7,11 @@ this module defines their variables once, builds the product from the traces
 (:func:`traced_curves_dataset`, :func:`combine_traced_curves`) and reads it
 (:func:`traced_segments`, :func:`isola_boundary`). numpy / xarray only.
 
-Three dims: ``vertex`` (every vertex of every curve, curve by curve, in order along each),
-``curve`` (one entry per traced seed, failed traces included) and ``codim2`` (the
-codimension-2 points located on the curves).
+Four dims: ``vertex`` (every vertex of every curve, curve by curve, in order along each),
+``curve`` (one entry per trace run and kept: the curves, and the seeds whose trace did not
+start), ``codim2`` (the codimension-2 points located on the curves) and ``seed`` (every grid
+cell where a test function changes sign, in seed order: the curve that covers it, or why none
+does: the completeness check).
 """
 from __future__ import annotations
 
@@ -31,6 +33,10 @@ CODIM2_CODES = {k: i + 1 for i, k in enumerate(CODIM2_KINDS)}
 #: curve that ends on the 1T orbit).
 STATUS_MEANINGS = {0: "boundary", 1: "closed", 2: "meets_1T_orbit", 3: "max_points",
                    4: "step_fail", 5: "start_fail"}
+#: What became of each seed (study.solve.curves.SeedBook.outcomes), by code.
+SEED_OUTCOMES = {1: "traced", 2: "covered", 3: "start_fail", 4: "on_earlier_curve",
+                 5: "off_seed", 6: "near_untraced"}
+_OUTCOME_CODE = {name: code for code, name in SEED_OUTCOMES.items()}
 _STATUS_CODE = {name: code for code, name in BRANCH_STATUS.items()}
 
 _KIND_DOC = "1 fold (a multiplier +1), 2 flip (a multiplier -1), 3 grazing (min q = -n)"
@@ -40,6 +46,8 @@ _PLANE_ATTRS = dict(flag_values=np.array([1, 2, 3], np.int8),
                     flag_meanings="omega_sigma omega_zeta sigma_zeta")
 _STATUS_ATTRS = dict(flag_values=np.array(sorted(STATUS_MEANINGS), np.int8),
                      flag_meanings=" ".join(STATUS_MEANINGS[c] for c in sorted(STATUS_MEANINGS)))
+_OUTCOME_ATTRS = dict(flag_values=np.array(sorted(SEED_OUTCOMES), np.int8),
+                      flag_meanings=" ".join(SEED_OUTCOMES[c] for c in sorted(SEED_OUTCOMES)))
 
 #: The variables of the product, defined once: name -> (dim(s), dtype, fill, attrs).
 TRACED_VARIABLES: dict[str, tuple[tuple[str, ...], str, object, dict]] = {
@@ -71,6 +79,9 @@ TRACED_VARIABLES: dict[str, tuple[tuple[str, ...], str, object, dict]] = {
     "min_q": (("vertex",), "float64", np.nan, var_attrs(
         "minimum displacement over the orbit", "1", "min q over one period (-n on a grazing "
         "curve; below -n the orbit loses contact)")),
+    "max_q": (("vertex",), "float64", np.nan, var_attrs(
+        "maximum displacement over the orbit", "1", "max q over one period (with min q: the "
+        "invariants a grid cell's orbits are matched to the curve by)")),
     "fold": (("vertex",), "float64", np.nan, var_attrs(
         "fold test function", "1", "1 - tr M + det M of the orbit at the vertex")),
     "flip": (("vertex",), "float64", np.nan, var_attrs(
@@ -112,7 +123,7 @@ TRACED_VARIABLES: dict[str, tuple[tuple[str, ...], str, object, dict]] = {
         "seed index", "1", "place of the curve's seed in the study's seed order "
         "(study.solve.curves.curve_seeds)")),
     "curve_seed_omega": (("curve",), "float64", np.nan, var_attrs(
-        "omega of the seed", "1", "the located point the curve was traced from")),
+        "omega of the seed", "1", "the estimated crossing of the seed the curve was traced from")),
     "curve_seed_sigma": (("curve",), "float64", np.nan, var_attrs("sigma of the seed", "1", "")),
     "curve_seed_zeta": (("curve",), "float64", np.nan, var_attrs("zeta of the seed", "1", "")),
     "curve_vertices": (("curve",), "int32", 0, var_attrs(
@@ -158,6 +169,37 @@ TRACED_VARIABLES: dict[str, tuple[tuple[str, ...], str, object, dict]] = {
     "codim2_accuracy": (("codim2",), "float64", np.nan, var_attrs(
         "accuracy in the parameters", "1", "final bracket width in the curve's parameters "
         "(fold_flip: spread of the extrapolation to the 1T orbit)")),
+    # -- seeds: the completeness check ---------------------------------------------------------
+    "seed_kind": (("seed",), "int8", 0, var_attrs(
+        "kind of the seed's sign change", "1", _KIND_DOC + " (study.solve.curves.crossings)",
+        **_KIND_ATTRS)),
+    "seed_period": (("seed",), "int8", 0, var_attrs(
+        "period of the seed's orbits", "1", "in forcing periods")),
+    "seed_plane": (("seed",), "int8", 0, var_attrs(
+        "plane of the seed", "1", "as plane", **_PLANE_ATTRS)),
+    "seed_fixed": (("seed",), "float64", np.nan, var_attrs(
+        "value of the third parameter", "1", "as curve_fixed")),
+    "seed_omega": (("seed",), "float64", np.nan, var_attrs(
+        "omega of the seed", "1", "estimated crossing of the curve with the grid cell (the "
+        "edge between two neighbouring grid points) where the test function changes sign")),
+    "seed_sigma": (("seed",), "float64", np.nan, var_attrs("sigma of the seed", "1", "")),
+    "seed_zeta": (("seed",), "float64", np.nan, var_attrs("zeta of the seed", "1", "")),
+    "seed_curve": (("seed",), "int32", -1, var_attrs(
+        "covering curve", "1", "the curve (dim curve) passing within COVER_CELLS grid steps of "
+        "the seed with matching orbit invariants (study.solve.curves.covers); -1: none (see "
+        "seed_outcome)")),
+    "seed_outcome": (("seed",), "int8", 0, var_attrs(
+        "what became of the seed", "1", "traced: a curve was traced from it (seed_curve); "
+        "covered: it lies on a curve traced from another seed (seed_curve); not covered: "
+        "start_fail (its trace did not converge onto a curve: seed_ref is its failed entry in "
+        "dim curve), on_earlier_curve (its trace converged onto curve seed_ref, traced from an "
+        "earlier seed, which does not pass through its cell), off_seed (the curve seed_ref "
+        "traced from it does not pass through its cell), near_untraced (not tried: within "
+        "FAILED_CELLS grid steps of seed seed_ref, of its kind and period, whose trace did not "
+        "cover it)", **_OUTCOME_ATTRS)),
+    "seed_ref": (("seed",), "int32", -1, var_attrs(
+        "reference of the outcome", "1", "a curve id (dim curve) or, for near_untraced, a seed "
+        "index (dim seed), as seed_outcome says; -1 for traced and covered")),
 }
 
 
@@ -177,8 +219,8 @@ def traced_curves_dataset(results: list[dict], attrs: dict | None = None) -> xr.
         n = len(V.get("omega", ()))
         plane = PLANE_CODES[tuple(s["plane"])]
         kcode = BIFURCATION_KINDS[s["kind"]]
-        for name in ("omega", "sigma", "zeta", "q0", "v0", "min_q", "fold", "flip", "grazing",
-                     "step", "arclength", "residual"):
+        for name in ("omega", "sigma", "zeta", "q0", "v0", "min_q", "max_q", "fold", "flip",
+                     "grazing", "step", "arclength", "residual"):
             cols[name].append(np.asarray(V[name], float) if n else np.zeros(0))
         cols["multipliers"].append(np.asarray(V["multipliers"], complex).reshape(n, 2) if n
                                    else np.zeros((0, 2), complex))
@@ -212,6 +254,8 @@ def traced_curves_dataset(results: list[dict], attrs: dict | None = None) -> xr.
         offset += n
     data = {}
     for name, (dims, dtype, fill, vattrs) in TRACED_VARIABLES.items():
+        if dims == ("seed",):
+            continue                   # the seeds' records: combine_traced_curves
         parts = cols[name]
         shape = (0, 2) if len(dims) == 2 else (0,)
         arr = np.concatenate(parts) if parts else np.zeros(shape)
@@ -220,8 +264,8 @@ def traced_curves_dataset(results: list[dict], attrs: dict | None = None) -> xr.
     out.attrs = {
         "title": "bifurcation curves traced by two-parameter continuation",
         "method": "pseudo-arclength continuation of Phi(x) - x = 0, g = 0 (g: fold, flip or "
-                  "grazing test function) from the study's located points "
-                  "(kernels.continuation.trace_curve, study.solve.curves)",
+                  "grazing test function) from the grid cells where a test function changes "
+                  "sign (kernels.continuation.trace_curve, study.solve.curves)",
         "accuracy": "vertices solve the curve's equations to the integrator's tolerance "
                     "(residual); refined extrema, edges and codimension-2 points are vertices",
         **(attrs or {}),
@@ -229,29 +273,60 @@ def traced_curves_dataset(results: list[dict], attrs: dict | None = None) -> xr.
     return out
 
 
-def combine_traced_curves(parts: list[xr.Dataset], attrs: dict | None = None) -> xr.Dataset:
+def seeds_dataset(seeds: list[dict] | None) -> xr.Dataset:
+    """The ``seed`` dim's variables from the seeds' records (study.solve.curves.SeedBook.outcomes:
+    dicts kind, period, plane, fixed, omega, sigma, zeta, curve, outcome, ref), in seed order."""
+    seeds = seeds or []
+    col = {
+        "seed_kind": [BIFURCATION_KINDS[d["kind"]] for d in seeds],
+        "seed_period": [d["period"] for d in seeds],
+        "seed_plane": [PLANE_CODES[tuple(d["plane"])] for d in seeds],
+        "seed_fixed": [d["fixed"] for d in seeds],
+        "seed_omega": [d["omega"] for d in seeds],
+        "seed_sigma": [d["sigma"] for d in seeds],
+        "seed_zeta": [d["zeta"] for d in seeds],
+        "seed_curve": [d["curve"] for d in seeds],
+        "seed_outcome": [_OUTCOME_CODE[d["outcome"]] for d in seeds],
+        "seed_ref": [d["ref"] for d in seeds],
+    }
+    return xr.Dataset({name: xr.Variable(TRACED_VARIABLES[name][0],
+                                         np.asarray(values, TRACED_VARIABLES[name][1]),
+                                         dict(TRACED_VARIABLES[name][3]))
+                       for name, values in col.items()})
+
+
+def combine_traced_curves(parts: list[xr.Dataset], attrs: dict | None = None,
+                          seeds: list[dict] | None = None) -> xr.Dataset:
     """One product from per-curve parts (each a :func:`traced_curves_dataset` of one trace),
-    in the given order: curve ids and vertex indices renumbered."""
+    in the given order: curve ids and vertex indices renumbered; with the seeds' records
+    (:func:`seeds_dataset`) on dim ``seed``."""
     if not parts:
-        return traced_curves_dataset([], attrs)
-    fixed = []
-    offset = 0
-    for cid, p in enumerate(parts):
-        p = p.copy()
-        p["curve_id"] = p["curve_id"].copy(data=np.full(p.sizes["vertex"], cid, np.int32))
-        p["codim2_curve"] = p["codim2_curve"].copy(data=np.full(p.sizes["codim2"], cid, np.int32))
-        p["codim2_vertex"] = p["codim2_vertex"].copy(
-            data=(p["codim2_vertex"].values + offset).astype(np.int32))
-        offset += p.sizes["vertex"]
-        fixed.append(p)
-    out = xr.Dataset()
-    for name, (dims, dtype, _, vattrs) in TRACED_VARIABLES.items():
-        arr = np.concatenate([np.asarray(p[name].values) for p in fixed], axis=0)
-        out[name] = xr.Variable(dims, arr.astype(dtype), dict(vattrs))
-    out = out.assign_coords(multiplier=("multiplier", np.arange(2, dtype=np.int16)))
-    out.attrs = {k: v for k, v in parts[0].attrs.items()
-                 if k not in ("hertzmap_curve_seed", "hertzmap_curve_status")}
-    out.attrs.update(attrs or {})
+        out = traced_curves_dataset([], attrs)
+    else:
+        fixed = []
+        offset = 0
+        for cid, p in enumerate(parts):
+            p = p.copy()
+            p["curve_id"] = p["curve_id"].copy(data=np.full(p.sizes["vertex"], cid, np.int32))
+            p["codim2_curve"] = p["codim2_curve"].copy(data=np.full(p.sizes["codim2"], cid,
+                                                                    np.int32))
+            p["codim2_vertex"] = p["codim2_vertex"].copy(
+                data=(p["codim2_vertex"].values + offset).astype(np.int32))
+            offset += p.sizes["vertex"]
+            fixed.append(p)
+        out = xr.Dataset()
+        for name, (dims, dtype, _, vattrs) in TRACED_VARIABLES.items():
+            if dims == ("seed",):
+                continue
+            arr = np.concatenate([np.asarray(p[name].values) for p in fixed], axis=0)
+            out[name] = xr.Variable(dims, arr.astype(dtype), dict(vattrs))
+        out = out.assign_coords(multiplier=("multiplier", np.arange(2, dtype=np.int16)))
+        out.attrs = {k: v for k, v in parts[0].attrs.items()
+                     if k not in ("hertzmap_curve_seed", "hertzmap_curve_status",
+                                  "hertzmap_curve_duplicate_of")}
+        out.attrs.update(attrs or {})
+    for name, var in seeds_dataset(seeds).variables.items():
+        out[name] = var
     return out
 
 
@@ -346,17 +421,25 @@ def isola_boundary(traced: xr.Dataset) -> xr.Dataset:
     return out
 
 
-def part_attrs(result: dict) -> dict:
-    """Attrs of a stored one-curve part: its seed and status (JSON), for reading back."""
-    return {"hertzmap_curve_seed": json.dumps(result["seed"]),
-            "hertzmap_curve_status": json.dumps(list(result["status"]))}
+def part_attrs(result: dict, duplicate_of: int = -1) -> dict:
+    """Attrs of a stored one-curve part: its seed and status (JSON), for reading back; for a
+    trace that converged onto a curve traced from an earlier seed (a duplicate, stored without
+    vertices), that seed's index."""
+    out = {"hertzmap_curve_seed": json.dumps(result["seed"]),
+           "hertzmap_curve_status": json.dumps(list(result["status"]))}
+    if duplicate_of >= 0:
+        out["hertzmap_curve_duplicate_of"] = int(duplicate_of)
+    return out
 
 
 def trace_from_part(part: xr.Dataset) -> dict:
-    """A stored one-curve part read back as a trace (seed, status, vertices: omega, sigma,
-    zeta, q0, v0), enough to tell which seeds lie on it (study.solve.curves.covers)."""
+    """A stored one-curve part read back as a trace (seed, status, duplicate_of (-1 unless a
+    duplicate), vertices: omega, sigma, zeta, q0, v0, min_q, max_q, flag), enough to tell
+    which seeds lie on it (study.solve.curves.covers)."""
     seed = json.loads(part.attrs["hertzmap_curve_seed"])
     seed["plane"] = tuple(seed["plane"])
     return {"seed": seed, "status": tuple(json.loads(part.attrs["hertzmap_curve_status"])),
+            "duplicate_of": int(part.attrs.get("hertzmap_curve_duplicate_of", -1)),
             "vertices": {n: np.asarray(part[n].values, float)
-                         for n in ("omega", "sigma", "zeta", "q0", "v0")}}
+                         for n in ("omega", "sigma", "zeta", "q0", "v0", "min_q", "max_q",
+                                   "flag")}}

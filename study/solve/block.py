@@ -29,10 +29,12 @@ import time
 import numpy as np
 
 from kernels import status as st
-from kernels.model import MODELS
+from kernels.model import MODELS, contact_loss_level
 from study.schema import (ATTRACTOR_VARIABLES, BIFURCATION_KINDS, BIFURCATION_SLOTS,
-                          LINE_VARIABLES, ORBIT_VARIABLES, empty_arrays)
+                          BIFURCATION_VARIABLES, CROSSING_SLOTS, CROSSING_VARIABLES,
+                          ORBIT_VARIABLES, empty_arrays)
 from study.solve.census import record_attractors
+from study.solve.curves import line_crossings
 from study.solve.discovery import discover_line
 from study.solve.line import LINEAR_SEED_STRIDE, MMS_SEED_STRIDE, LineSearch
 
@@ -99,8 +101,16 @@ def entry_kernels(*, attractors="never", turn_folds=True, discover=False, locate
     return out
 
 
+def _record_crossings(arrays, j, k, crossings):
+    arrays["crossing_count"][0, j, k] = len(crossings)
+    for slot, d in enumerate(crossings[:CROSSING_SLOTS]):
+        arrays["crossing_kind"][0, j, k, slot] = BIFURCATION_KINDS[d["kind"]]
+        for name in ("omega", "period", "q0", "v0", "min_q", "max_q", "spread"):
+            arrays[f"crossing_{name}"][0, j, k, slot] = d[name]
+
+
 def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hertz", rtol=1e-10,
-                max_solutions=4, discover=False, transients=16, locate=False,
+                max_solutions=4, discover=False, transients=16, locate=False, crossings=False,
                 harmonics=True, time_budget=None, seeds=(), turn_folds=True,
                 attractors="never", initial_states=16, transient_periods=500,
                 record_periods=128, seed_strides=(LINEAR_SEED_STRIDE, MMS_SEED_STRIDE)
@@ -120,14 +130,20 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
 
     ``locate=True`` also locates, along each omega line, the fold points (1T and 2T), the
     flip points and the grazing points (onset of contact loss, min q = -n) inside the
-    block's omega range, and returns them in the schema's LINE_VARIABLES (shape (1, len(sigma),
-    len(zeta), BIFURCATION_SLOTS); ``bifurcation_count`` (1, len(sigma), len(zeta)): how many
+    block's omega range, and returns them in the schema's BIFURCATION_VARIABLES (shape (1,
+    len(sigma), len(zeta), BIFURCATION_SLOTS); ``bifurcation_count`` (1, len(sigma), len(zeta)): how many
     were found, -1 where the time budget ran out first). They come from the continuation stage
     of study.solve.discovery (every grid solution continued in omega across the line, sign changes
     of 1 - tr M + det M, 1 + tr M + det M and min q + n between consecutive continuation
     points, at most half a grid step apart, refined on the branch by
     kernels.continuation: |test function| ~ 1e-14). Off by default: the grid results are the
     same with or without it.
+
+    ``crossings=True`` also records, along each omega line, where a test function changes sign
+    between two neighbouring grid points of the block (study.solve.curves.line_crossings, over
+    every orbit the line search found, stored in the slots or not): the seeds of the traced
+    curves, in the schema's CROSSING_VARIABLES (shape (1, len(sigma), len(zeta),
+    CROSSING_SLOTS)). No kernel call: the grid results are the same with or without it.
 
     ``harmonics=False`` leaves ``force_harmonics`` NaN: their quadrature costs about a quarter
     of the solver's time, and a study that does not store them (product ``force_harmonics``)
@@ -154,7 +170,8 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
                    linear_stride=int(seed_strides[0]), mms_stride=int(seed_strides[1]),
                    harmonics=bool(harmonics),
                    seeds=tuple((int(p), float(q), float(v)) for p, q, v in seeds))
-    names = ORBIT_VARIABLES + ("orbits_found",) + (LINE_VARIABLES if locate else ()) \
+    names = ORBIT_VARIABLES + ("orbits_found",) + (BIFURCATION_VARIABLES if locate else ()) \
+        + (CROSSING_VARIABLES if crossings else ()) \
         + (ATTRACTOR_VARIABLES if attractors != "never" else ())
     arrays = empty_arrays((omega.size, sigma.size, zeta.size), int(max_solutions), names)
     deadline = None if time_budget is None else time.monotonic() + float(time_budget)
@@ -185,6 +202,9 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
                                          transients=0, initial=per_point)
                 _record_bifurcations(arrays, j, k, line_bifurcations(
                     line.special, float(omega.min()), float(omega.max())))
+            if crossings and search.visited.all():
+                _record_crossings(arrays, j, k, line_crossings(
+                    omega, per_point, contact_loss_level(model, float(exponent)), periods))
             points, slots, recorded = [], [], []
             for i in range(omega.size):
                 if search.visited[i]:

@@ -28,17 +28,11 @@ import numpy as np
 
 from kernels import continuation as cont
 from kernels import status as st
-from study.orbits import same_orbit
+from study.orbits import fold_function, match_neighbours, same_orbit
 from study.solve.census import census
 from study.solve.point import merge_new_orbits, shoot_seeds_minimal, solve_point
 from study.solve.seeds import mms_seeds
 
-#: Two orbits at neighbouring grid points are one branch when their invariants (min q, max q)
-#: differ by less than this share of (1 + ptp); beyond it the branch is taken as ended there.
-#: A false end costs one turn attempt that finds nothing new; a missed end loses a branch: the
-#: share is on the generous side of the jumps seen at folds (primary resonance: the upper and
-#: lower branches differ by 2-5 in max q at ptp 3-8).
-CONTINUITY_SHARE = 0.2
 #: The exploratory seeds are shot at every k-th point of the up sweep only: a branch they
 #: reach is continued both ways, and its ends are traced through their folds. The linear 1T
 #: response (where a 1T orbit is continued into the point; always where none is) every
@@ -51,8 +45,6 @@ MMS_SEED_STRIDE = 2
 #: Grid points per line where the census runs whatever shooting found (besides the points with
 #: no stable orbit): stable orbits that no seed reaches are found from there.
 PROBE_POINTS = 4
-#: Fold functions below this are taken as zero (a fold at the grid point itself) when matching.
-FOLD_SIGN_FLOOR = 1e-6
 #: Branch ends traced per line and period.
 MAX_TURNS = 12
 #: A trace stops after this many grid crossings in a row that give known orbits.
@@ -146,23 +138,12 @@ class LineSearch:
         for a, b in zip(self.order[:-1], self.order[1:]):
             A = [s for s in self.per_point[a] if s["period"] == period]
             B = [s for s in self.per_point[b] if s["period"] == period]
-            pairs = sorted((_distance(x, y), ia, ib) for ia, x in enumerate(A)
-                           for ib, y in enumerate(B))
             used_a, used_b = set(), set()
-            for d, ia, ib in pairs:
-                if ia in used_a or ib in used_b:
-                    continue
-                # along a branch the fold function (1 - mu1)(1 - mu2) changes sign only at a
-                # fold, where the branch turns back: neighbours with opposite signs are two
-                # branches, however close their invariants
-                ga, gb = _fold_function(A[ia]), _fold_function(B[ib])
-                if ga * gb < 0.0 and min(abs(ga), abs(gb)) > FOLD_SIGN_FLOOR:
-                    continue
-                if d <= CONTINUITY_SHARE * (1.0 + max(A[ia]["ptp"], B[ib]["ptp"])):
-                    used_a.add(ia)
-                    used_b.add(ib)
-                    partner[id(A[ia])] = B[ib]
-                    partner[id(B[ib])] = A[ia]
+            for ia, ib in match_neighbours(A, B):
+                used_a.add(ia)
+                used_b.add(ib)
+                partner[id(A[ia])] = B[ib]
+                partner[id(B[ib])] = A[ia]
             ends += [(int(a), A[ia], +1) for ia in range(len(A)) if ia not in used_a]
             ends += [(int(b), B[ib], -1) for ib in range(len(B)) if ib not in used_b]
         if self.omega.size >= 2:
@@ -171,7 +152,7 @@ class LineSearch:
                     inner = partner.get(id(s))
                     if s["period"] != period or inner is None:
                         continue
-                    g, g_in = _fold_function(s), _fold_function(inner)
+                    g, g_in = fold_function(s), fold_function(inner)
                     if g * (2.0 * g - g_in) <= 0.0:
                         ends.append((i, s, d))
         return ends
@@ -232,7 +213,7 @@ class LineSearch:
             for i, sol, d in queue:
                 for i2, sol2, d2 in queue:
                     if i2 == i and d2 == d and sol2 is not sol \
-                            and _fold_function(sol) * _fold_function(sol2) < 0.0:
+                            and fold_function(sol) * fold_function(sol2) < 0.0:
                         known_pairs.add(id(sol))
             queue = [e for e in queue if id(e[1]) not in known_pairs]
             for i, sol, d in queue[:MAX_TURNS]:
@@ -284,12 +265,6 @@ class LineSearch:
     def solutions(self, i: int) -> list[dict]:
         """The distinct converged orbits at grid point i, ordered by (period, ptp)."""
         return sorted(self.per_point[i], key=lambda s: (s["period"], s["ptp"]))
-
-
-def _fold_function(sol) -> float:
-    """(1 - mu1)(1 - mu2) = 1 - tr M + det M: zero at a fold, positive on its stable side."""
-    mu = sol["multipliers"]
-    return float(((1.0 - mu[0]) * (1.0 - mu[1])).real)
 
 
 def arc_path(system, x0, omega, sigma, period, direction, w_lo, w_hi, *, ds, dp_max,
@@ -372,12 +347,6 @@ def path_crossings(path: np.ndarray, omega_grid) -> list[tuple[int, tuple]]:
             x = path[k, :2] + th * (path[k + 1, :2] - path[k, :2])
             out.append((int(i), (float(x[0]), float(x[1]))))
     return out
-
-
-def _distance(a, b) -> float:
-    """Distance of two orbits' invariants (min q, max q): unchanged by the T-shift of an orbit
-    of period > 1, unlike their start points."""
-    return abs(a["min_q"] - b["min_q"]) + abs(a["max_q"] - b["max_q"])
 
 
 def _near(x, y, tol=1e-6) -> bool:

@@ -1,5 +1,5 @@
-"""The "curves" output end to end: a small study near omega = 2 at zeta = 0.01 whose located
-points seed the 1T flip curve, the isola's 2T fold curve (it ends where the isola joins the
+"""The "curves" output end to end: a small study near omega = 2 at zeta = 0.01 whose grid's
+sign changes of the test functions seed the 1T flip curve, the isola's 2T fold curve (it ends where the isola joins the
 flip-born branch) and the two arms of the 2T grazing curve; its client killed between two committed curves and
 rerun, against an undisturbed run; curves (re)traced on a complete store; the figures."""
 from __future__ import annotations
@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from benchmarks import oracle
 from scheduler.cli import main
 from scheduler.store import CURVE_PARTS, PRODUCT_GROUP, Store, read_product
 from tests.helpers import SLOW_TRACER, hertzmap_cmd, subprocess_env, wait_until
@@ -53,26 +54,81 @@ def test_curves_of_the_study(paths):
     _, ref, out = paths
     assert "curves: 4 traced" in out, out
     t = traced(ref)
-    kinds = sorted(zip(t.curve_kind.values.tolist(), t.curve_period.values.tolist()))
+    ok = t.curve_vertices.values > 0                   # dim curve keeps failed starts too
+    kinds = sorted(zip(t.curve_kind.values[ok].tolist(), t.curve_period.values[ok].tolist()))
     # the 2T fold (isola), the 1T flip, and both arms of the 2T grazing curve (they meet at
     # sigma 0.273, below the window, on the 2T fold curve)
     assert kinds == [(1, 2), (2, 1), (3, 2), (3, 2)]
-    assert (t.curve_vertices.values > 20).all()
+    assert (t.curve_vertices.values[ok] > 20).all()
     assert np.all(t.residual.values < 1e-9)
     # the isola's fold curve ends on the 1T orbit where it joins the flip-born branch
-    fold = int(np.nonzero(t.curve_kind.values == 1)[0][0])
+    fold = int(np.nonzero((t.curve_kind.values == 1) & ok)[0][0])
     assert t.curve_status_start.values[fold] == 2 or t.curve_status_end.values[fold] == 2
     join = t.codim2_kind.values == 2
     assert join.sum() == 1
     assert abs(float(t.codim2_sigma.values[join][0]) - 0.3596) < 1e-3
-    # every located point of the store lies on a traced curve (one seed per curve)
-    assert t.attrs["hertzmap_curve_seeds"] > 3
+    # the completeness check: every seed is covered by a traced curve, or says why not; here
+    # one fold seed of the coarse grid (two 2T branches paired across a sharp change, no fold
+    # there) does not start, and the summary says so
+    assert t.attrs["hertzmap_curve_seeds"] == t.sizes["seed"] > 3
+    outcome = dict(zip(np.asarray(t.seed_outcome.attrs["flag_values"]).tolist(),
+                       t.seed_outcome.attrs["flag_meanings"].split()))
+    names = [outcome[int(c)] for c in t.seed_outcome.values]
+    covered = t.seed_curve.values >= 0
+    assert all(n in ("traced", "covered") for n in np.array(names)[covered])
+    assert all(n not in ("traced", "covered") for n in np.array(names)[~covered])
+    assert (t.seed_curve.values[covered] < t.sizes["curve"]).all()
+    assert "seeds not covered by a traced curve:" in out
     # the vertices stay in the window, the flip curve's lowest point is a refined extremum
     assert t.omega.min() >= 1.85 - 1e-12 and t.sigma.max() <= 0.5 + 1e-12
     flip = t.where(t.curve_id == int(np.nonzero(t.curve_kind.values == 2)[0][0]), drop=True)
     k = int(np.argmin(flip.sigma.values))
     assert int(flip.flag.values[k]) & 2 and abs(float(flip.sigma[k]) - 0.35904) < 1e-4
     assert not (ref / PRODUCT_GROUP / CURVE_PARTS).exists()
+
+
+def test_each_seed_cell_brackets_a_sign_change_of_the_oracle(paths):
+    """Every flip and grazing seed lies in a grid cell where the scipy oracle's own test
+    function (1 + tr M + det M of its central-difference monodromy; min q + n by event location)
+    changes sign between the cell's two grid points, for the oracle's orbits of the seed's
+    period started from the stored ones."""
+    _, ref, _ = paths
+    t = traced(ref)
+    res = xr.open_zarr(str(ref), chunks=None)
+    omega, sigma = np.sort(res.omega.values), np.sort(res.sigma.values)
+    kinds = {2: "flip", 3: "grazing"}
+    checked = 0
+    for i in range(t.sizes["seed"]):
+        kind = kinds.get(int(t.seed_kind[i]))
+        if kind is None:
+            continue
+        m, w, s = int(t.seed_period[i]), float(t.seed_omega[i]), float(t.seed_sigma[i])
+        if np.isclose(sigma, s, rtol=0, atol=1e-12).any():         # a cell along omega
+            k = int(np.searchsorted(omega, w))
+            ends = [(omega[k - 1], s), (omega[k], s)]
+        else:                                                       # a cell across sigma
+            k = int(np.searchsorted(sigma, s))
+            ends = [(w, sigma[k - 1]), (w, sigma[k])]
+        signs = []
+        for we, se in ends:
+            pt = res.sel(omega=we, sigma=se, zeta=0.01, method="nearest")
+            ok = (pt.status.values == 0) & (pt.period.values == m)
+            g = []
+            for q0, v0 in zip(pt.q0.values[ok], pt.v0.values[ok]):
+                if kind == "flip":
+                    f, _ = oracle.flip_function_at(we, se, 0.01, (q0, v0), m)
+                else:
+                    x = oracle.checked_fixed_point((q0, v0), we, se, 0.01, m)
+                    f = oracle.min_q(x, we, se, 0.01, m) + 1.5
+                g.append(np.sign(f))
+            signs.append(set(g))
+        # the 1T orbit (one per point here) on either side of the curve's condition; of 2T
+        # orbits (stable and unstable) at least one on each side
+        if m == 1:
+            assert signs[0] | signs[1] == {1.0, -1.0} and len(signs[0]) == len(signs[1]) == 1
+        assert {1.0, -1.0} <= signs[0] | signs[1], (kind, m, w, s, signs)
+        checked += 1
+    assert checked >= 8
 
 
 def test_client_killed_between_curves_then_rerun_identical(paths, tmp_path):
@@ -94,14 +150,15 @@ def test_client_killed_between_curves_then_rerun_identical(paths, tmp_path):
         if p.poll() is None:
             os.killpg(p.pid, signal.SIGKILL)
     committed = [q for q in parts.iterdir() if not q.name.startswith(".")]
-    assert 1 <= len(committed) < 4, "the kill landed after the curve stage"
+    assert 1 <= len(committed) < traced(ref).sizes["curve"], "the kill landed after the curves"
     assert Store(store).done_mask().all()                 # the grid was complete
     r = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert "all 3 tasks done" in r.stdout and "committed" in r.stdout
     assert f"{len(committed)} resumed" in r.stdout
     assert_same_store(store, ref)
-    xr.testing.assert_identical(traced(store), traced(ref))
+    xr.testing.assert_identical(traced(store), traced(ref))      # the seed_* variables too
+    assert traced(store).sizes["seed"] > 3
 
 
 def test_curves_retraced_on_a_complete_store(paths, tmp_path):

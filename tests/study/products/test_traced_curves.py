@@ -24,7 +24,7 @@ def _fake_trace(index, kind, period, zeta, sigma, codim2=()):
     n = len(sigma)
     flag = np.zeros(n)
     flag[int(np.argmin(sigma))] = VERTEX_EXTREMUM
-    V = {k: np.zeros(n) for k in ("q0", "v0", "min_q", "fold", "flip", "grazing", "step",
+    V = {k: np.zeros(n) for k in ("q0", "v0", "min_q", "max_q", "fold", "flip", "grazing", "step",
                                   "arclength", "residual")}
     V.update(omega=np.linspace(1.0, 2.0, n), sigma=np.asarray(sigma, float),
              zeta=np.full(n, zeta), flag=flag, multipliers=np.ones((n, 2), complex))
