@@ -305,8 +305,9 @@ def test_worker_jobs_failing_on_the_node_stop_the_run_with_a_message(slurm, stud
     assert "Traceback" not in out + err
     jobs = submitted_jobs(out)
     assert len(jobs) == 2
+    first, second = sorted(jobs, key=lambda j: (len(j), j))     # the message lists them by id
     assert (f"hertzmap: error: the worker jobs ended before any worker connected "
-            f"({jobs[0]} FAILED, {jobs[1]} FAILED)") in err, err
+            f"({first} FAILED, {second} FAILED)") in err, err
     assert f"its output is in {logs}/dask-worker-JOBID.err" in err
     assert "/nonexistent/bin/python: No such file" in (logs / f"dask-worker-{jobs[0]}.err").read_text()
     assert done_count(store) == 0
