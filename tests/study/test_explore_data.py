@@ -15,8 +15,8 @@ import xarray as xr
 
 from study import explore_data as E
 from study import products as P
-from study.schema import template
 from study.spec import parse_study
+from tests.helpers import blank_results
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -43,16 +43,6 @@ outputs = ["orbits", "measures", "force_harmonics"]
 """
 
 
-def _blank(toml: str, name: str = "t") -> xr.Dataset:
-    """An in-memory store dataset (the template) with writable arrays, every block done."""
-    study = parse_study(toml, default_name=name)
-    ds = template(study, study.shape, history="test")
-    for v in list(ds.data_vars):
-        ds[v] = ds[v].copy(data=np.array(ds[v].values))
-    ds["task_done"][...] = True
-    return ds
-
-
 def _put(ds, i, j, k, slot, *, period, stable, loses=False, mult=(0.5, 0.4), min_q=-0.1,
          max_q=0.1, ff=0.0, iv=0.0, q0=0.0, v0=0.0, fh=(0.1, 0.01, 0.0, 0.0)):
     idx = dict(omega=i, sigma=j, zeta=k, solution=slot)
@@ -73,7 +63,7 @@ def _put(ds, i, j, k, slot, *, period, stable, loses=False, mult=(0.5, 0.4), min
 
 @pytest.fixture()
 def hand():
-    ds = _blank(MAP, "hand")
+    ds = blank_results(MAP, "hand")
     for i in range(4):
         for j in range(3):
             for k in range(2):
@@ -92,7 +82,7 @@ def test_units_dimensionless_and_the_papers_rig_from_its_formulas(hand):
     u = E.units_of(P.open_store(hand))
     assert not u.physical
     assert all(s.factor == 1.0 for s in (u.freq, u.amp, u.disp, u.vel, u.time, u.force))
-    ds = P.open_store(_blank(MAP + RIG, "rig"))
+    ds = P.open_store(blank_results(MAP + RIG, "rig"))
     u = E.units_of(ds)
     # paper Eq. 2-5, 28: double sphere-plane contact k = E sqrt(R) / (3 sqrt(2) (1 - nu^2))
     k = 2.1e11 * math.sqrt(0.0127) / (3 * math.sqrt(2) * (1 - 0.29**2))
@@ -174,7 +164,7 @@ def test_orbit_history_and_harmonics_of_a_real_2T_orbit_with_contact_loss():
     assert orbit.converged and orbit.loses_contact and orbit.stable
     toml = "[grid]\nomega = 1.9\nsigma = 0.5\nzeta = 0.01\n[products]\n" \
            "outputs = [\"orbits\", \"measures\", \"force_harmonics\"]\n"
-    ds = _blank(toml, "real")
+    ds = blank_results(toml, "real")
     _put(ds, 0, 0, 0, 0, period=2, stable=True, loses=True, min_q=orbit.min_q,
          max_q=orbit.max_q, ff=orbit.flight_fraction, iv=orbit.max_impact_velocity,
          mult=orbit.multipliers, q0=orbit.x0[0], v0=orbit.x0[1], fh=orbit.force_harmonics)
@@ -212,7 +202,7 @@ def test_response_slice_is_the_lines_distinct_orbits(hand):
 
 def test_refine_study_is_the_recorded_study_on_the_window():
     toml = MAP.replace('name = "hand"', 'name = "hand"\ndescription = "x"') + RIG
-    ds = P.open_store(_blank(toml, "hand"))
+    ds = P.open_store(blank_results(toml, "hand"))
     ds.attrs["hertzmap_study_toml"] = toml
     base = parse_study(toml)
     text, study = E.refine_study(ds, (1.4, 1.8), (0.55, 0.2), 6, 5, 0.019)
@@ -247,7 +237,7 @@ def test_refine_study_is_the_recorded_study_on_the_window():
 
 def test_refine_of_a_line_study_refines_along_its_line():
     toml = "[grid]\nomega = { start = 0.5, stop = 2.5, num = 21 }\nsigma = 0.5\nzeta = 0.01\n"
-    ds = P.open_store(_blank(toml, "line"))
+    ds = P.open_store(blank_results(toml, "line"))
     ds.attrs["hertzmap_study_toml"] = toml
     _, study = E.refine_study(ds, (1.8, 2.1), (0.49, 0.51), 61, 1, 0.01)
     assert study.sigma == (0.5,) and study.shape == (61, 1, 1)
