@@ -331,48 +331,52 @@ def curve_seeds(ds: xr.Dataset, level: float, periods=None) -> list[Seed]:
         third = [n for n in AXES if n not in plane][0]
         ia, ib, ic = AXES.index(a_name), AXES.index(b_name), AXES.index(third)
         for kc, fixed in enumerate(axes[third]):
-            for jb, b_value in enumerate(axes[b_name]):
-                # along the line: the edges of the plane's first parameter
-                for edge_axis, edge_name, hold in ((ia, a_name, b_name), (ib, b_name, a_name)):
-                    n_edge = axes[edge_name].size
-                    if edge_axis == ib and jb == n_edge - 1:
+            for jb in range(axes[b_name].size):
+                line = [0, 0, 0]
+                line[ib], line[ic] = jb, kc
+                # along the line (edges of the plane's first parameter), then to the next line
+                for edge_axis, hold in ((ia, b_name), (ib, a_name)):
+                    if edge_axis == ib and jb == axes[b_name].size - 1:
                         continue
-                    if edge_axis == ia:
-                        starts = range(axes[a_name].size - 1)
-                    else:
-                        starts = range(axes[a_name].size)
-                    found = []
-                    for i0 in starts:
-                        idx = [0, 0, 0]
-                        idx[ic] = kc
-                        idx[ib] = jb
-                        idx[ia] = i0
-                        P = tuple(idx)
-                        q = list(idx)
-                        q[edge_axis] += 1
-                        Q = tuple(q)
-                        if (edge_axis == 0 and blocks[P[0]] == blocks[Q[0]]
-                                and (int(blocks[P[0]]), P[1], P[2]) in recorded):
-                            continue        # from the line's own records, below
-                        for c in crossings(orbits[P], orbits[Q], level, periods):
-                            params = {n: axes[n][P[AXES.index(n)]] for n in AXES}
-                            params[edge_name] = (axes[edge_name][P[edge_axis]] + c["theta"]
-                                                 * (axes[edge_name][Q[edge_axis]]
-                                                    - axes[edge_name][P[edge_axis]]))
-                            found.append((params[edge_name], BIFURCATION_KINDS[c["kind"]],
-                                          c["period"], c, params))
-                    if edge_axis == 0 and lines is not None:
-                        j, k = P[1], P[2]
-                        for d in lines.get((j, k), []):
-                            params = {"omega": d["omega"], "sigma": axes["sigma"][j],
-                                      "zeta": axes["zeta"][k]}
-                            c = dict(d, orbit={"x0": (d["q0"], d["v0"])})
-                            found.append((d["omega"], BIFURCATION_KINDS[d["kind"]],
-                                          d["period"], c, params))
-                    found.sort(key=lambda t: t[:3])
+                    found = _edge_crossings(orbits, axes, line, ia, edge_axis, blocks, recorded,
+                                            lines, level, periods)
                     for _, _, period, c, params in found:
                         add(plane, fixed, params, c["orbit"]["x0"], hold, c)
     return seeds
+
+
+def _edge_crossings(orbits, axes, line, ia, edge_axis, blocks, recorded, lines, level,
+                    periods) -> list[tuple]:
+    """The crossings on the grid cells of one line of a plane (``line``: the grid index of the
+    line's other two parameters; ``ia``: the axis along it) whose edges run along
+    ``edge_axis`` (the line's own axis, or to the next line), sorted by place, kind and
+    period: (place, kind code, period, crossing, its parameters). Along omega inside a block
+    whose line search recorded its crossings, those records stand for the stored slots."""
+    edge_name = AXES[edge_axis]
+    found = []
+    for i0 in range(axes[AXES[ia]].size - (1 if edge_axis == ia else 0)):
+        P = list(line)
+        P[ia] = i0
+        Q = list(P)
+        Q[edge_axis] += 1
+        P, Q = tuple(P), tuple(Q)
+        if (edge_axis == 0 and blocks[P[0]] == blocks[Q[0]]
+                and (int(blocks[P[0]]), P[1], P[2]) in recorded):
+            continue        # from the line's own records, below
+        for c in crossings(orbits[P], orbits[Q], level, periods):
+            params = {n: axes[n][P[AXES.index(n)]] for n in AXES}
+            params[edge_name] = (axes[edge_name][P[edge_axis]] + c["theta"]
+                                 * (axes[edge_name][Q[edge_axis]] - axes[edge_name][P[edge_axis]]))
+            found.append((params[edge_name], BIFURCATION_KINDS[c["kind"]], c["period"], c,
+                          params))
+    if edge_axis == 0 and lines is not None:
+        j, k = line[1], line[2]
+        for d in lines.get((j, k), []):
+            params = {"omega": d["omega"], "sigma": axes["sigma"][j], "zeta": axes["zeta"][k]}
+            found.append((d["omega"], BIFURCATION_KINDS[d["kind"]], d["period"],
+                          dict(d, orbit={"x0": (d["q0"], d["v0"])}), params))
+    found.sort(key=lambda t: t[:3])
+    return found
 
 
 def trace_seed(seed: Seed, bounds: dict[str, tuple[float, float]], *, exponent: float = 1.5,
