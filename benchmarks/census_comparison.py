@@ -4,16 +4,20 @@ the periodic orbits found per class, the orbits one finds and another misses, an
     .venv/bin/python benchmarks/census_comparison.py                    # the default study's grid
     .venv/bin/python benchmarks/census_comparison.py --sigma 0.2 0.5 0.8 --omega 0.25 2.5 181
 
-Three searches of the periodic orbits (no attractor census: transients are the census's, timed
-separately by benchmarks/vibro_impact_cost.py):
+Four searches of the periodic orbits (the census's transients are timed on their own by
+benchmarks/vibro_impact_cost.py):
 
-* ``sweeps``: the seeded sweeps alone (the default search before fold turning);
-* ``default``: the sweeps and fold turning (study.solve.line), today's default;
+* ``before``: the seeded sweeps alone (the default search before fold turning);
+* ``no-census``: the sweeps and fold turning (study.solve.line): the default's search of the
+  1T and 2T orbits, without the attractor census;
+* ``default``: the same and the attractor census (where no stable orbit was found, and at the
+  probe points), whose orbits of every period are followed along the line (census.py,
+  line.py): today's default;
 * ``discover``: the sweeps and discovery (transients at 12 points and continuation of every
   branch across the line: ``[search] discover = true``).
 
-Every omega line is one block, solved by the three in turn (A B C, then C B A on the next line,
-so that a drift of the machine's speed falls on all three alike). Orbits are counted from the
+Every omega line is one block, solved by the four in turn (A B C D, then D C B A on the next line,
+so that a drift of the machine's speed falls on all four alike). Orbits are counted from the
 solver's own lists (16 slots: none dropped), per class (study.orbits), and compared orbit by
 orbit with the identity rule.
 """
@@ -29,6 +33,7 @@ from study.solve.block import solve_block
 from study.spec import load_study
 
 SEARCHES = {"before": dict(turn_folds=False, seed_strides=(1, 1)),
+            "no-census": dict(turn_folds=True, attractors="never"),
             "default": dict(turn_folds=True, attractors="where-none-stable"),
             "discover": dict(turn_folds=False, discover=True, seed_strides=(1, 1))}
 SLOTS = 16
@@ -98,9 +103,11 @@ def main(argv=None) -> int:
     print(f"{'all orbits':60s} " + " ".join(f"{counts[n][1:].sum():9d}" for n in names))
     print(f"{'solver CPU seconds (one process, lines interleaved)':60s} "
           + " ".join(f"{seconds[n]:9.2f}" for n in names))
-    print(f"cost of the default search / the search before: {seconds['default'] / seconds['before']:.2f}x;"
+    print(f"cost of the 1T/2T search (no census) / the search before: "
+          f"{seconds['no-census'] / seconds['before']:.2f}x; with the census (default): "
+          f"{seconds['default'] / seconds['before']:.2f}x;"
           f" discovery / sweeps: {seconds['discover'] / seconds['before']:.2f}x")
-    for n in ("before", "default"):
+    for n in ("before", "no-census", "default"):
         print(f"orbits discovery finds that {n} misses: {len(missing[n])}"
               + ("" if not missing[n] else "; first: " + ", ".join(
                   f"(omega {w:.4f}, sigma {sg:.4f}, period {p}, stable {st})"

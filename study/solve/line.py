@@ -28,7 +28,8 @@ import numpy as np
 
 from kernels import continuation as cont
 from kernels import status as st
-from study.orbits import fold_function, match_neighbours, same_orbit
+from study.orbits import (CONTINUITY_SHARE, continuity_distance, fold_function,
+                          match_neighbours, same_orbit)
 from study.solve.census import census
 from study.solve.point import merge_new_orbits, shoot_seeds_minimal, solve_point
 from study.solve.seeds import mms_seeds
@@ -55,6 +56,8 @@ TRACE_DP = 1.0
 #: Continuation points per grid point a trace may take (steps are at most half a grid step in
 #: omega; folds and steep stretches take more).
 TRACE_POINTS_PER_STEP = 6
+#: Legs (natural continuation, then pseudo-arclength through a fold) a trace may take.
+MAX_LEGS = 4
 
 
 @dataclass
@@ -161,44 +164,101 @@ class LineSearch:
         r = self.rank[i] + d
         return int(self.order[r]) if 0 <= r < self.omega.size else None
 
-    def trace(self, i: int, sol: dict, d: int) -> int:
-        """Continue the branch of ``sol`` (at grid point i) in omega from there in direction d
-        by pseudo-arclength (through folds: a turning branch comes back along its other half),
-        within the line's window (one grid step beyond each end), and solve at every grid
-        point the branch crosses (Newton at fixed omega from the interpolated point). Stops when
-        KNOWN_RUN crossings in a row give orbits already known (the branch is retracing one)
-        or the window is left. Returns the number of new orbits."""
+    def trace(self, i: int, sol: dict, d: int, past_fold: bool = False) -> int:
+        """Follow the branch of ``sol`` (at grid point i) along the line from there in
+        direction d, and solve at every grid point it crosses, within the line's window (one
+        grid step beyond each end). Legs alternate:
+
+        * natural continuation from grid point to grid point (Newton at the next omega from
+          the secant prediction), while Newton converges onto the same branch (same period,
+          the fold function's sign kept, invariants within the continuity rule's share);
+        * where it does not (a fold ahead, a steep stretch), pseudo-arclength continuation in
+          omega from the last point (through the fold: a turning branch comes back along its
+          other half), until it has turned and given a new orbit beyond the fold; the next
+          leg then goes the other way from there. With ``past_fold`` (an orbit of a period
+          the line search does not follow, met by the census) the trace ends there instead:
+          both halves of its fold are then known at the grid point next to it, which is all
+          the curves' fold seeds need.
+
+        Stops when KNOWN_RUN crossings in a row give orbits already known (the branch is
+        retracing one) or the window is left. Returns the number of new orbits."""
         n = self.omega.size
         h = (float(self.omega.max()) - float(self.omega.min())) / max(n - 1, 1)
         lo, hi = float(self.omega.min()) - h, float(self.omega.max()) + h
         self.traces += 1
         period = sol["period"]
-        state = {"known": 0, "new": 0}
+        state = {"known": 0, "new": 0, "stop": False}
 
-        def on_step(u_prev, u):
-            for k, x in path_crossings(np.array([u_prev, u]), self.omega):
-                if k == i and _near(x, sol["x0"], 1e-3):
-                    continue        # the start point itself
-                got = [g for g in shoot_seeds_minimal(self.omega[k], self.sigma, self.zeta,
-                                                      period, [x], self.options)
-                       if g["status"] == st.CONVERGED and g["period"] == period]
-                if not got:
-                    continue
-                g = got[0]
-                if any(same_orbit(g, s) for s in self.per_point[k]):
-                    state["known"] += 1
-                    if state["known"] >= KNOWN_RUN:
+        def record(k, g) -> bool:
+            """Keep g at grid point k if new; False when the trace must stop."""
+            if any(same_orbit(g, s) for s in self.per_point[k]):
+                state["known"] += 1
+                if state["known"] >= KNOWN_RUN:
+                    state["stop"] = True
+                    return False
+            else:
+                g["omega"] = self.omega[k]
+                self.per_point[k].append(g)
+                state["new"] += 1
+                state["known"] = 0
+            return True
+
+        def shoot(k, x):
+            got = [g for g in shoot_seeds_minimal(self.omega[k], self.sigma, self.zeta, period,
+                                                  [x], self.options)
+                   if g["status"] == st.CONVERGED and g["period"] == period]
+            return got[0] if got else None
+
+        def natural(k, orbit, direction):
+            """Grid point to grid point from ``orbit`` at k; returns where it stopped."""
+            prev = None
+            while not state["stop"] and not self.out_of_time():
+                nxt = self.neighbour(k, direction)
+                if nxt is None:
+                    break
+                x = np.asarray(orbit["x0"], float)
+                if prev is not None:
+                    x = x + (self.omega[nxt] - self.omega[k]) / (self.omega[k] - self.omega[prev[0]]) \
+                        * (x - np.asarray(prev[1]["x0"], float))
+                g = shoot(nxt, (float(x[0]), float(x[1])))
+                if g is None or fold_function(g) * fold_function(orbit) < 0.0 \
+                        or continuity_distance(g, orbit) > CONTINUITY_SHARE * (1.0 + orbit["ptp"]):
+                    break
+                if not record(nxt, g):
+                    break
+                prev, k, orbit = (k, orbit), nxt, g
+            return k, orbit
+
+        k, orbit, direction = i, sol, d
+        for _ in range(MAX_LEGS):
+            k, orbit = natural(k, orbit, direction)
+            if state["stop"] or self.out_of_time():
+                break
+            leg = {"turned": False, "end": None}
+
+            def on_step(u_prev, u, start=k, x_start=orbit["x0"], direction=direction, leg=leg):
+                if (u[2] - u_prev[2]) * direction < 0.0:
+                    leg["turned"] = True
+                for kk, x in path_crossings(np.array([u_prev, u]), self.omega):
+                    if kk == start and _near(x, x_start, 1e-3):
+                        continue        # the start point itself
+                    g = shoot(kk, x)
+                    if g is None:
+                        continue
+                    new_before = state["new"]
+                    if not record(kk, g):
                         return False
-                else:
-                    g["omega"] = self.omega[k]
-                    self.per_point[k].append(g)
-                    state["new"] += 1
-                    state["known"] = 0
-            return not self.out_of_time()
+                    if leg["turned"] and state["new"] > new_before:
+                        leg["end"] = (kk, g)        # a new orbit beyond the fold
+                        return False
+                return not self.out_of_time()
 
-        arc_path(self.system, np.asarray(sol["x0"], float), float(self.omega[i]), self.sigma,
-                 period, float(d), lo, hi, ds=2.0 * h, dp_max=TRACE_DP * h,
-                 max_points=TRACE_POINTS_PER_STEP * n, on_step=on_step)
+            arc_path(self.system, np.asarray(orbit["x0"], float), float(self.omega[k]),
+                     self.sigma, period, float(direction), lo, hi, ds=2.0 * h,
+                     dp_max=TRACE_DP * h, max_points=TRACE_POINTS_PER_STEP * n, on_step=on_step)
+            if leg["end"] is None or past_fold or state["stop"]:
+                break
+            (k, orbit), direction = leg["end"], -direction
         return state["new"]
 
     def turn_folds(self) -> None:
@@ -237,7 +297,11 @@ class LineSearch:
         found there are followed along the line both ways (where they may be stable, or
         unstable) and their branch ends turned, so that a stable orbit that no seed reaches
         (an isola away from omega = 2) is found along the whole line from one probe, and a
-        point whose stable orbit a neighbour's census found needs no transients of its own."""
+        point whose stable orbit a neighbour's census found needs no transients of its own.
+        Orbits of periods the line search does not follow (3T, 5T, ...) are followed too, each
+        way to its first fold and just beyond (both halves there: the curves' fold seeds), so
+        that a stable one is reported at every point of the line it attracts at, not only
+        where the census ran."""
         if mode == "never":
             return
         t0 = time.perf_counter()
@@ -254,11 +318,21 @@ class LineSearch:
             for sol in new:
                 sol["omega"] = self.omega[i]
                 self.per_point[i].append(sol)
-            # an orbit of a period the study searches is traced along the line (and beyond
-            # its folds); one of another period is stored where the census met it
-            for sol in (s for s in new if s["period"] in self.periods):
+            # an orbit of a period the line search follows is traced along the line (and
+            # beyond its folds); one of another period is followed while it attracts (the
+            # unstable ones the census meets inside a chaotic set are stored where met)
+            for sol in (s for s in new if s["period"] in self.periods or s["stable"]):
                 for direction in (-1, +1):
-                    self.trace(int(i), sol, direction)
+                    self.trace(int(i), sol, direction,
+                               past_fold=sol["period"] not in self.periods)
+        # A trace from a later point may have found a stable orbit at a point whose census
+        # had none to compare with: the census's rule (study.solve.census: a point with a stable
+        # orbit is never called chaotic because its transients were long) holds line-wide.
+        for i, found in self.attractors.items():
+            if any(s["stable"] for s in self.per_point[i]):
+                for a in found:
+                    if a.kind == "non_periodic":
+                        a.kind = "unsettled"
         self.seconds["census"] = time.perf_counter() - t0
 
     # -- results --------------------------------------------------------------------------

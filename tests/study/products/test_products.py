@@ -179,8 +179,13 @@ def test_real_orbits_line_histories_harmonics_and_rig(tmp_path):
     assert np.all(f >= -1 - 1e-12)
     lost = th["period"].values == 2
     assert np.isclose(f[lost], -1.0).any()                # in flight F_exp = -1 (Eq. 30)
-    # periodic: the force repeats after the orbit's period
+    # periodic: the force repeats after the orbit's period (within the two cycles drawn: a
+    # census orbit of period 3 or more does not repeat within them)
+    checked = 0
     for k in range(th.sizes["case"]):
         p = int(th["period"].values[k])
-        assert f[k, 0] == pytest.approx(f[k, 64 * p], abs=1e-6)
+        if 64 * p < th.sizes["time"]:
+            assert f[k, 0] == pytest.approx(f[k, 64 * p], abs=1e-6)
+            checked += 1
+    assert checked >= 2
     assert th["force_N"].attrs["units"] == "N"
