@@ -34,15 +34,17 @@ from study.solve.census import census
 from study.solve.point import merge_new_orbits, shoot_seeds_minimal, solve_point
 from study.solve.seeds import mms_seeds
 
-#: The exploratory seeds are shot at every k-th point of the up sweep only: a branch they
-#: reach is continued both ways, and its ends are traced through their folds. The linear 1T
-#: response (where a 1T orbit is continued into the point; always where none is) every
-#: LINEAR_SEED_STRIDE-th point, the multiple-scales 2T response (most of the sweeps' cost: far
-#: from omega = 2 its Newton runs often fail) every MMS_SEED_STRIDE-th. Measured on the default
-#: study's grid (benchmarks/census_comparison.py, every 4th sigma line): the same orbits as with
-#: both at every point; the 2T seeds at every 4th point lost short 2T segments (28 of 7832).
+#: The exploratory seeds: the linear 1T response (where a 1T orbit is continued into the
+#: point; always where none is) every LINEAR_SEED_STRIDE-th point of the up sweep, the
+#: multiple-scales 2T response (most of the sweeps' cost: far from omega = 2 its Newton runs
+#: often fail) every MMS_SEED_STRIDE-th. A branch they reach is continued both ways, and its
+#: ends are traced through their folds. Measured on the default study's grid
+#: (benchmarks/census_comparison.py): the linear seed at every 8th point loses nothing; the
+#: 2T seeds at every 2nd point lost an unstable 2T pair (10 orbits at sigma 0.9625, omega
+#: 0.50-0.55, ending in a fold at 0.5514) that only the seed at an odd point reaches, and cost
+#: 0.27x of the sweeps less; at every 4th point they lost short 2T segments (28 of 7832).
 LINEAR_SEED_STRIDE = 8
-MMS_SEED_STRIDE = 2
+MMS_SEED_STRIDE = 1
 #: Grid points per line where the census runs whatever shooting found (besides the points with
 #: no stable orbit): stable orbits that no seed reaches are found from there.
 PROBE_POINTS = 4
