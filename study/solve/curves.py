@@ -65,8 +65,12 @@ AXES = ("omega", "sigma", "zeta")
 KIND_OF_CODE = {code: kind for kind, code in BIFURCATION_KINDS.items()}
 
 #: Trace settings: vertices at most 1 % of the window apart in each parameter, 1500 vertices a
-#: side at most (a curve crossing the window takes 100-400).
-TRACE_OPTIONS = {"ds": 0.01, "ds_min": 1e-7, "ds_max": 0.05, "dp_frac": 0.01, "max_points": 1500}
+#: side at most (a curve crossing the window takes 100-400). The step is an arclength in
+#: (q, q', and the two parameters): ds_max 0.5 lets it follow orbits whose start point moves by
+#: tens across the window (the census's 3T orbits with long flights: with 0.05 their fold
+#: curves stopped at 1500 vertices, a fifth of the way); the parameters' steps stay within
+#: dp_frac, and the curves' ends and extrema moved by <= 2e-8 (the default scene).
+TRACE_OPTIONS = {"ds": 0.01, "ds_min": 1e-7, "ds_max": 0.5, "dp_frac": 0.01, "max_points": 1500}
 
 #: An orbit of a period the line search does not follow (met by the census) with no
 #: continuation at the neighbouring grid point ends there in a fold (a flip) when a multiplier

@@ -52,13 +52,14 @@ def traced(store) -> xr.Dataset:
 
 def test_curves_of_the_study(paths):
     _, ref, out = paths
-    assert "curves: 4 traced" in out, out
+    assert "curves: 5 traced" in out, out
     t = traced(ref)
     ok = t.curve_vertices.values > 0                   # dim curve keeps failed starts too
     kinds = sorted(zip(t.curve_kind.values[ok].tolist(), t.curve_period.values[ok].tolist()))
-    # the 2T fold (isola), the 1T flip, and both arms of the 2T grazing curve (they meet at
-    # sigma 0.273, below the window, on the 2T fold curve)
-    assert kinds == [(1, 2), (2, 1), (3, 2), (3, 2)]
+    # the 2T fold (isola), the 1T flip, both arms of the 2T grazing curve (they meet at
+    # sigma 0.273, below the window, on the 2T fold curve), and the fold of the stable 3T
+    # orbits the census finds at sigma 0.45-0.5 (test_3t_fold_curve_against_the_oracle)
+    assert kinds == [(1, 2), (1, 3), (2, 1), (3, 2), (3, 2)]
     assert (t.curve_vertices.values[ok] > 20).all()
     assert np.all(t.residual.values < 1e-9)
     # the isola's fold curve ends on the 1T orbit where it joins the flip-born branch
@@ -129,6 +130,26 @@ def test_each_seed_cell_brackets_a_sign_change_of_the_oracle(paths):
         assert {1.0, -1.0} <= signs[0] | signs[1], (kind, m, w, s, signs)
         checked += 1
     assert checked >= 8
+
+
+def test_3t_fold_curve_against_the_oracle(paths):
+    """The fold curve of the census's 3T orbits (seeded where the line search followed a
+    stable 3T orbit to its fold): vertices against the scipy oracle's fold of the period-3
+    map on the vertex's omega line (sigma the extremum along the branch, rtol 1e-12)."""
+    _, ref, _ = paths
+    t = traced(ref)
+    k = int(np.nonzero((t.curve_kind.values == 1) & (t.curve_period.values == 3)
+                       & (t.curve_vertices.values > 0))[0][0])
+    c = t.where(t.curve_id == k, drop=True)
+    n = c.sizes["vertex"]
+    assert n > 20
+    for i in (n // 4, n // 2, 3 * n // 4):
+        w, s = float(c.omega[i]), float(c.sigma[i])
+        x = (float(c.q0[i]), float(c.v0[i]))
+        s_oracle, _ = oracle.fold_on_line(x, fixed="omega", free="sigma", m=3,
+                                          params=dict(omega=w, sigma=s, zeta=0.01),
+                                          half_width=0.02)
+        assert abs(s_oracle - s) < 1e-8, (w, s, s_oracle)
 
 
 def test_client_killed_between_curves_then_rerun_identical(paths, tmp_path):
