@@ -243,6 +243,14 @@ def plot_loss_of_contact_map(lcm, curves, path, *, zeta=None, mms=None, title=No
     ax.pcolormesh(m["omega"], m["sigma"], codes, cmap=cmap, norm=norm, shading="nearest",
                   rasterized=True)
     handles = [Patch(facecolor=SET_COLORS[c], edgecolor="0.6", label=SET_LABELS[c]) for c in present]
+    if "stable_longer" in m and field == "map_class":
+        beside = (m["stable_longer"].transpose("sigma", "omega").values > 0) \
+            & (codes > 0) & (codes < 16)
+        if beside.any():
+            ax.contourf(m["omega"], m["sigma"], beside.astype(float), levels=[0.5, 1.5],
+                        colors="none", hatches=["////"])
+            handles.append(Patch(facecolor="none", edgecolor="0.3", hatch="////",
+                                 label="and a stable orbit of period m >= 3"))
     _draw_traced(ax, traced, zeta)
     _draw_curves(ax, curves, zeta, _grid_fallback(traced, zeta, ("flip_1T", "grazing_1T",
                                                                    "grazing_2T", "isola")))

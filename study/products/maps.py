@@ -33,7 +33,8 @@ MAP_CLASSES: tuple[tuple[int, str, str], ...] = tuple(
      "stable: " + ", ".join(m for b, m in STABLE_SET_FLAGS if c & b) if c else
      "no stable response found (or not computed)") for c in range(16)) + (
     (MAP_CLASS_LONGER, "stable_period_m_ge_3",
-     "a stable orbit of period m >= 3 (with or without 1T / 2T ones)"),
+     "a stable orbit of period m >= 3 and no stable 1T or 2T one (beside them: their code, "
+     "and stable_longer)"),
     (MAP_CLASS_CHAOTIC, "non_periodic",
      "no stable orbit; the census's transients are chaotic (positive Lyapunov exponent)"),
     (MAP_CLASS_UNSETTLED, "unsettled",
@@ -217,11 +218,20 @@ def _add_attractors(out: xr.Dataset, ds: xr.Dataset, ok, stable, loses, bits) ->
     chaotic = (kinds == ATTRACTOR_KINDS["non_periodic"]).any(-1)
     unsettled = (kinds == ATTRACTOR_KINDS["unsettled"]).any(-1)
     has_stable = stable.any("solution").values
-    code = np.where(longer, MAP_CLASS_LONGER, bits.values.astype(np.int8)).astype(np.int8)
+    # where a stable mT orbit coexists with stable 1T / 2T ones the map keeps their kinds (the
+    # loss-of-contact map of the paper) and says so in stable_longer
+    code = np.where(longer & (bits.values == 0), MAP_CLASS_LONGER,
+                    bits.values.astype(np.int8)).astype(np.int8)
     code = np.where(~has_stable & chaotic, MAP_CLASS_CHAOTIC, code)
     code = np.where(~has_stable & ~chaotic & unsettled, MAP_CLASS_UNSETTLED, code)
     code = np.where(has_stable & chaotic, MAP_CLASS_CHAOTIC_COEXISTING, code)
     code = np.where(out["computed"].values, code, 0).astype(np.int8)
+    out["stable_longer"] = xr.DataArray(
+        (longer & out["computed"].values).astype(np.int8),
+        dims=("omega", "sigma", "zeta")).assign_attrs(var_attrs(
+            "a stable orbit of period m >= 3", "1",
+            "1 where a stable orbit of period m >= 3 exists at the point (alone: map_class 16; "
+            "beside stable 1T / 2T ones, whose kinds map_class keeps), else 0"))
     out["map_class"] = xr.DataArray(code, dims=("omega", "sigma", "zeta")).assign_attrs(var_attrs(
         "what the contact does", "1",
         "the kinds of stable response at the point (codes 0-15: the stable_set bits of the 1T "

@@ -73,6 +73,25 @@ def test_classes_and_map_on_hand_built_cases(hand):
     assert m["class_count"].sel(orbit_class=3).values[1, 0] == 1
 
 
+def test_map_keeps_the_1t_2t_kinds_beside_a_stable_longer_orbit(hand):
+    """A stable 3T orbit alone is map_class 16; beside a stable 1T orbit the map keeps the 1T
+    kind (the paper's loss-of-contact map) and stable_longer marks the point."""
+    from study.products.maps import MAP_CLASS_LONGER
+    from tests.helpers import set_orbit
+
+    ds = hand.copy(deep=True)
+    set_orbit(ds, 0, 0, 3, period=3, stable=True, loses=True, min_q=-9.0, max_q=3.0)
+    for slot in range(ds.sizes["solution"]):          # (2, 0): a stable 3T orbit only
+        ds["status"][dict(omega=2, sigma=0, zeta=0, solution=slot)] = 1
+    set_orbit(ds, 2, 0, 0, period=3, stable=True, loses=True, min_q=-9.0, max_q=3.0)
+    m = P.loss_of_contact_map(P.open_store(ds)).isel(zeta=0)
+    assert int(m["map_class"][0, 0]) == int(m["stable_set"][0, 0]) == 1
+    assert int(m["stable_longer"][0, 0]) == 1
+    assert int(m["map_class"][2, 0]) == MAP_CLASS_LONGER and int(m["stable_set"][2, 0]) == 0
+    assert int(m["stable_longer"][2, 0]) == 1
+    assert int(m["stable_longer"][1, 0]) == 0 and int(m["map_class"][1, 0]) == 1 | 8
+
+
 def test_contour_lines_find_a_known_curve():
     om = np.linspace(1.8, 2.2, 81)
     sg = np.linspace(0.0, 1.0, 51)
