@@ -1,8 +1,11 @@
 """The independent reference of hertzmap: scipy solve_ivp with the contact switches as terminal
-events and restarts, scipy's root finder, finite-difference monodromy; and from these its own
-bifurcation points (``flip_omega``: brentq on 1 + tr M + det M; ``fold_point``: the fixed point
-and 1 - tr M + det M = 0 solved together for (q, v, omega)). The one scipy oracle: the tests and
-the benchmarks (``hertzmap bench``, bench_kernels.py) use it.
+events and restarts (one loop, ``piecewise``), scipy's root finder, the monodromy from the
+variational equations integrated with the orbit (``map_and_monodromy``; the finite-difference
+``monodromy_fd`` is kept for the integrator comparisons of work_precision.py and for the tests
+that check a monodromy against an independent one); and from these its own bifurcation points
+(``flip_omega`` / ``flip_point``: brentq on 1 + tr M + det M; ``fold_point``: the fixed point
+and 1 - tr M + det M = 0 solved together for (q, v, omega); ``fold_on_line``, ``grazing_point``).
+The one scipy oracle: the tests and the benchmarks (``hertzmap bench``, bench_kernels.py) use it.
 
 It shares no code with kernels/ (not even the force law), so agreement is evidence. Paper Eq. 7
 (Hertz, contact lost at q = -n) and Eq. 11 (Taylor, no contact loss), dimensionless.
@@ -32,43 +35,77 @@ def stiffness(q, n=1.5, model="hertz"):
     return s ** (n - 1.0) if s > 0.0 else 0.0
 
 
+class IntegrationFailed(RuntimeError):
+    """solve_ivp failed (status < 0) on a piece between two contact switches."""
+
+
+def piecewise(rhs, y0, t0, t1, *, n=1.5, switches=True, method="DOP853", rtol=1e-13,
+              atol=1e-13, jac=None, max_step=np.inf, events=(), dense_output=False,
+              on_piece=None, max_events=100_000):
+    """The one event-restart loop of the oracle: integrate y' = rhs(t, y) (y[0] = q, y[1] = v,
+    further components carried along) from t0 to t1 with solve_ivp, the contact switches
+    q = -n as terminal events, restarting on the surface at each. The event direction
+    alternates (a loss of contact is a downward crossing, a recontact an upward one), so that
+    a restart on the surface does not detect it again; q is set to -n exactly at the restart.
+    Each piece is smooth (no kink of the force inside it), which is what DOP853's error control
+    needs. ``switches=False`` (the Taylor model): one piece, no events. ``events``: further
+    (non-terminal) event functions, their results in each piece's solution; ``on_piece(sol)``
+    is called with every piece's solve_ivp result. Returns (y(t1), the switches as rows
+    (t, v, +1 recontact / -1 loss of contact)); raises IntegrationFailed when solve_ivp fails
+    and RuntimeError after ``max_events`` switches."""
+    kw = dict(method=method, rtol=rtol, atol=atol, max_step=max_step, dense_output=dense_output)
+    if jac is not None:
+        kw["jac"] = jac
+    t, y = float(t0), np.array(y0, float)
+    if not switches:
+        sol = solve_ivp(rhs, (t, t1), y, events=list(events) or None, **kw)
+        if sol.status < 0:
+            raise IntegrationFailed(sol.message)
+        if on_piece is not None:
+            on_piece(sol)
+        return sol.y[:, -1].copy(), []
+
+    def surface(t, y):
+        return y[0] + n
+    surface.terminal = True
+    contact = y[0] + n > 0.0 or (y[0] + n == 0.0 and y[1] >= 0.0)
+    found = []
+    for _ in range(max_events):
+        surface.direction = -1.0 if contact else 1.0
+        sol = solve_ivp(rhs, (t, t1), y, events=[surface, *events], **kw)
+        if sol.status < 0:
+            raise IntegrationFailed(sol.message)
+        if on_piece is not None:
+            on_piece(sol)
+        if sol.status == 1 and sol.t_events[0].size:
+            t = float(sol.t_events[0][0])
+            y = sol.y_events[0][0].copy()
+            y[0] = -n
+            found.append((t, y[1], -1.0 if contact else 1.0))
+            contact = not contact           # loss -> next is a recontact, and back
+            continue
+        return sol.y[:, -1].copy(), found
+    raise RuntimeError("too many contact events")
+
+
 def flow(x0, t0, t1, omega, sigma, zeta, n=1.5, model="hertz", rtol=1e-13, atol=1e-13,
          method="DOP853", max_events=10_000):
     """Integrate paper Eq. 7 (or Eq. 11) from (q, v) at t0 to t1, restarting at every crossing
-    of q = -n. The event direction alternates (a loss of contact is followed by a recontact), so
-    that a restart on the surface does not detect it again. Radau gets the analytic Jacobian.
-    Returns (q, v) at t1 (NaN when the integration fails)."""
+    of q = -n (:func:`piecewise`). Radau gets the analytic Jacobian. Returns (q, v) at t1 (NaN
+    when the integration fails)."""
     def rhs(t, y):
         return [y[1], 1.0 + sigma * np.cos(omega * t) - 2.0 * zeta * y[1] - force(y[0], n, model)]
 
     def jac(t, y):
         return [[0.0, 1.0], [-stiffness(y[0], n, model), -2.0 * zeta]]
 
-    def surface(t, y):
-        return y[0] + n
-    surface.terminal = True
-
-    kw = dict(method=method, rtol=rtol, atol=atol)
-    if method == "Radau":
-        kw["jac"] = jac
-    t, y = float(t0), np.array(x0, float)
-    if model == "taylor":
-        sol = solve_ivp(rhs, (t, t1), y, **kw)
-        return sol.y[:, -1] if sol.status >= 0 else np.full(2, np.nan)
-    direction = -1.0 if y[0] + n > 0.0 or (y[0] + n == 0.0 and y[1] >= 0.0) else 1.0
-    for _ in range(max_events):
-        surface.direction = direction
-        sol = solve_ivp(rhs, (t, t1), y, events=surface, **kw)
-        if sol.status == 1 and sol.t_events[0].size:
-            t = float(sol.t_events[0][0])
-            y = sol.y_events[0][0].copy()
-            y[0] = -n
-            direction = -direction      # loss -> next is a recontact, and back
-            continue
-        if sol.status < 0:
-            return np.full(2, np.nan)
-        return sol.y[:, -1]
-    raise RuntimeError("too many contact events")
+    try:
+        y, _ = piecewise(rhs, x0, t0, t1, n=n, switches=model != "taylor", method=method,
+                         rtol=rtol, atol=atol, jac=jac if method == "Radau" else None,
+                         max_events=max_events)
+    except IntegrationFailed:
+        return np.full(2, np.nan)
+    return y
 
 
 def period_map(x, omega, sigma, zeta, m=1, **kw):
@@ -125,44 +162,74 @@ def fold_function(M):
 # ---- the state with its variational matrix, for Benettin's method and period-m shooting -------
 
 def variational_flow(x0, t0, t1, omega, sigma, zeta, n=1.5, rtol=1e-10, atol=1e-10,
-                     max_step=np.inf, max_events=100_000):
-    """Integrate paper Eq. 7 and its variational equations Phi' = J Phi (J = [[0, 1],
-    [-F'(q), -2 zeta]], F' = 0 in flight) from (q, v) at t0 with Phi = I to t1. The contact
-    switches q = -n are terminal events; the event direction alternates (a loss of contact is
-    a downward crossing, a recontact an upward one), so a restart on the surface does not
-    re-detect it. The vector field is continuous at q = -n (F(-n) = 0), so Phi continues
-    unchanged across a switch (the saltation matrix is the identity). A contact excursion (or
+                     max_step=np.inf, max_events=100_000, model="hertz"):
+    """Integrate paper Eq. 7 (or Eq. 11) and its variational equations Phi' = J Phi (J = [[0,
+    1], [-F'(q), -2 zeta]], F' = 0 in flight) from (q, v) at t0 with Phi = I to t1, across the
+    contact switches q = -n by :func:`piecewise` (Taylor: one piece). A contact excursion (or
     flight) shorter than a step can fall between two steps' sign tests: ``max_step`` bounds
-    the steps so that such grazing switches are seen. Returns (x(t1), Phi)."""
+    the steps so that such grazing switches are seen. Returns (x(t1), Phi).
+
+    No jump of Phi at a switch: the saltation matrix of a transversal crossing of q = -n is
+    I + (f+ - f-) n^T / (n^T f-), and f+ = f- there because the force is continuous at the
+    surface (F(-n) = (1 + q/n)^n = 0 = the flight's force, for any exponent n > 0), so it is
+    the identity and Phi continues unchanged. For the Hertz exponent 1.5 the force is even
+    C^1 there (F' = (1 + q/n)^(n-1) = 0 at q = -n): J itself is continuous, only its
+    derivative (F'' ~ (q + n)^(-1/2)) is not, and the restart at each switch keeps that
+    singularity at the end of a piece. (A grazing orbit, n^T f- = 0, is where this fails.)"""
+    tz = 2.0 * zeta
+    taylor = model == "taylor"
+
     def rhs(t, y):
-        s = 1.0 + y[0] / n
-        F, dF = (s ** n, s ** (n - 1.0)) if s > 0.0 else (0.0, 0.0)
-        tz = 2.0 * zeta
+        if taylor:
+            q = y[0]
+            F, dF = 1.0 + q + q * q / 6.0 - q ** 3 / 54.0, 1.0 + q / 3.0 - q * q / 18.0
+        else:
+            s = 1.0 + y[0] / n
+            F, dF = (s ** n, s ** (n - 1.0)) if s > 0.0 else (0.0, 0.0)
         return [y[1], 1.0 + sigma * np.cos(omega * t) - tz * y[1] - F,
                 y[4], y[5], -dF * y[2] - tz * y[4], -dF * y[3] - tz * y[5]]
 
-    def surface(t, y):
-        return y[0] + n
-    surface.terminal = True
+    y0 = np.array([x0[0], x0[1], 1.0, 0.0, 0.0, 1.0], float)
+    y, _ = piecewise(rhs, y0, t0, t1, n=n, switches=not taylor, rtol=rtol, atol=atol,
+                     max_step=max_step, max_events=max_events)
+    return y[:2].copy(), y[2:].reshape(2, 2)
 
-    y = np.array([x0[0], x0[1], 1.0, 0.0, 0.0, 1.0], float)
-    t = t0
-    contact = y[0] + n > 0.0 or (y[0] + n == 0.0 and y[1] >= 0.0)
-    for _ in range(max_events):
-        surface.direction = -1.0 if contact else 1.0
-        sol = solve_ivp(rhs, (t, t1), y, method="DOP853", rtol=rtol, atol=atol, events=surface,
-                        max_step=max_step)
-        if sol.status < 0:
-            raise RuntimeError(sol.message)
-        if sol.status == 1 and sol.t_events[0].size:
-            t = float(sol.t_events[0][0])
-            y = sol.y_events[0][0].copy()
-            y[0] = -n
-            contact = not contact
-            continue
-        y = sol.y[:, -1]
-        return y[:2].copy(), y[2:].reshape(2, 2)
-    raise RuntimeError("too many events")
+
+def map_and_monodromy(x, omega, sigma, zeta, m=1, *, n=1.5, model="hertz", rtol=1e-13):
+    """(Phi_{mT}(x), M): the period-m map and its monodromy matrix dPhi_{mT}/dx, exact to the
+    integration tolerance (the variational equations integrated with the orbit by DOP853 at
+    rtol = atol = ``rtol``, :func:`variational_flow`), no finite differences."""
+    return variational_flow(x, 0.0, m * 2.0 * pi / omega, omega, sigma, zeta, n=n, rtol=rtol,
+                            atol=rtol, model=model)
+
+
+def monodromy(x, omega, sigma, zeta, m=1, *, n=1.5, model="hertz", rtol=1e-13):
+    """The monodromy matrix of the period-m map at x from the variational equations."""
+    return map_and_monodromy(x, omega, sigma, zeta, m, n=n, model=model, rtol=rtol)[1]
+
+
+def shoot(guess, omega, sigma, zeta, m=1, *, n=1.5, model="hertz", rtol=1e-13, tol=None):
+    """(x, M, residual): the m T orbit near ``guess`` by scipy.optimize.root (hybr) on
+    Phi_{mT}(x) - x with its exact Jacobian M - I (the variational equations), then Phi and M
+    once more at the root: M is the monodromy at the returned x and ``residual`` =
+    max |Phi(x) - x| there. Raises ArithmeticError unless the residual is <= ``tol`` (1 + |x|)
+    (default 1e3 rtol: hybr's own success flag is not used, its xtol can be below what the
+    integration noise allows)."""
+    def g(x):
+        if not np.all(np.isfinite(x)) or np.abs(x).max() > 1e6:
+            return np.full(2, 1e6), np.eye(2)
+        y, M = map_and_monodromy(x, omega, sigma, zeta, m, n=n, model=model, rtol=rtol)
+        return y - x, M - np.eye(2)
+    sol = root(g, np.asarray(guess, float), jac=True, method="hybr",
+               options={"xtol": max(rtol, 1e-14)})
+    x = sol.x.copy()
+    y, M = map_and_monodromy(x, omega, sigma, zeta, m, n=n, model=model, rtol=rtol)
+    residual = float(np.abs(y - x).max())
+    tol = 1e3 * rtol if tol is None else tol
+    if not residual <= tol * (1.0 + np.abs(x).max()):
+        raise ArithmeticError(f"oracle orbit at omega = {omega!r}, sigma = {sigma!r}: "
+                              f"residual {residual:.2e}")
+    return x, M, residual
 
 
 def lyapunov_benettin(x0, omega, sigma, zeta, periods, discard=20, n=1.5, rtol=1e-10,
@@ -189,24 +256,18 @@ def lyapunov_benettin(x0, omega, sigma, zeta, periods, discard=20, n=1.5, rtol=1
     return logs.mean() / T, means.std(ddof=1) / np.sqrt(blocks), x
 
 
-def shoot_period(guess, omega, sigma, zeta, m, n=1.5, rtol=1e-12, tol=1e-11, max_iter=30):
-    """Period-m orbit by Newton on Phi_{mT}(x) - x with the monodromy M from
-    variational_flow. Returns (x0, M); raises if Newton does not converge."""
-    x = np.asarray(guess, float)
-    P = m * 2.0 * pi / omega
-    for _ in range(max_iter):
-        y, M = variational_flow(x, 0.0, P, omega, sigma, zeta, n=n, rtol=rtol, atol=rtol)
-        r = y - x
-        if np.abs(r).max() <= tol * (1.0 + np.abs(x).max()):
-            return x, M
-        x = x + np.linalg.solve(M - np.eye(2), -r)
-    raise RuntimeError("period-m shooting did not converge")
+def shoot_period(guess, omega, sigma, zeta, m, n=1.5, rtol=1e-12, tol=1e-11):
+    """Period-m orbit by :func:`shoot` (hybr on Phi_{mT}(x) - x with the monodromy M from
+    variational_flow). Returns (x0, M); raises ArithmeticError unless the residual is
+    <= ``tol`` (1 + |x|)."""
+    x, M, _ = shoot(guess, omega, sigma, zeta, m, n=n, rtol=rtol, tol=tol)
+    return x, M
 
 
 # -- bifurcation points located by the oracle itself ------------------------------------------
 # Each is the oracle's own root: its fixed point (scipy root on its own period map) and its own
-# finite-difference monodromy, no value from kernels/. The tests compare hertzmap's located
-# points with these.
+# monodromy (the variational equations, :func:`map_and_monodromy`), no value from kernels/.
+# The tests compare hertzmap's located points with these.
 
 def checked_fixed_point(guess, omega, sigma, zeta, m=1, *, n=1.5, model="hertz", rtol=1e-12):
     """The m T orbit's start point near ``guess`` (``fixed_point`` at rtol = atol = ``rtol``),
@@ -221,61 +282,48 @@ def checked_fixed_point(guess, omega, sigma, zeta, m=1, *, n=1.5, model="hertz",
     return x
 
 
-def flip_function_at(omega, sigma, zeta, guess, m=1, *, n=1.5, model="hertz", rtol=1e-12,
-                     delta=1e-5):
+def flip_function_at(omega, sigma, zeta, guess, m=1, *, n=1.5, model="hertz", rtol=1e-12):
     """(1 + tr M + det M, x): the flip function of the oracle's m T orbit near ``guess`` at
-    ``omega``, M its central-difference monodromy (step ``delta``; at rtol 1e-12 and delta 1e-5
-    the noise in M is ~1e-10 for orbits of size ~1)."""
-    x = checked_fixed_point(guess, omega, sigma, zeta, m, n=n, model=model, rtol=rtol)
-    M = monodromy_fd(x, omega, sigma, zeta, m, delta=delta, rtol=rtol, atol=rtol, n=n,
-                     model=model)
+    ``omega`` (:func:`shoot`: M from the variational equations at the orbit)."""
+    x, M, _ = shoot(guess, omega, sigma, zeta, m, n=n, model=model, rtol=rtol)
     return flip_function(M), x
 
 
 def flip_omega(bracket, sigma, zeta, guess, m=1, *, n=1.5, model="hertz", rtol=1e-12,
-               delta=1e-5, xtol=1e-10):
+               xtol=1e-10):
     """(omega, x): the frequency in ``bracket`` = (omega_a, omega_b) where the oracle's m T orbit
     has a Floquet multiplier -1 (a flip, period doubling): scipy.optimize.brentq on
-    ``flip_function_at``, each fixed point started from the previous one (the first from
-    ``guess``). The flip function must change sign over the bracket (brentq raises otherwise).
-    Cost: ~10 brentq steps of ~6 period maps (about 0.15 s each for a 1T orbit in contact)."""
+    ``flip_function_at``, each orbit started from the previous one (the first from ``guess``).
+    The flip function must change sign over the bracket (brentq raises otherwise)."""
     state = {"x": np.asarray(guess, float)}
 
     def g(w):
         value, state["x"] = flip_function_at(w, sigma, zeta, state["x"], m, n=n, model=model,
-                                             rtol=rtol, delta=delta)
+                                             rtol=rtol)
         return value
 
     omega = brentq(g, bracket[0], bracket[1], xtol=xtol)
-    x = checked_fixed_point(state["x"], omega, sigma, zeta, m, n=n, model=model, rtol=rtol)
+    x, _, _ = shoot(state["x"], omega, sigma, zeta, m, n=n, model=model, rtol=rtol)
     return omega, x
 
 
 def fold_point(guess, omega, sigma, zeta, m=2, *, n=1.5, model="hertz", rtol=1e-12,
-               delta=1e-3, xtol=1e-10):
+               xtol=1e-10):
     """(x, omega, residuals): the point (q, v, omega) where the oracle's m T orbit has a Floquet
     multiplier +1 (a fold, saddle-node), as the root of the three equations
 
         Phi_mT(x; omega) - x = 0,    fold_function(M(x; omega)) = 0
 
-    by scipy.optimize.root (hybr, forward-difference Jacobian with relative steps 1e-4) from
-    (``guess``, ``omega``), M the central-difference monodromy with step ``delta``.
-    ``residuals`` = (max |Phi(x) - x|, |fold function|) at the root: the caller checks them
-    (hybr may report "no progress" once the equations are at their noise level).
-
-    The step ``delta`` = 1e-3 suits orbits with |q| up to ~100 (the event restarts leave errors
-    ~rtol |x| in the map, so M has noise ~rtol |x| / delta); the fold's omega barely feels that
-    noise: along the branch omega - omega_fold grows like the square of the distance to the
-    fold, so an error e in the fold function moves omega by O(e^2). At rtol 1e-12 the omega of
-    the folds of the tests agrees with hertzmap's to 1e-9. Cost: 25-35 evaluations of 5 period
-    maps (1-3 s)."""
-    kw = dict(rtol=rtol, atol=rtol, n=n, model=model)
-
+    by scipy.optimize.root (hybr, forward-difference Jacobian with relative steps 1e-8) from
+    (``guess``, ``omega``), Phi and M from one integration of the variational equations
+    (:func:`map_and_monodromy`). ``residuals`` = (max |Phi(x) - x|, |fold function|) at the
+    root: the caller checks them (hybr may report "no progress" once the equations are at their
+    noise level). Along the branch omega - omega_fold grows like the square of the distance to
+    the fold, so an error e in the fold function moves omega by O(e^2)."""
     def equations(u):
         x, w = u[:2], u[2]
-        r = period_map(x, w, sigma, zeta, m, **kw) - x
-        M = monodromy_fd(x, w, sigma, zeta, m, delta=delta, **kw)
-        return np.r_[r, fold_function(M)]
+        y, M = map_and_monodromy(x, w, sigma, zeta, m, n=n, model=model, rtol=rtol)
+        return np.r_[y - x, fold_function(M)]
 
     sol = root(equations, np.r_[np.asarray(guess, float), omega], method="hybr",
                options={"xtol": xtol, "eps": 1e-8})
@@ -285,43 +333,25 @@ def fold_point(guess, omega, sigma, zeta, m=2, *, n=1.5, model="hertz", rtol=1e-
 
 def trajectory(x0, t0, t1, t_eval, omega, sigma, zeta, n=1.5, rtol=1e-12, atol=1e-12,
                max_events=100_000):
-    """Paper Eq. 7 from (q, v) at t0 to t1 with the switches as terminal events (direction
-    alternating, as in variational_flow). Returns (q, v at the sorted times t_eval, the
-    switches as an array of rows (t, v, +1 recontact / -1 loss of contact))."""
+    """Paper Eq. 7 from (q, v) at t0 to t1 across the switches (:func:`piecewise`). Returns
+    (q, v at the sorted times t_eval, the switches as an array of rows (t, v, +1 recontact /
+    -1 loss of contact))."""
     def rhs(t, y):
         s = 1.0 + y[0] / n
         return [y[1], 1.0 + sigma * np.cos(omega * t) - 2.0 * zeta * y[1]
                 - (s ** n if s > 0.0 else 0.0)]
 
-    def surface(t, y):
-        return y[0] + n
-    surface.terminal = True
-
     t_eval = np.asarray(t_eval, float)
     out = np.full((2, t_eval.size), np.nan)
-    switches = []
-    y = np.array(x0, float)
-    t = t0
-    contact = y[0] + n > 0.0 or (y[0] + n == 0.0 and y[1] >= 0.0)
-    for _ in range(max_events):
-        surface.direction = -1.0 if contact else 1.0
-        sol = solve_ivp(rhs, (t, t1), y, method="DOP853", rtol=rtol, atol=atol, events=surface,
-                        dense_output=True)
-        if sol.status < 0:
-            raise RuntimeError(sol.message)
-        end = float(sol.t[-1])
-        inside = (t_eval >= t) & (t_eval <= end)
+
+    def sample(sol):
+        inside = (t_eval >= sol.t[0]) & (t_eval <= sol.t[-1])
         if inside.any():
             out[:, inside] = sol.sol(t_eval[inside])
-        if sol.status == 1 and sol.t_events[0].size:
-            t = float(sol.t_events[0][0])
-            y = sol.y_events[0][0].copy()
-            y[0] = -n
-            switches.append((t, y[1], -1.0 if contact else 1.0))
-            contact = not contact
-            continue
-        return out[0], out[1], np.array(switches).reshape(-1, 3)
-    raise RuntimeError("too many events")
+
+    _, switches = piecewise(rhs, x0, t0, t1, n=n, rtol=rtol, atol=atol, dense_output=True,
+                            on_piece=sample, max_events=max_events)
+    return out[0], out[1], np.array(switches).reshape(-1, 3)
 
 
 # ---- curves: points of fold, flip and grazing curves at a fixed parameter -------------------
@@ -329,38 +359,26 @@ def trajectory(x0, t0, t1, t_eval, omega, sigma, zeta, n=1.5, rtol=1e-12, atol=1
 def min_q(x, omega, sigma, zeta, m=1, *, n=1.5, rtol=1e-12, method="DOP853"):
     """Lowest q over the orbit started at x (period m T): the values where q' turns from
     negative to positive (events, located by solve_ivp), in contact and in flight alike (the
-    flight is integrated as the same ODE with F = 0, not in closed form)."""
-    T = m * 2.0 * pi / omega
-
+    flight is integrated as the same ODE with F = 0, not in closed form), and the pieces' ends
+    (:func:`piecewise`: restarts at the contact switches keep every piece smooth)."""
     def rhs(t, y):
         return [y[1], 1.0 + sigma * np.cos(omega * t) - 2.0 * zeta * y[1] - force(y[0], n)]
 
     def turn(t, y):
         return y[1]
     turn.direction = 1.0
-    lowest = float(x[0])
-    t0, y0 = 0.0, np.array(x, float)
-    # restarts at the contact switches keep every piece smooth (as in flow)
-    def surface(t, y):
-        return y[0] + n
-    surface.terminal = True
-    direction = -1.0 if y0[0] + n > 0.0 or (y0[0] + n == 0.0 and y0[1] >= 0.0) else 1.0
-    for _ in range(10_000):
-        surface.direction = direction
-        sol = solve_ivp(rhs, (t0, T), y0, method=method, rtol=rtol, atol=rtol,
-                        events=(surface, turn))
+    lowest = [float(x[0])]
+
+    def piece(sol):
         if sol.t_events[1].size:
-            lowest = min(lowest, float(np.min(sol.y_events[1][:, 0])))
-        lowest = min(lowest, float(sol.y[0, -1]))
-        if sol.status == 1 and sol.t_events[0].size:
-            t0 = float(sol.t_events[0][0])
-            y0 = sol.y_events[0][0].copy()
-            y0[0] = -n
-            lowest = min(lowest, -n)
-            direction = -direction
-            continue
-        return lowest
-    raise RuntimeError("too many contact events")
+            lowest.append(float(np.min(sol.y_events[1][:, 0])))
+        lowest.append(float(sol.y[0, -1]))
+        if sol.status == 1:                 # ended on a switch: q = -n there
+            lowest.append(-n)
+
+    piecewise(rhs, x, 0.0, m * 2.0 * pi / omega, n=n, method=method, rtol=rtol, atol=rtol,
+              events=(turn,), on_piece=piece, max_events=10_000)
+    return min(lowest)
 
 
 def _is_fixed_point(x, omega, sigma, zeta, m, rtol, n, tol=1e-9):
@@ -377,42 +395,30 @@ def _line_params(fixed_name, fixed_value, free_name, free_value, others):
     return p["omega"], p["sigma"], p["zeta"]
 
 
-def monodromy_richardson(x, omega, sigma, zeta, m=1, delta=5e-4, **kw):
-    """Central differences of the period map at steps delta and delta / 2, extrapolated
-    (Richardson): truncation O(delta^4), integration noise ~ rtol / delta. Long orbits with
-    contact loss and impacts need it: the plain central difference of :func:`orbit` moved a
-    2T -> 4T flip point (zeta 0.01, omega 0.535) by 6e-8 in sigma, this one at delta 1e-4 by
-    2e-8, at 3e-4 and 1e-3 by 1.5e-10 (against kernels.continuation at rtol 1e-10..1e-13)."""
-    a = monodromy_fd(x, omega, sigma, zeta, m, delta=delta, **kw)
-    b = monodromy_fd(x, omega, sigma, zeta, m, delta=delta / 2, **kw)
-    return (4.0 * b - a) / 3.0
-
-
 def flip_point(guess, bracket, *, fixed, free, params, m=1, rtol=1e-13, n=1.5):
     """The flip of the period-m orbit on the line where ``fixed`` (a name of omega, sigma,
     zeta) keeps its value in ``params`` and ``free`` varies in ``bracket``: the zero of
-    1 + tr M + det M (M by finite differences) by brentq, the orbit re-solved from the last
-    one at every trial. Returns (free value, orbit start point)."""
-    from scipy.optimize import brentq
-
+    1 + tr M + det M by brentq, the orbit re-solved at every trial from the last one by
+    :func:`shoot` (M from the variational equations at rtol = atol = ``rtol``: exact to the
+    integration tolerance; the central or Richardson-extrapolated differences used before
+    limited 3T and 5T flips with long flights to 1e-8..3e-7 in omega). Returns (free value,
+    orbit start point)."""
     state = {"x": np.asarray(guess, float)}
-    kw = dict(rtol=rtol, atol=rtol, n=n)
 
     def g(p):
         w, s, z = _line_params(fixed, params[fixed], free, p, params)
-        x, ok = fixed_point(state["x"], w, s, z, m, **kw)
-        if not (ok or _is_fixed_point(x, w, s, z, m, rtol, n)):
-            raise RuntimeError(f"oracle orbit failed at {free} = {p}")
+        try:
+            x, M, _ = shoot(state["x"], w, s, z, m, n=n, rtol=rtol)
+        except ArithmeticError as e:
+            raise RuntimeError(f"oracle orbit failed at {free} = {p}: {e}") from None
         state["x"] = x
-        return flip_function(monodromy_richardson(x, w, s, z, m, **kw))
+        return flip_function(M)
     root_p = brentq(g, *bracket, xtol=1e-13, rtol=1e-15)
     return root_p, state["x"]
 
 
 def grazing_point(guess, bracket, *, fixed, free, params, m=1, rtol=1e-12, n=1.5):
     """The grazing of the period-m orbit (min q = -n) on a line, as :func:`flip_point`."""
-    from scipy.optimize import brentq
-
     state = {"x": np.asarray(guess, float)}
 
     def g(p):

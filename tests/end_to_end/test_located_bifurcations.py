@@ -63,8 +63,8 @@ ORACLE_RTOL = 1e-11
 
 def test_stored_flips_match_the_oracle(paths):
     """Every stored 1T flip against the oracle's own flip (benchmarks.oracle.flip_omega: brentq
-    on 1 + tr M + det M of its scipy fixed point and finite-difference monodromy) in the stated
-    brackets."""
+    on 1 + tr M + det M of its scipy fixed point and its monodromy from the variational
+    equations) in the stated brackets."""
     _, ref = paths
     ds = xr.open_zarr(ref).load()
     assert ds.sizes["omega_block"] == 1 and ds.sizes["bifurcation"] == 16

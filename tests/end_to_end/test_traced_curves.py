@@ -90,9 +90,9 @@ def test_curves_of_the_study(paths):
 
 def test_each_seed_cell_brackets_a_sign_change_of_the_oracle(paths):
     """Every flip and grazing seed lies in a grid cell where the scipy oracle's own test
-    function (1 + tr M + det M of its central-difference monodromy; min q + n by event location)
-    changes sign between the cell's two grid points, for the oracle's orbits of the seed's
-    period started from the stored ones."""
+    function (1 + tr M + det M of its monodromy from the variational equations; min q + n by
+    event location) changes sign between the cell's two grid points, for the oracle's orbits
+    of the seed's period started from the stored ones."""
     _, ref, _ = paths
     t = traced(ref)
     res = xr.open_zarr(str(ref), chunks=None)
