@@ -154,6 +154,12 @@ _TRACED_STYLE = {
     ("grazing", 1): dict(color="tab:purple", lw=1.2, ls="--", label="grazing of 1T (traced)"),
     ("grazing", 2): dict(color="tab:red", lw=1.2, ls="--", label="grazing of 2T (traced)"),
 }
+#: Traced curves of the census's orbits of longer periods (m >= 3), one style per kind.
+_TRACED_LONGER_STYLE = {
+    "fold": dict(color="tab:green", lw=1.3, ls="-.",
+                 label="fold of mT, m >= 3 (traced; where stable mT orbits end)"),
+    "flip": dict(color="tab:olive", lw=1.0, ls=":", label="flip of mT, m >= 3 (traced)"),
+}
 #: The grid contour each traced (kind, period) replaces (study.products.curves CURVES names).
 _GRID_FOR_TRACED = {"flip_1T": ("flip", 1), "grazing_1T": ("grazing", 1),
                     "grazing_2T": ("grazing", 2), "boundary_2T": ("fold", 2),
@@ -176,6 +182,19 @@ def _draw_traced(ax, traced, zeta, kinds=None):
         for seg in P.traced_segments(traced, kind=kind, period=period, zeta=zeta):
             ax.plot(seg[:, 0], seg[:, 1], **st, label=None if (kind, period) in drawn else label)
             drawn.add((kind, period))
+    longer = sorted({int(m) for m in np.unique(traced["curve_period"].values) if m >= 3}) \
+        if "curve_period" in traced else []
+    for kind, style in _TRACED_LONGER_STYLE.items():
+        st = dict(style)
+        label = st.pop("label")
+        for m in longer:
+            if kinds is not None and (kind, m) not in kinds:
+                continue
+            for seg in P.traced_segments(traced, kind=kind, period=m, zeta=zeta):
+                ax.plot(seg[:, 0], seg[:, 1], **st,
+                        label=None if (kind, "m>=3") in drawn else label)
+                drawn.add((kind, "m>=3"))
+                drawn.add((kind, m))
     c2 = traced.sizes.get("codim2", 0)
     if c2:
         z = np.isclose(traced["codim2_zeta"].values, zeta)

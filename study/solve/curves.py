@@ -85,9 +85,12 @@ FOLD_PAIR_SHARE = 1.0
 #: (min q, max q) within the continuity rule's share of the seed orbit's.
 COVER_CELLS = 1.0
 #: A trace's start lies on an earlier curve (the trace is a duplicate) within this many grid
-#: steps, invariants within LANDS_SHARE (1 + ptp).
+#: steps, invariants within LANDS_SHARE (1 + ptp). The curve's invariants between two vertices
+#: are interpolated linearly: near the isola's join with the 1T orbit they vary like the root
+#: of the distance to it, and a start on the curve there differed from the interpolation by
+#: 1e-3 (1 + ptp) with the vertices of ds_max 0.5 (the default scene).
 LANDS_CELLS = 0.05
-LANDS_SHARE = 1e-3
+LANDS_SHARE = 1e-2
 #: Seeds of one kind and period within this many grid steps of a seed whose trace failed to
 #: start (and invariants within the share) are not tried again: a curve the corrector cannot
 #: reach costs a few failed starts, not one per grid cell.
