@@ -24,9 +24,11 @@ Why helper processes. A kernel called from Python with nothing of it in the disk
 clone, venv, version or node) compiles its whole tree: about 20 s of one core for the first
 orbit, most of it in the leaves (the generated DOP853 steps) that do not depend on each other.
 That first call starts HELPERS background processes (at most one fewer than the cores) that
-compile the leaves from the other end of the list, under the same locks, while this process
-compiles in its own order and loads what they have finished; they exit when the list is
-done. ``HERTZMAP_COMPILE_HELPERS=0`` turns them off.
+compile the leaves, then the integrator's small kernels, from the other end of each list,
+under the same locks, while this process compiles the same lists from their start (before its
+own tree: typing it in call order made this process wait on the helper's lock of a kernel
+whose callees the helper then compiled alone) and loads what they have finished; they exit
+when the lists are done. ``HERTZMAP_COMPILE_HELPERS=0`` turns them off.
 
 Why a typing memo. Most of a cold compile is numba's own Python, not LLVM: typing the generated
 DOP853 steps (thousands of scalar ``+ - * /`` on float64) asked numba's function templates the
@@ -150,8 +152,11 @@ def _fix_signature(dispatcher, signature, locked: bool) -> None:
         # the C dispatcher found no overload and calls what this returns with the same
         # arguments: the dispatcher itself, now holding the signature (an argument that does
         # not convert to it gets numba's TypeError: compilation is disabled)
-        if dispatcher._can_compile:
-            start_helpers(dispatcher)
+        if dispatcher._can_compile and start_helpers(dispatcher):
+            # this process's share of what the helpers compile, from the other end, before the
+            # entry's own tree (whose typing would otherwise wait on a helper's kernel while
+            # the helper compiles everything below it)
+            compile_shared(dispatcher.py_func.__module__.split(".")[0], 0, 1, backward=False)
         compile_once()
         return dispatcher
 
@@ -243,13 +248,39 @@ def leaf_kernels() -> list:
     return [d for d in KERNELS if _module_tail(d) in LEAF_MODULES]
 
 
+def shared_stages(package: str) -> list[list]:
+    """What every integrating entry point compiles below ``integrate``, in two stages of
+    independent kernels, each in definition order: the leaves (LEAF_MODULES: the DOP853 steps
+    are most of it), then the integrator's own small kernels (which call the leaves)."""
+    mine = [d for d in KERNELS if d.py_func.__module__.split(".")[0] == package]
+    return [[d for d in mine if _module_tail(d) in LEAF_MODULES],
+            [d for d in mine if _module_tail(d) == INTEGRATOR_MODULE
+             and d.py_func.__name__ != "integrate"]]
+
+
 def helper_kernels(package: str) -> list:
     """What a helper process compiles: the leaves and the integrator's own small kernels
     (everything ``integrate`` calls), of the kernels package ``package``, in definition
     order."""
-    mods = LEAF_MODULES + (INTEGRATOR_MODULE,)
-    return [d for d in KERNELS if d.py_func.__module__.split(".")[0] == package
-            and _module_tail(d) in mods and d.py_func.__name__ != "integrate"]
+    return [d for stage in shared_stages(package) for d in stage]
+
+
+def compile_shared(package: str, index: int, count: int, backward: bool) -> int:
+    """Compile shared_stages stage by stage, each from its start (``backward``: from its end),
+    rotated to the index-th of count shares: processes that take different ends and shares
+    split each stage between them and meet inside it, the heavy leaves included, before the
+    next stage (whose kernels call them). Returns how many were compiled or loaded."""
+    done = 0
+    for stage in shared_stages(package):
+        todo = stage[::-1] if backward else stage
+        start = index * len(todo) // count
+        done += compile_kernels(todo[start:] + todo[:start])
+    return done
+
+
+#: modules whose kernels call the integrator: a cold first call of one of theirs is worth the
+#: helpers (a kernel of another module, e.g. the baseline's, compiles alone)
+INTEGRATOR_USERS = (INTEGRATOR_MODULE, "shooting", "continuation", "attractors")
 
 
 _helpers_started = False
@@ -267,10 +298,11 @@ def helper_count() -> int:
 
 
 def start_helpers(entry) -> int:
-    """Before ``entry`` (a kernel called from Python) compiles with nothing in the disk cache:
-    start helper processes that compile helper_kernels() from the other end (helper i of n
-    starts at its own share of the list, backwards). Returns how many were started (0 when
-    the entry is cached, the helpers already ran in this process, or HELPERS_ENV says 0)."""
+    """Before ``entry`` (a kernel of INTEGRATOR_USERS called from Python) compiles with
+    nothing in the disk cache: start helper processes that compile compile_shared() from the
+    other end (helper i of n starts at its own share of each stage, backwards). Returns how
+    many were started (0 when the entry is cached or integrates nothing, the helpers already
+    ran in this process, or HELPERS_ENV says 0)."""
     global _helpers_started
     n = helper_count()
     if n == 0 or _helpers_started or fcntl is None:
@@ -279,6 +311,8 @@ def start_helpers(entry) -> int:
         if os.path.exists(entry._cache._cache_file._index_path):
             return 0        # in the disk cache: nothing to share
     except AttributeError:
+        return 0
+    if _module_tail(entry) not in INTEGRATOR_USERS:
         return 0
     package = entry.py_func.__module__.split(".")[0]
     if all(compiled(d) for d in helper_kernels(package)):
@@ -296,10 +330,8 @@ def start_helpers(entry) -> int:
 
 
 def run_helper(package: str, index: int, count: int) -> None:
-    """A helper process's work: helper_kernels backwards, starting at its share of the list."""
+    """A helper process's work: compile_shared backwards, from its share of each stage."""
     import importlib
     importlib.import_module(package)      # sets the cache folder
     importlib.import_module(package + ".integrate")
-    todo = helper_kernels(package)[::-1]
-    start = index * len(todo) // count
-    compile_kernels(todo[start:] + todo[:start])
+    compile_shared(package, index, count, backward=True)

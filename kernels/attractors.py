@@ -56,9 +56,9 @@ import numpy as np
 
 from kernels import status as st
 from kernels._jit import kernel
-from kernels.integrate import (N_HARMONICS, N_STATS, S_ACCEPTED, S_EVENTS, S_FLIGHT_TIME,
+from kernels.integrate import (N_STATS, S_ACCEPTED, S_EVENTS, S_FLIGHT_TIME,
                                S_H_FIRST, S_MAX_IMPACT, S_MAX_Q, S_MIN_Q, S_PARTIAL, S_REJECTED,
-                               integrate)
+                               integrate, integrator_scratch, state_arrays)
 from kernels.model import rhs_force
 from kernels.shooting import (I_M1I, I_M1R, I_M2I, I_M2R, I_MINPER, I_Q0, I_STABLE, I_STATUS,
                               I_V0, shoot_into)
@@ -242,14 +242,7 @@ def lyapunov_into(omega, sigma, zeta, q0, v0, n, model, periods, discard, rtol, 
     for i in range(out.shape[0]):
         out[i] = np.nan
     T = 2.0 * pi / omega
-    y6 = np.empty(6)
-    f = np.empty(6)
-    y_new = np.empty(6)
-    f_new = np.empty(6)
-    K = np.empty((16, 2))
-    P = np.empty((7, 2))
-    stats = np.zeros(N_STATS)
-    harm = np.zeros((2, N_HARMONICS + 1))
+    y6, f, y_new, f_new, K, P, stats, harm = integrator_scratch(6)
     no_eval = np.empty(0)
     out_none = np.empty((3, 0))
     w = np.array([1.0, 1.0]) / sqrt(2.0)
@@ -416,18 +409,8 @@ def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, reco
         row[A_STATUS] = st.DIVERGED
         return
     T = 2.0 * pi / omega
-    y = np.empty(2)
-    f = np.empty(2)
-    y_new = np.empty(2)
-    f_new = np.empty(2)
-    y6 = np.empty(6)
-    f6 = np.empty(6)
-    y6_new = np.empty(6)
-    f6_new = np.empty(6)
-    K = np.empty((16, 2))
-    P = np.empty((7, 2))
-    stats = np.zeros(N_STATS)
-    harm = np.zeros((2, N_HARMONICS + 1))
+    y, f, y_new, f_new, K, P, stats, harm = integrator_scratch(2)
+    y6, f6, y6_new, f6_new = state_arrays(6)
     no_eval = np.empty(0)
     out_none = np.empty((3, 0))
     ns = force_samples if force_samples > 0 else max(32, int(np.ceil(T / FORCE_DT)))

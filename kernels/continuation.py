@@ -55,12 +55,11 @@ from dataclasses import dataclass, field
 from math import pi
 
 import numpy as np
-from numba import njit
 
 from kernels import status as st
 from kernels._jit import kernel
 from kernels.api import DEFAULT_MAX_STEPS, DEFAULT_RTOL, _check_exponent, _model_code, shoot
-from kernels.integrate import N_HARMONICS, N_STATS, S_MAX_Q, S_MIN_Q
+from kernels.integrate import S_MAX_Q, S_MIN_Q, integrator_scratch
 from kernels.model import contact_loss_level
 from kernels.shooting import _map, _measure_pass
 
@@ -88,14 +87,7 @@ def period_map_into(q, v, omega, sigma, zeta, m, n, model, rtol, atol, max_steps
     if not (omega > 0.0 and sigma >= 0.0 and zeta >= 0.0 and m >= 1 and np.isfinite(q)
             and np.isfinite(v) and np.isfinite(omega) and np.isfinite(sigma)):
         return st.DIVERGED
-    y = np.empty(6)
-    f = np.empty(6)
-    y_new = np.empty(6)
-    f_new = np.empty(6)
-    K = np.empty((16, 2))
-    W = np.empty((7, 2))
-    stats = np.zeros(N_STATS)
-    harm = np.zeros((2, N_HARMONICS + 1))
+    y, f, y_new, f_new, K, W, stats, harm = integrator_scratch(6)
     P = m * 2.0 * pi / omega
     h = min(0.1, P / 16.0)
     code = _map(q, v, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps, y, stats, harm,
@@ -753,41 +745,33 @@ CURVE_FTOL = 1e-8        # a converged vertex solves the equations to this (1 + 
 MEET_1T_ASYM = 3e-2
 
 
-@njit(cache=True, nogil=True)
+@kernel("int64(float64, float64, float64, float64, float64, int64, int64, float64, int64, float64, float64, int64, boolean, float64, float64[::1])", inline="ir")
 def _phi_g(q, v, omega, sigma, zeta, m, kind, n, model, rtol, atol, max_steps, measure, level,
            out):
     """One period map with the orbit's test function: out[0:2] = Phi_{mT}(q, v), out[2:6] = M
     (m11, m12, m21, m22), out[6] = g (fold, flip or grazing), out[7] = min q, out[8] = max q
     (NaN unless ``measure``; the grazing kind always measures). Returns the integrator
-    status."""
+    status. Without the measures, the map is period_map_into's."""
     for i in range(9):
         out[i] = np.nan
     if not (omega > 0.0 and sigma >= 0.0 and zeta >= 0.0 and np.isfinite(q) and np.isfinite(v)
             and np.isfinite(omega) and np.isfinite(sigma) and np.isfinite(zeta)):
         return st.DIVERGED
-    y = np.empty(6)
-    f = np.empty(6)
-    y_new = np.empty(6)
-    f_new = np.empty(6)
-    K = np.empty((16, 2))
-    W = np.empty((7, 2))
-    stats = np.zeros(N_STATS)
-    harm = np.zeros((2, N_HARMONICS + 1))
-    P = m * 2.0 * pi / omega
-    h = min(0.1, P / 16.0)
     if measure or kind == _KIND_GRAZING:
+        y, f, y_new, f_new, K, W, stats, harm = integrator_scratch(6)
+        P = m * 2.0 * pi / omega
+        h = min(0.1, P / 16.0)
         code = _measure_pass(q, v, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps, y,
                              stats, False, harm, np.empty(0), np.empty((3, 0)), f, y_new, f_new,
                              K, W)
+        for i in range(6):
+            out[i] = y[i]
         out[7] = stats[S_MIN_Q]
         out[8] = stats[S_MAX_Q]
     else:
-        code = _map(q, v, P, omega, sigma, zeta, n, model, rtol, atol, h, max_steps, y, stats,
-                    harm, np.empty(0), np.empty((3, 0)), f, y_new, f_new, K, W)
-    for i in range(6):
-        out[i] = y[i]
-    tr = y[2] + y[5]
-    det = y[2] * y[5] - y[3] * y[4]
+        code = period_map_into(q, v, omega, sigma, zeta, m, n, model, rtol, atol, max_steps, out)
+    tr = out[2] + out[5]
+    det = out[2] * out[5] - out[3] * out[4]
     if kind == _KIND_FOLD:
         out[6] = 1.0 - tr + det
     elif kind == _KIND_FLIP:
@@ -797,7 +781,7 @@ def _phi_g(q, v, omega, sigma, zeta, m, kind, n, model, rtol, atol, max_steps, m
     return code
 
 
-@njit(cache=True, nogil=True)
+@kernel("void(float64[::1], int64, int64, float64, float64[::1])", inline="ir")
 def _curve_params(u, pa, pb, fixed, p):
     for i in range(3):
         p[i] = fixed
@@ -805,7 +789,7 @@ def _curve_params(u, pa, pb, fixed, p):
     p[pb] = u[3]
 
 
-@njit(cache=True, nogil=True)
+@kernel("int64(float64[::1], int64, int64, float64, int64, int64, float64, int64, float64, float64, int64, float64, boolean, float64, float64[::1], float64[:, ::1], float64[::1])")
 def curve_system_into(u, pa, pb, fixed, kind, m, n, model, rtol, atol, max_steps, level, jac,
                       fd_step, F, J, aux):
     """The extended system of a fold / flip / grazing curve at u = (q, q', p[pa], p[pb]), the
@@ -960,7 +944,7 @@ class _CurveSystem:
         return out[:2].copy() if code == st.CONVERGED else None
 
 
-@njit(cache=True, nogil=True)
+@kernel("boolean(float64[:, ::1], float64[::1], float64[::1])", inline="ir")
 def _solve4(A, b, x):
     """x = A^-1 b for a 4x4 system by Gaussian elimination with partial pivoting (A and b are
     overwritten). False when a pivot vanishes or the result is not finite."""
@@ -990,7 +974,7 @@ def _solve4(A, b, x):
     return True
 
 
-@njit(cache=True, nogil=True)
+@kernel("int64(float64[::1], float64[::1], float64[:, ::1], boolean, int64, int64, float64, int64, int64, float64, int64, float64, float64, int64, float64, float64, int64, float64, boolean, float64[::1], float64[::1], float64[::1], float64[::1])")
 def _chord_into(u_pred, normal, J, have_J, pa, pb, fixed, kind, m, n, model, rtol, atol,
                 max_steps, level, fd_step, max_iter, xtol, broyden, u, F, aux, maps):
     """Corrector on F(u) = 0, normal . (u - u_pred) = 0 (see :func:`_chord`), compiled: u, F,

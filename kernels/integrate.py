@@ -65,6 +65,23 @@ _GL_W = np.array([0.05061426814518813, 0.11119051722668724, 0.15685332293894363,
                   0.11119051722668724, 0.05061426814518813])
 
 
+@kernel("Tuple((float64[::1], float64[::1], float64[::1], float64[::1]))(int64)", inline="ir")
+def state_arrays(dim):
+    """The state arrays ``integrate`` takes: y, f, y_new, f_new (dim: 2, or 6 with the
+    variational matrix)."""
+    return np.empty(dim), np.empty(dim), np.empty(dim), np.empty(dim)
+
+
+@kernel("Tuple((float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64[:, ::1], float64[::1], float64[:, ::1]))(int64)", inline="ir")
+def integrator_scratch(dim):
+    """Everything ``integrate`` works in, once per caller: y, f, y_new, f_new (state_arrays),
+    K (the stages), W (the continuous extension), stats (zeroed) and harm (the force
+    harmonics, zeroed)."""
+    y, f, y_new, f_new = state_arrays(dim)
+    return (y, f, y_new, f_new, np.empty((16, 2)), np.empty((7, 2)), np.zeros(N_STATS),
+            np.zeros((2, N_HARMONICS + 1)))
+
+
 @kernel(float64(float64[:, ::1], int64, float64, float64))
 def dense_eval(P, i, y_old_i, x):
     """Component i of the continuous extension at fraction x of the step (scipy's layout)."""

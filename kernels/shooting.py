@@ -22,7 +22,7 @@ from kernels._jit import kernel
 from kernels.integrate import (N_HARMONICS, N_STATS, S_ACCEPTED, S_EVENTS, S_FLIGHT_TIME,
                                S_H_FIRST, S_H_RECONTACT, S_MAX_IMPACT, S_MAX_Q, S_MIN_Q,
                                S_REJECTED, BIG,
-                               integrate)
+                               integrate, integrator_scratch)
 from kernels.model import HERTZ, TAYLOR_CONTACT_LOSS
 
 FIELDS = (
@@ -109,14 +109,7 @@ def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, ma
     res[I_ITER] = 0.0
     res[I_STEPS] = 0.0
     res[I_REJ] = 0.0
-    y = np.empty(6)
-    f = np.empty(6)
-    y_new = np.empty(6)
-    f_new = np.empty(6)
-    K = np.empty((16, 2))
-    W = np.empty((7, 2))
-    stats = np.zeros(N_STATS)
-    harm = np.zeros((2, N_HARMONICS + 1))
+    y, f, y_new, f_new, K, W, stats, harm = integrator_scratch(6)
     no_eval = np.empty(0)
     out_none = np.empty((3, 0))
     if not (omega > 0.0 and sigma >= 0.0 and zeta >= 0.0 and n > 0.0 and m >= 1

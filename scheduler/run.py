@@ -260,7 +260,9 @@ class StudyRun:
             client.wait_for_workers(opts.cluster.workers if opts.cluster.kind == "address"
                                     and opts.cluster.workers else 1)
         kwargs = self.study.solver_kwargs()
-        client.register_plugin(Warmup(opts.solver, kwargs), name="hertzmap-warmup")
+        client.register_plugin(Warmup(opts.solver, kwargs,
+                                      curves="curves" in self.study.products),
+                               name="hertzmap-warmup")
         n_workers = worker_count(client)
         setup = time.perf_counter() - t_setup
         dash = client.dashboard_link if _has_dashboard(client) else "unavailable (pip install bokeh)"

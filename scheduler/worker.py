@@ -4,8 +4,9 @@ The block solver is imported by name on the worker (``study.solve.block:solve_bl
 so nothing jitted is ever pickled; the :class:`Warmup` plugin imports it and runs one tiny
 solve when a worker starts, which loads (or compiles) the numba kernels once per process.
 With an empty numba cache, the workers share the compile (kernels._jit): each compiles the
-kernels' leaves in an order of its own (forward or backward by worker number) and loads
-from the cache what another has compiled, then the warm-up solve compiles the rest.
+kernels' leaves and the integrator's small kernels, then the study's entry points (the traced
+curves' too when the study asks for curves), in an order of its own (forward or backward by
+worker number), and loads from the cache what another has compiled.
 """
 
 from __future__ import annotations
@@ -35,21 +36,28 @@ def load_solver(path: str = DEFAULT_SOLVER) -> Callable[..., dict]:
 
 
 def warm_up(solver: str = DEFAULT_SOLVER, kwargs: dict[str, Any] | None = None,
-            order: int = 0) -> float:
+            order: int = 0, curves: bool = False) -> float:
     """Import the solver and solve one grid point; returns the seconds it took. For the
-    default solver, first compile (or load) the kernels' leaves, then the entry points the
-    study's blocks call (study.solve.block.entry_kernels), each list backward when ``order``
-    is odd: two workers starting together with an empty cache then compile half each."""
+    default solver, first compile (or load) what every entry point calls (the kernels' leaves,
+    then the integrator's small kernels: kernels._jit.compile_shared), then the entry points
+    the study's blocks call (study.solve.block.entry_kernels) and, with ``curves``, those of
+    the traced curves (scheduler.curve_tasks.curve_kernels), each list backward when
+    ``order`` is odd: two workers starting together with an empty cache then compile half
+    each."""
     t0 = time.perf_counter()
     if solver == DEFAULT_SOLVER:
-        from kernels import compile_kernels, leaf_kernels
+        from kernels import compile_kernels
+        from kernels._jit import compile_shared
         from study.solve.block import entry_kernels
-        leaves = leaf_kernels()
-        compile_kernels(leaves[::-1] if order % 2 else leaves)
-        # then the entry points this study's blocks call, in the same order: each compiles
-        # its own (large) code on one worker while the other compiles another
+        backward = order % 2 == 1
+        compile_shared("kernels", 0, 1, backward)
+        # then the entry points this study calls, in the same order: each compiles its own
+        # (large) code on one worker while the other compiles another
         entries = entry_kernels(**(kwargs or {}))
-        compile_kernels(entries[::-1] if order % 2 else entries)
+        if curves:
+            from scheduler.curve_tasks import curve_kernels
+            entries += curve_kernels()
+        compile_kernels(entries[::-1] if backward else entries)
     fn = load_solver(solver)
     one = np.array([1.0])
     fn(one, np.array([0.1]), np.array([0.05]), **(kwargs or {}))
@@ -69,13 +77,15 @@ class Warmup(WorkerPlugin):
 
     idempotent = False
 
-    def __init__(self, solver: str = DEFAULT_SOLVER, kwargs: dict[str, Any] | None = None):
+    def __init__(self, solver: str = DEFAULT_SOLVER, kwargs: dict[str, Any] | None = None,
+                 curves: bool = False):
         self.solver = solver
         self.kwargs = dict(kwargs or {})
+        self.curves = bool(curves)
         self.seconds: float | None = None
 
     def setup(self, worker=None):
-        self.seconds = warm_up(self.solver, self.kwargs, worker_number(worker))
+        self.seconds = warm_up(self.solver, self.kwargs, worker_number(worker), self.curves)
 
     def teardown(self, worker=None):
         pass
