@@ -167,7 +167,8 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
     if not (np.isfinite(exponent) and exponent > 0):
         raise ValueError(f"exponent must be a finite number > 0, got {exponent!r}")
     options = dict(exponent=float(exponent), model=model, rtol=float(rtol),
-                   linear_stride=int(seed_strides[0]), mms_stride=int(seed_strides[1]),
+                   linear_stride=int(seed_strides[0]),
+                   mms_stride=None if seed_strides[1] is None else int(seed_strides[1]),
                    harmonics=bool(harmonics),
                    seeds=tuple((int(p), float(q), float(v)) for p, q, v in seeds))
     names = ORBIT_VARIABLES + ("orbits_found",) + (BIFURCATION_VARIABLES if locate else ()) \

@@ -42,9 +42,14 @@ from study.solve.seeds import mms_seeds
 #: (benchmarks/census_comparison.py): the linear seed at every 8th point loses nothing; the
 #: 2T seeds at every 2nd point lost an unstable 2T pair (10 orbits at sigma 0.9625, omega
 #: 0.50-0.55, ending in a fold at 0.5514) that only the seed at an odd point reaches, and cost
-#: 0.27x of the sweeps less; at every 4th point they lost short 2T segments (28 of 7832).
+#: 0.27x of the sweeps less; at every 4th point they lost short 2T segments (28 of 7832). What
+#: matters is their spacing in omega, not in grid points: by default (MMS_SEED_STRIDE None) they
+#: are shot every k-th point, k the largest with k steps <= MMS_SEED_SPACING (the default grid's
+#: step: every point there; every 2nd on studies/fine_map.toml's step of 0.005, where every
+#: point cost 1.4x the line's search for the same stored orbits, 10 of its lines).
 LINEAR_SEED_STRIDE = 8
-MMS_SEED_STRIDE = 1
+MMS_SEED_STRIDE = None
+MMS_SEED_SPACING = 0.0125
 #: Grid points per line where the census runs whatever shooting found (besides the points with
 #: no stable orbit): stable orbits that no seed reaches are found from there.
 PROBE_POINTS = 4
@@ -95,9 +100,20 @@ class LineSearch:
         return self.deadline is not None and time.monotonic() > self.deadline
 
     # -- 1. the sweeps --------------------------------------------------------------------
+    def mms_stride(self) -> int:
+        """Every how many grid points the multiple-scales 2T seeds are shot (see
+        MMS_SEED_SPACING)."""
+        stride = self.options.get("mms_stride", MMS_SEED_STRIDE)
+        if stride is not None:
+            return int(stride)
+        n = self.omega.size
+        h = (float(self.omega.max()) - float(self.omega.min())) / (n - 1) if n > 1 else 0.0
+        return max(1, int(MMS_SEED_SPACING / h + 1e-9)) if h > 0.0 else 1
+
     def sweep(self) -> None:
         t0 = time.perf_counter()
         mms = mms_seeds(self.omega, self.sigma, self.zeta) if 2 in self.periods else None
+        mms_stride = self.mms_stride()
         for first_visit, order in ((True, self.order), (False, self.order[::-1])):
             prev = []
             for i in order:
@@ -108,7 +124,7 @@ class LineSearch:
                     self.rank[i] % int(self.options.get("linear_stride", LINEAR_SEED_STRIDE)) == 0
                     or last)
                 use_mms = first_visit and (
-                    self.rank[i] % int(self.options.get("mms_stride", MMS_SEED_STRIDE)) == 0
+                    self.rank[i] % mms_stride == 0
                     or last)
                 found, tries = solve_point(self.omega[i], self.sigma, self.zeta, self.periods,
                                            prev, self.options, first_visit,
