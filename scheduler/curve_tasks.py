@@ -57,15 +57,6 @@ def trace_task(spec: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def curve_kernels() -> list:
-    """The numba entry points a trace calls (kernels._jit kernels): the extended system and
-    its corrector. A study that asks for curves compiles them in its workers' warm-up, beside
-    the grid's (scheduler.worker.warm_up), not after the grid."""
-    from kernels.continuation import _chord_into, curve_system_into
-
-    return [curve_system_into, _chord_into]
-
-
 def warm_curve_kernels() -> float:
     """Load (or compile) the curve kernels in this process: a three-vertex trace. Returns the
     seconds it took (numba's disk cache: about 1 s per process; the warm-up compiled them)."""

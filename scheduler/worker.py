@@ -41,7 +41,7 @@ def warm_up(solver: str = DEFAULT_SOLVER, kwargs: dict[str, Any] | None = None,
     default solver, first compile (or load) what every entry point calls (the kernels' leaves,
     then the integrator's small kernels: kernels._jit.compile_shared), then the entry points
     the study's blocks call (study.solve.block.entry_kernels) and, with ``curves``, those of
-    the traced curves (scheduler.curve_tasks.curve_kernels), each list backward when
+    the traced curves (study.solve.curves.curve_kernels), each list backward when
     ``order`` is odd: two workers starting together with an empty cache then compile half
     each."""
     t0 = time.perf_counter()
@@ -55,7 +55,7 @@ def warm_up(solver: str = DEFAULT_SOLVER, kwargs: dict[str, Any] | None = None,
         # (large) code on one worker while the other compiles another
         entries = entry_kernels(**(kwargs or {}))
         if curves:
-            from scheduler.curve_tasks import curve_kernels
+            from study.solve.curves import curve_kernels
             entries += curve_kernels()
         compile_kernels(entries[::-1] if backward else entries)
     fn = load_solver(solver)

@@ -386,6 +386,13 @@ def _edge_crossings(orbits, axes, line, ia, edge_axis, blocks, recorded, lines, 
     return found
 
 
+def curve_kernels() -> list:
+    """The numba entry points a trace calls (kernels._jit kernels): the extended system and
+    its corrector. A study that asks for curves compiles them in its workers' warm-up, beside
+    the grid's (study.solve.block.entry_kernels), not after the grid."""
+    return [cont.curve_system_into, cont._chord_into]
+
+
 def trace_seed(seed: Seed, bounds: dict[str, tuple[float, float]], *, exponent: float = 1.5,
                model: str = "hertz", rtol: float = 1e-10, options: dict | None = None) -> dict:
     """Trace the curve through ``seed`` across ``bounds`` ({param: (lo, hi)} of its plane).
