@@ -35,7 +35,7 @@ from kernels.model import contact_loss_level
 from study.products.traced_curves import (combine_traced_curves, part_attrs, trace_from_part,
                                           traced_curves_dataset)
 from study.schema import CROSSING_VARIABLES
-from study.solve.curves import Seed, SeedBook, curve_seeds, window
+from study.solve.curves import SEED_SOURCES, Seed, SeedBook, curve_seeds, window
 from study.spec import Study
 
 IN_FLIGHT_PER_WORKER = 2
@@ -58,21 +58,17 @@ def trace_task(spec: dict[str, Any]) -> dict[str, Any]:
 
 
 def warm_curve_kernels() -> float:
-    """Load (or compile) the curve kernels in this process: a three-vertex trace. Returns the
-    seconds it took (numba's disk cache: about 1 s per process; the warm-up compiled them)."""
+    """Load (or compile) the curve kernels in this process (study.solve.curves.curve_kernels:
+    the workers' warm-up compiled them when the grid ran in this run; a run that resumes at its
+    curves has no warm-up). Returns the seconds it took."""
     import scipy.optimize  # noqa: F401  (the extremum search's; ~0.4 s on a first import)
 
-    from kernels.continuation import trace_curve
+    from kernels import compile_kernels
+    from study.solve.curves import curve_kernels
 
     t0 = time.perf_counter()
-    for kind, period in (("flip", 1), ("grazing", 2)):
-        trace_curve((0.0, 0.0), 2.0, 0.5, 0.01, kind=kind, period=period, max_points=3,
-                    bounds={"omega": (1.9, 2.1), "sigma": (0.4, 0.6)})
+    compile_kernels(curve_kernels())
     return time.perf_counter() - t0
-
-
-#: The stored variables the seeds are read from (with the lines' CROSSING_VARIABLES).
-SEED_SOURCES = ("period", "status", "q0", "v0", "multipliers", "min_q", "max_q", "ptp")
 
 
 def seed_dataset(store: Store) -> xr.Dataset:
@@ -112,7 +108,7 @@ class CurveRun:
 
         t0 = time.perf_counter()
         # every worker loads the curve kernels first, so that the traces' times are theirs
-        warm = client.run(warm_curve_kernels)
+        client.run(warm_curve_kernels)
         t_warm = time.perf_counter() - t0
         t1 = time.perf_counter()
         seeds = curve_seeds(seed_dataset(self.store), self.level, self.study.periods)
@@ -122,8 +118,7 @@ class CurveRun:
         committed: dict[int, xr.Dataset] = {i: parts[i] for i in sorted(parts) if i < len(seeds)}
         summary = {"seeds": len(seeds), "resumed": len(committed), "traced": 0, "dropped": 0,
                    "duplicates": 0, "failed": [], "compute": 0.0, "vertices_traced": 0,
-                   "warm_up": t_warm, "seeding": t_seeds,
-                   "warm_up_per_worker": max(warm.values()) if warm else 0.0}
+                   "warm_up": t_warm, "seeding": t_seeds}
         if committed:
             print(f"resuming the curves of {self.store.path}: {len(committed)} committed",
                   file=self.out, flush=True)
@@ -204,8 +199,7 @@ class CurveRun:
                 fut.cancel()
         summary["complete"] = pointer >= len(seeds) and not summary["failed"]
         if summary["complete"]:
-            ordered = [committed[i] for i in sorted(committed)
-                       if int(committed[i].attrs.get("hertzmap_curve_duplicate_of", -1)) < 0]
+            ordered = [committed[i] for i in book.curve_ids()]
             outcomes = book.outcomes()
             product = combine_traced_curves(ordered, {
                 "hertzmap_study_name": self.study.name,

@@ -22,10 +22,21 @@ def fmt_time(s: float) -> str:
     return f"{h}h{m:02d}m{sec:02d}s" if h else (f"{m}m{sec:02d}s" if m else f"{sec}s")
 
 
+def busy_workers(workers: int, tasks_run: int) -> int:
+    """The workers that had a task: with fewer tasks than workers the others idled, which is
+    not Dask's overhead."""
+    return min(workers, max(1, tasks_run))
+
+
+def overhead(compute: float, wall: float, workers: int, tasks_run: int) -> float:
+    """Dask's share of the busy workers' time: 1 - task compute / (busy workers x wall)."""
+    return 1.0 - compute / (busy_workers(workers, tasks_run) * wall) if wall > 0 else math.nan
+
+
 def overhead_line(s: dict[str, Any]) -> str:
-    """Where the workers' time went. With fewer tasks than workers, the idle workers are not
-    Dask's overhead: the share is then of the busy workers' time, and the line says so."""
-    busy = min(s["workers"], max(1, s["tasks_run"]))
+    """Where the workers' time went (``s["overhead"]``: :func:`overhead`); with fewer tasks than
+    workers the line says how many idled."""
+    busy = busy_workers(s["workers"], s["tasks_run"])
     head = (f"dask overhead: {100 * s['overhead']:.1f} % (task compute {s['compute']:.2f} s over "
             f"{busy} busy worker{'s' if busy > 1 else ''} x {s['wall']:.2f} s wall; "
             f"{1000 * s['per_task']:.0f} ms per task)")

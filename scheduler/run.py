@@ -27,7 +27,7 @@ from scheduler.errors import RunError
 from scheduler.interrupt import DeferInterrupt
 from scheduler.plan import DEFAULT_TASK_SECONDS, DEFAULT_TASK_TIMEOUT, choose_chunks, make_plan
 from scheduler.progress import Progress
-from scheduler.report import print_summary
+from scheduler.report import overhead, print_summary
 from scheduler.resources import check_resources
 from scheduler.store import Lock, Store, StoreError, open_or_create
 from scheduler.worker import DEFAULT_SOLVER, Warmup, run_task
@@ -312,11 +312,10 @@ class StudyRun:
         if lost is not None or (len(summary["failed"]) and _scheduler_lost(client)):
             return self.scheduler_lost()
         n_run = summary["tasks_run"]
-        busy = min(n_workers, max(1, n_run))
         n_conv, n_fail = tally["conv"], tally["fail"]
         summary.update(
             wall=wall, setup=setup, workers=n_workers, compute=tally["compute"],
-            overhead=1.0 - tally["compute"] / (busy * wall) if wall > 0 else math.nan,
+            overhead=overhead(tally["compute"], wall, n_workers, n_run),
             per_task=tally["compute"] / max(1, n_run),
             points=tally["points"],
             points_per_second=tally["points"] / wall if wall > 0 else math.nan,

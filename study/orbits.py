@@ -172,6 +172,13 @@ def fold_function(orbit) -> float:
     return float(((1.0 - mu[0]) * (1.0 - mu[1])).real)
 
 
+def flip_function(orbit) -> float:
+    """(1 + mu1)(1 + mu2) = 1 + tr M + det M of an orbit: zero at a flip (a multiplier -1),
+    negative past it."""
+    mu = orbit["multipliers"]
+    return float(((1.0 + mu[0]) * (1.0 + mu[1])).real)
+
+
 def continuity_distance(a, b) -> float:
     """Distance of two orbits' invariants (min q, max q): unchanged by the T-shift of an orbit
     of period > 1, unlike their start points."""

@@ -168,33 +168,24 @@ _CODIM2_STYLE = {1: ("v", "cusp"), 2: ("*", "fold meets flip (isola joins)"),
                  3: ("D", "grazing meets fold"), 4: ("s", "grazing meets flip")}
 
 
-def _draw_traced(ax, traced, zeta, kinds=None):
+def _draw_traced(ax, traced, zeta) -> None:
     """The traced curves of the (omega, sigma) plane at ``zeta``, their codimension-2 points
-    and sigma** of the isola; returns the (kind, period) pairs drawn."""
-    drawn = set()
+    and sigma** of the isola."""
     if traced is None or not traced.sizes.get("vertex", 0):
-        return drawn
-    for (kind, period), style in _TRACED_STYLE.items():
-        if kinds is not None and (kind, period) not in kinds:
-            continue
+        return
+    longer = sorted({int(m) for m in np.unique(traced["curve_period"].values) if m >= 3})
+    # (kind, period, style, legend entry): one entry per style, the mT curves of every m under one
+    entries = [(kind, period, style, (kind, period))
+               for (kind, period), style in _TRACED_STYLE.items()]
+    entries += [(kind, m, style, (kind, "m>=3"))
+                for kind, style in _TRACED_LONGER_STYLE.items() for m in longer]
+    drawn = set()
+    for kind, period, style, key in entries:
         st = dict(style)
         label = st.pop("label")
         for seg in P.traced_segments(traced, kind=kind, period=period, zeta=zeta):
-            ax.plot(seg[:, 0], seg[:, 1], **st, label=None if (kind, period) in drawn else label)
-            drawn.add((kind, period))
-    longer = sorted({int(m) for m in np.unique(traced["curve_period"].values) if m >= 3}) \
-        if "curve_period" in traced else []
-    for kind, style in _TRACED_LONGER_STYLE.items():
-        st = dict(style)
-        label = st.pop("label")
-        for m in longer:
-            if kinds is not None and (kind, m) not in kinds:
-                continue
-            for seg in P.traced_segments(traced, kind=kind, period=m, zeta=zeta):
-                ax.plot(seg[:, 0], seg[:, 1], **st,
-                        label=None if (kind, "m>=3") in drawn else label)
-                drawn.add((kind, "m>=3"))
-                drawn.add((kind, m))
+            ax.plot(seg[:, 0], seg[:, 1], **st, label=None if key in drawn else label)
+            drawn.add(key)
     c2 = traced.sizes.get("codim2", 0)
     if c2:
         z = np.isclose(traced["codim2_zeta"].values, zeta)
@@ -213,7 +204,6 @@ def _draw_traced(ax, traced, zeta, kinds=None):
                 ax.plot(float(row["omega_isola"]), float(row["sigma_isola"]), "X", ms=9,
                         mfc="tab:orange", mec="k", ls="none", zorder=5,
                         label=f"sigma** = {float(row['sigma_isola']):.6f} (isola)")
-    return drawn
 
 
 def _grid_fallback(traced, zeta, names):

@@ -177,7 +177,7 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
             failed.append(r)
     others: list[Attractor] = []
     if open_runs:
-        has_stable = any(s["stable"] and s["status"] == st.CONVERGED for s in known)
+        has_stable = has_stable_orbit(known)
         if not has_stable:
             # close returns of an unsettled transient: Newton seeds of orbits it passes near
             # (from one of them: a second found the same stable orbits on the vibro-impact
@@ -192,7 +192,7 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
                             sol["omega"] = omega
                             known.append(sol)
                             new.append(sol)
-            has_stable = any(s["stable"] and s["status"] == st.CONVERGED for s in known)
+            has_stable = has_stable_orbit(known)
         # the representative: the run with the longest record window; its exponent by
         # Benettin over a record window from its last state
         rep = max(open_runs, key=lambda r: (np.nan_to_num(rows[r, A["window_periods"]]), -r))
@@ -215,6 +215,21 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
     found = sorted(periodic, key=lambda a: -a.count) + sorted(others, key=lambda a: -a.count)
     found.sort(key=lambda a: -a.count)
     return found, new
+
+
+def has_stable_orbit(orbits: list[dict]) -> bool:
+    """A converged stable orbit is among ``orbits``: the point's transients that did not settle
+    are then "unsettled", never "non_periodic" (module docstring)."""
+    return any(s["stable"] and s["status"] == st.CONVERGED for s in orbits)
+
+
+def settle_kinds(found: list[Attractor], orbits: list[dict]) -> None:
+    """The same rule for a census result whose point gained orbits after its census ran (a
+    trace from a later point of the line found a stable one there)."""
+    if has_stable_orbit(orbits):
+        for a in found:
+            if a.kind == "non_periodic":
+                a.kind = "unsettled"
 
 
 def _strobe(strobe: np.ndarray, row: np.ndarray) -> np.ndarray:

@@ -34,7 +34,8 @@ lies on a curve already traced from an earlier seed is skipped (:func:`covers`: 
 period and plane, the curve within COVER_CELLS grid steps of the seed's crossing, its orbit's
 invariants within the continuity rule's share), so the curves kept depend on the grid only,
 not on which trace finished first. A trace that converges onto a curve already traced from an
-earlier seed is dropped (:func:`lands_on`); a seed whose trace fails to start marks the seeds
+earlier seed is dropped (:meth:`SeedBook.duplicate_of`: its start within LANDS_CELLS of
+the earlier curve, invariants within LANDS_SHARE); a seed whose trace fails to start marks the seeds
 within FAILED_CELLS of it (same kind and period) as tried.
 
 **Completeness** (:meth:`SeedBook.outcomes`): after tracing, every seed (every grid cell whose test
@@ -54,13 +55,13 @@ import xarray as xr
 
 from kernels import continuation as cont
 from kernels import status as st
-from study.orbits import (CONTINUITY_SHARE, continuity_distance, fold_function,
+from study.orbits import (CONTINUITY_SHARE, continuity_distance, flip_function, fold_function,
                           match_neighbours)
 from study.schema import BIFURCATION_KINDS
+from study.spec import AXES
 
 #: The planes of two parameters a curve can be traced in (code 1, 2, 3 in the stored product).
 PLANES = (("omega", "sigma"), ("omega", "zeta"), ("sigma", "zeta"))
-AXES = ("omega", "sigma", "zeta")
 #: Kind code (study.schema BIFURCATION_KINDS) -> curve kind (kernels.continuation).
 KIND_OF_CODE = {code: kind for kind, code in BIFURCATION_KINDS.items()}
 
@@ -151,12 +152,6 @@ def grid_steps(axes: dict[str, np.ndarray], plane: tuple[str, str]) -> dict[str,
 
 
 # -- sign changes between neighbouring grid points -----------------------------------------------
-def flip_function(orbit) -> float:
-    """(1 + mu1)(1 + mu2) = 1 + tr M + det M: zero at a flip (a multiplier -1)."""
-    mu = orbit["multipliers"]
-    return float(((1.0 + mu[0]) * (1.0 + mu[1])).real)
-
-
 def _nearest_multiplier(orbit, target: float) -> float:
     return float(np.min(np.abs(np.asarray(orbit["multipliers"]) - target)))
 
@@ -249,12 +244,16 @@ def line_crossings(omega, per_point: list, level: float, searched=None) -> list[
     return out
 
 
+#: The stored variables the seeds are read from (with the lines' CROSSING_VARIABLES).
+SEED_SOURCES = ("period", "status", "q0", "v0", "multipliers", "min_q", "max_q", "ptp")
+
+
 def grid_orbits(ds: xr.Dataset) -> np.ndarray:
     """The stored converged orbits of a study's results, as an object array (omega, sigma,
     zeta) of lists of mappings (period, x0, min_q, max_q, ptp, multipliers), axes sorted."""
     ds = ds.sortby(list(AXES))
     get = {n: ds[n].transpose("omega", "sigma", "zeta", "solution", ...).values
-           for n in ("period", "status", "q0", "v0", "min_q", "max_q", "ptp", "multipliers")}
+           for n in SEED_SOURCES}
     shape = get["period"].shape[:3]
     out = np.empty(shape, object)
     ok = (get["status"] == st.CONVERGED) & (get["period"] > 0)
@@ -490,17 +489,15 @@ def start_vertex(result: dict) -> dict | None:
     return {n: float(V[n][k]) for n in ("omega", "sigma", "zeta", "min_q", "max_q")}
 
 
-def lands_on(traced: dict, result: dict, steps: dict[str, float]) -> bool:
-    """True when the trace ``result`` started on the curve ``traced`` (an earlier one of the
-    same family): its corrected start within LANDS_CELLS grid steps of that curve, with the same
-    orbit (invariants within LANDS_SHARE (1 + ptp)). Such a trace is a duplicate."""
+def start_seed(result: dict) -> Seed | None:
+    """The corrected start of a trace as a seed (its parameters and invariants there), or None
+    for a failed trace."""
     v = start_vertex(result)
     if v is None:
-        return False
-    seed = Seed(**dict(result["seed"], plane=tuple(result["seed"]["plane"]),
+        return None
+    return Seed(**dict(result["seed"], plane=tuple(result["seed"]["plane"]),
                        min_q=v["min_q"], max_q=v["max_q"], spread=0.0,
                        **{n: v[n] for n in AXES}))
-    return covers(traced, seed, steps, cells=LANDS_CELLS, share=LANDS_SHARE)
 
 
 def near_failure(failed: Seed, seed: Seed, steps: dict[str, float]) -> bool:
@@ -549,18 +546,21 @@ class SeedBook:
     def _steps(self, seed: Seed) -> dict[str, float]:
         return self.steps[tuple(seed.plane)]
 
-    def covering(self, seed: Seed) -> int:
-        """The first kept curve (as the index of its seed) that covers ``seed``, or -1."""
-        for i in self.kept:
-            if covers(self.records[i], seed, self._steps(seed)):
+    def covering(self, seed: Seed, start: int = 0) -> int:
+        """The first kept curve (as the index of its seed; from the ``start``-th kept) that
+        covers ``seed``, or -1."""
+        steps = self._steps(seed)
+        for i in self.kept[start:]:
+            if covers(self.records[i], seed, steps):
                 return i
         return -1
 
-    def near_untraced(self, seed: Seed) -> int:
-        """The first seed before ``seed`` tried without covering itself and near it (same
-        family), or -1."""
-        for i in self.untraced:
-            if i < seed.index and near_failure(self.seeds[i], seed, self._steps(seed)):
+    def near_untraced(self, seed: Seed, start: int = 0) -> int:
+        """The first seed before ``seed`` (from the ``start``-th untraced) tried without
+        covering itself and near it (same family), or -1."""
+        steps = self._steps(seed)
+        for i in self.untraced[start:]:
+            if i < seed.index and near_failure(self.seeds[i], seed, steps):
                 return i
         return -1
 
@@ -572,10 +572,7 @@ class SeedBook:
         k0, u0 = self._checked.get(index, (0, 0))
         if k0 < 0:
             return True
-        steps = self._steps(seed)
-        hit = (any(covers(self.records[i], seed, steps) for i in self.kept[k0:])
-               or any(i < seed.index and near_failure(self.seeds[i], seed, steps)
-                      for i in self.untraced[u0:]))
+        hit = self.covering(seed, k0) >= 0 or self.near_untraced(seed, u0) >= 0
         self._checked[index] = (-1, -1) if hit else (len(self.kept), len(self.untraced))
         return hit
 
@@ -583,10 +580,12 @@ class SeedBook:
         """The seed of a kept curve that ``trace`` started on (a duplicate), or -1."""
         if len(trace["vertices"].get("omega", ())) < 2:
             return -1
-        seed = self.seeds[trace["seed"]["index"]]
+        start = start_seed(trace)
+        if start is None:
+            return -1
+        steps = self._steps(start)
         for i in self.kept:
-            if _same_family(self.records[i], seed) and lands_on(self.records[i], trace,
-                                                                   self._steps(seed)):
+            if covers(self.records[i], start, steps, cells=LANDS_CELLS, share=LANDS_SHARE):
                 return i
         return -1
 

@@ -30,7 +30,7 @@ from kernels import continuation as cont
 from kernels import status as st
 from study.orbits import (CONTINUITY_SHARE, continuity_distance, fold_function,
                           match_neighbours, same_orbit)
-from study.solve.census import census
+from study.solve.census import census, settle_kinds
 from study.solve.point import merge_new_orbits, shoot_seeds_minimal, solve_point
 from study.solve.seeds import mms_seeds
 
@@ -227,6 +227,14 @@ class LineSearch:
                    if g["status"] == st.CONVERGED and g["period"] == period]
             return got[0] if got else None
 
+        def continues(a, b) -> bool:
+            """b (at the next grid point) is on a's branch: study.orbits' continuity rule, made
+            strict for a step that must not cross a fold (any change of the fold function's
+            sign stops it, with no floor: the pseudo-arclength leg then turns the fold) and
+            scaled by the orbit it starts from."""
+            return (fold_function(a) * fold_function(b) >= 0.0
+                    and continuity_distance(a, b) <= CONTINUITY_SHARE * (1.0 + a["ptp"]))
+
         def natural(k, orbit, direction):
             """Grid point to grid point from ``orbit`` at k; returns where it stopped."""
             prev = None
@@ -239,8 +247,7 @@ class LineSearch:
                     x = x + (self.omega[nxt] - self.omega[k]) / (self.omega[k] - self.omega[prev[0]]) \
                         * (x - np.asarray(prev[1]["x0"], float))
                 g = shoot(nxt, (float(x[0]), float(x[1])))
-                if g is None or fold_function(g) * fold_function(orbit) < 0.0 \
-                        or continuity_distance(g, orbit) > CONTINUITY_SHARE * (1.0 + orbit["ptp"]):
+                if g is None or not continues(orbit, g):
                     break
                 if not record(nxt, g):
                     break
@@ -343,14 +350,10 @@ class LineSearch:
                 for direction in (-1, +1):
                     self.trace(int(i), sol, direction,
                                past_fold=sol["period"] not in self.periods)
-        # A trace from a later point may have found a stable orbit at a point whose census
-        # had none to compare with: the census's rule (study.solve.census: a point with a stable
-        # orbit is never called chaotic because its transients were long) holds line-wide.
+        # a trace from a later point may have found a stable orbit at a point whose census had
+        # none to compare with: the census's rule holds line-wide
         for i, found in self.attractors.items():
-            if any(s["stable"] for s in self.per_point[i]):
-                for a in found:
-                    if a.kind == "non_periodic":
-                        a.kind = "unsettled"
+            settle_kinds(found, self.per_point[i])
         self.seconds["census"] = time.perf_counter() - t0
 
     # -- results --------------------------------------------------------------------------

@@ -4,13 +4,23 @@ from __future__ import annotations
 
 import pytest
 
-from scheduler.report import overhead_line
+from scheduler.report import overhead, overhead_line
 
 
 def _summary(workers, tasks_run, compute, wall):
-    busy = min(workers, max(1, tasks_run))
+    """The fields of a run's summary, the overhead computed as scheduler.run computes it."""
     return {"workers": workers, "tasks_run": tasks_run, "compute": compute, "wall": wall,
-            "per_task": compute / max(1, tasks_run), "overhead": 1.0 - compute / (busy * wall)}
+            "per_task": compute / max(1, tasks_run),
+            "overhead": overhead(compute, wall, workers, tasks_run)}
+
+
+@pytest.mark.parametrize("workers, tasks_run, compute, wall, expected", [
+    (2, 20, 18.0, 10.0, 0.1),       # 1 - 18 / (2 x 10)
+    (2, 1, 0.9, 1.0, 0.1),          # one busy worker: 1 - 0.9 / 1, not 1 - 0.9 / 2
+    (4, 3, 2.7, 1.0, 0.1),          # three busy of four
+])
+def test_overhead_is_of_the_busy_workers_time(workers, tasks_run, compute, wall, expected):
+    assert overhead(compute, wall, workers, tasks_run) == pytest.approx(expected)
 
 
 def test_overhead_of_busy_workers_when_every_worker_had_a_task():
