@@ -56,15 +56,11 @@ class Marker:
     line: int
 
 
-@dataclass
-class Block:
-    """A code block: ``lang`` is the fence's info string ('' for none; 'indented' for an
-    indented block); ``line`` the 1-based line of its first content line."""
+class _Marked:
+    """What blocks and commands share: their markers' words, and where they are."""
     path: Path
     line: int
-    lang: str
-    text: str
-    markers: list[Marker] = field(default_factory=list)
+    markers: list[Marker]
 
     @property
     def words(self) -> set[str]:
@@ -72,6 +68,20 @@ class Block:
 
     def marker(self, word: str) -> Marker | None:
         return next((m for m in self.markers if m.word == word), None)
+
+    def where(self) -> str:
+        return f"{self.path.name}:{self.line}"
+
+
+@dataclass
+class Block(_Marked):
+    """A code block: ``lang`` is the fence's info string ('' for none; 'indented' for an
+    indented block); ``line`` the 1-based line of its first content line."""
+    path: Path
+    line: int
+    lang: str
+    text: str
+    markers: list[Marker] = field(default_factory=list)
 
     @property
     def kind(self) -> str:
@@ -90,12 +100,9 @@ class Block:
             return "shell"
         return "text"
 
-    def where(self) -> str:
-        return f"{self.path.name}:{self.line}"
-
 
 @dataclass
-class Command:
+class Command(_Marked):
     """One command line as a reader would type it; ``inline`` for a code span in the text.
     ``context`` is the text line (or table row) it came from, for numbers nearby."""
     path: Path
@@ -106,25 +113,17 @@ class Command:
     context: str = ""
     output: list[str] = field(default_factory=list)
 
-    @property
-    def words(self) -> set[str]:
-        return {m.word for m in self.markers}
-
-    def marker(self, word: str) -> Marker | None:
-        return next((m for m in self.markers if m.word == word), None)
-
-    def where(self) -> str:
-        return f"{self.path.name}:{self.line}"
-
-    def argv(self) -> list[str]:
-        return shlex.split(self.text, comments=True)
-
 
 def parse_marker(text: str, line: int) -> list[Marker]:
+    """The markers of one ``doc-test:`` comment; a word not in MARKER_WORDS is an error (a typo
+    would otherwise turn its check off without a word)."""
     out = []
     for part in text.split(";"):
         words = part.split()
         if words:
+            if words[0] not in MARKER_WORDS:
+                raise ValueError(f"line {line}: doc-test marker {words[0]!r} is not one of "
+                                 f"{sorted(MARKER_WORDS)}")
             out.append(Marker(words[0], words[1:], line))
     return out
 

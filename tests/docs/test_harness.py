@@ -97,6 +97,12 @@ def test_a_broken_page_fails(what, tmp_path, spaces):
         _run_page(_page(tmp_path, BROKEN[what]), spaces)
 
 
+def test_an_unknown_marker_word_is_an_error():
+    assert [m.word for m in md.parse_marker("prints 0.25; long", 3)] == ["prints", "long"]
+    with pytest.raises(ValueError, match="'prnts'"):
+        md.parse_marker("prnts 0.25", 3)
+
+
 def test_sample_comparison_sets_numbers_free_but_not_words():
     class Here:
         @staticmethod

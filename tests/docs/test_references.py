@@ -154,6 +154,9 @@ def test_shipped_figures_are_shown_and_remade_by_the_script():
     (its scene and figure in the script's table, or the paper / explore / bench steps)."""
     script = (REPO / "scripts" / "make-figures.sh").read_text()
     table = dict(re.findall(r"\[(\w+)\]=\"([\w ]+)\"", script))
+    # a scene in the table but not in ORDER (bash's tables have no order) would not be remade
+    order = re.search(r'^ORDER="([\w ]+)"', script, re.M).group(1).split()
+    assert sorted(order) == sorted(table), (order, sorted(table))
     shown = "\n".join(p.read_text() for p in PAGES)
     bad = []
     for png in sorted((REPO / "docs" / "figures").rglob("*.png")):
