@@ -72,14 +72,18 @@ def line_bifurcations(special, omega_lo, omega_hi) -> list[dict]:
     return out
 
 
-def _record_bifurcations(arrays, j, k, points):
-    arrays["bifurcation_count"][0, j, k] = len(points)
-    for slot, d in enumerate(points[:BIFURCATION_SLOTS]):
-        arrays["bifurcation_omega"][0, j, k, slot] = d["omega"]
-        arrays["bifurcation_kind"][0, j, k, slot] = BIFURCATION_KINDS[d["kind"]]
-        arrays["bifurcation_period"][0, j, k, slot] = d["period"]
-        arrays["bifurcation_q0"][0, j, k, slot] = d["q0"]
-        arrays["bifurcation_v0"][0, j, k, slot] = d["v0"]
+def _record_line(arrays, names, slots, j, k, records):
+    """A line's records (dicts with kind and the other fields of the stored ``names``:
+    study.schema BIFURCATION_VARIABLES or CROSSING_VARIABLES, ``<prefix>_<field>``) into the
+    block arrays: the count, then one slot per record (at most ``slots``)."""
+    prefix = names[0].partition("_")[0]
+    arrays[f"{prefix}_count"][0, j, k] = len(records)
+    fields = [n.removeprefix(prefix + "_") for n in names
+              if n not in (f"{prefix}_count", f"{prefix}_kind")]
+    for slot, d in enumerate(records[:slots]):
+        arrays[f"{prefix}_kind"][0, j, k, slot] = BIFURCATION_KINDS[d["kind"]]
+        for name in fields:
+            arrays[f"{prefix}_{name}"][0, j, k, slot] = d[name]
 
 
 def entry_kernels(*, attractors="never", turn_folds=True, discover=False, locate=False,
@@ -99,14 +103,6 @@ def entry_kernels(*, attractors="never", turn_folds=True, discover=False, locate
     if attractors != "never":
         out.append(attractor_batch_into)
     return out
-
-
-def _record_crossings(arrays, j, k, crossings):
-    arrays["crossing_count"][0, j, k] = len(crossings)
-    for slot, d in enumerate(crossings[:CROSSING_SLOTS]):
-        arrays["crossing_kind"][0, j, k, slot] = BIFURCATION_KINDS[d["kind"]]
-        for name in ("omega", "period", "q0", "v0", "min_q", "max_q", "spread"):
-            arrays[f"crossing_{name}"][0, j, k, slot] = d[name]
 
 
 def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hertz", rtol=1e-10,
@@ -176,6 +172,7 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
         + (ATTRACTOR_VARIABLES if attractors != "never" else ())
     arrays = empty_arrays((omega.size, sigma.size, zeta.size), int(max_solutions), names)
     deadline = None if time_budget is None else time.monotonic() + float(time_budget)
+    level = contact_loss_level(model, float(exponent))
     for j in range(sigma.size):
         for k in range(zeta.size):
             if deadline is not None and time.monotonic() > deadline:
@@ -201,11 +198,12 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
                     line = discover_line(omega, sigma[j], zeta[k], periods=periods,
                                          exponent=exponent, model=model, rtol=rtol,
                                          transients=0, initial=per_point)
-                _record_bifurcations(arrays, j, k, line_bifurcations(
-                    line.special, float(omega.min()), float(omega.max())))
+                _record_line(arrays, BIFURCATION_VARIABLES, BIFURCATION_SLOTS, j, k,
+                             line_bifurcations(line.special, float(omega.min()),
+                                               float(omega.max())))
             if crossings and search.visited.all():
-                _record_crossings(arrays, j, k, line_crossings(
-                    omega, per_point, contact_loss_level(model, float(exponent)), periods))
+                _record_line(arrays, CROSSING_VARIABLES, CROSSING_SLOTS, j, k,
+                             line_crossings(omega, per_point, level, periods))
             points, slots, recorded = [], [], []
             for i in range(omega.size):
                 if search.visited[i]:
