@@ -28,7 +28,7 @@ import time
 
 import numpy as np
 
-from study.orbits import CLASS_NAMES, class_codes
+from study.orbits import CLASS_NAMES, class_codes, same_orbit
 from study.solve.block import solve_block
 from study.spec import load_study
 
@@ -39,24 +39,18 @@ SEARCHES = {"before": dict(turn_folds=False, seed_strides=(1, 1)),
 SLOTS = 16
 
 
-def orbits_of(r) -> list[list[tuple]]:
-    """Per omega point: (period, stable, loses_contact, min_q, max_q, trace) of each orbit."""
+def orbits_of(r) -> list[list[dict]]:
+    """Per omega point: each orbit's period, stable, min_q, max_q, ptp and trace (what the
+    identity rule study.orbits.same_orbit reads)."""
     ok = r["status"][:, 0, 0, :] == 0
     out = []
     for i in range(ok.shape[0]):
-        out.append([(int(r["period"][i, 0, 0, s]), bool(r["stable"][i, 0, 0, s]),
-                     bool(r["loses_contact"][i, 0, 0, s]), float(r["min_q"][i, 0, 0, s]),
-                     float(r["max_q"][i, 0, 0, s]),
-                     float(r["multipliers"][i, 0, 0, s].sum().real))
+        out.append([dict(period=int(r["period"][i, 0, 0, s]), stable=bool(r["stable"][i, 0, 0, s]),
+                         min_q=float(r["min_q"][i, 0, 0, s]), max_q=float(r["max_q"][i, 0, 0, s]),
+                         ptp=float(r["ptp"][i, 0, 0, s]),
+                         trace=float(r["multipliers"][i, 0, 0, s].sum().real))
                     for s in np.nonzero(ok[i])[0]])
     return out
-
-
-def same(a, b, tol=1e-6) -> bool:
-    """study.orbits identity rule on the tuples of orbits_of."""
-    t = tol * (1 + abs(a[4] - a[3]))
-    return (a[0] == b[0] and abs(a[3] - b[3]) <= t and abs(a[4] - b[4]) <= t
-            and abs(a[5] - b[5]) <= tol * (1 + abs(a[5])))
 
 
 def main(argv=None) -> int:
@@ -93,8 +87,8 @@ def main(argv=None) -> int:
         for n in names:
             for i, w in enumerate(omega):
                 for orb in found["discover"][i]:
-                    if not any(same(orb, o) for o in found[n][i]):
-                        missing[n].append((float(w), float(sg), orb[:3]))
+                    if not any(same_orbit(orb, o) for o in found[n][i]):
+                        missing[n].append((float(w), float(sg), orb["period"], orb["stable"]))
     print(f"grid: {omega.size} omega ({omega.min():g}..{omega.max():g}) x {sigmas.size} sigma "
           f"({sigmas.min():g}..{sigmas.max():g}), zeta {zeta:g}, periods {list(s.periods)}")
     print(f"{'class':60s} " + " ".join(f"{n:>9s}" for n in names))
@@ -111,7 +105,7 @@ def main(argv=None) -> int:
         print(f"orbits discovery finds that {n} misses: {len(missing[n])}"
               + ("" if not missing[n] else "; first: " + ", ".join(
                   f"(omega {w:.4f}, sigma {sg:.4f}, period {p}, stable {st})"
-                  for w, sg, (p, st, _) in missing[n][:5])))
+                  for w, sg, p, st in missing[n][:5])))
     return 0
 
 
