@@ -243,9 +243,9 @@ def _module_tail(dispatcher) -> str:
 
 
 def leaf_kernels() -> list:
-    """The leaf kernels (LEAF_MODULES) defined so far (``import kernels`` defines them all),
-    in definition order."""
-    return [d for d in KERNELS if _module_tail(d) in LEAF_MODULES]
+    """The leaf kernels (LEAF_MODULES) of the kernels package defined so far (``import
+    kernels`` defines them all), in definition order: the first of its shared stages."""
+    return shared_stages("kernels")[0]
 
 
 def shared_stages(package: str) -> list[list]:
@@ -256,13 +256,6 @@ def shared_stages(package: str) -> list[list]:
     return [[d for d in mine if _module_tail(d) in LEAF_MODULES],
             [d for d in mine if _module_tail(d) == INTEGRATOR_MODULE
              and d.py_func.__name__ != "integrate"]]
-
-
-def helper_kernels(package: str) -> list:
-    """What a helper process compiles: the leaves and the integrator's own small kernels
-    (everything ``integrate`` calls), of the kernels package ``package``, in definition
-    order."""
-    return [d for stage in shared_stages(package) for d in stage]
 
 
 def compile_shared(package: str, index: int, count: int, backward: bool) -> int:
@@ -307,15 +300,16 @@ def start_helpers(entry) -> int:
     n = helper_count()
     if n == 0 or _helpers_started or fcntl is None:
         return 0
+    if _module_tail(entry) not in INTEGRATOR_USERS:
+        return 0
     try:
         if os.path.exists(entry._cache._cache_file._index_path):
             return 0        # in the disk cache: nothing to share
     except AttributeError:
         return 0
-    if _module_tail(entry) not in INTEGRATOR_USERS:
-        return 0
     package = entry.py_func.__module__.split(".")[0]
-    if all(compiled(d) for d in helper_kernels(package)):
+    # a helper compiles the shared stages (everything ``integrate`` calls)
+    if all(compiled(d) for stage in shared_stages(package) for d in stage):
         return 0
     root = os.path.dirname(os.path.dirname(sys.modules[package].__file__))
     env = dict(os.environ, **{HELPERS_ENV: "0"})
