@@ -2,11 +2,16 @@
 # Create .venv (if needed) and install hertzmap into it, editable: `install.sh` for running
 # studies, `install.sh test` with the test extras (scripts/test.sh).
 #
-# --no-compile: pip would otherwise compile the bytecode of every module of every dependency,
-# half of a fresh install's time; Python compiles (and caches) the modules a run imports
-# instead. No pip self-upgrade: the venv's own pip installs this project. Stamps in .venv record
-# what was installed: a second run with the same pyproject.toml skips pip when the extras asked
-# for are in (the install is editable: source changes need no reinstall).
+# uv installs the wheels in parallel: 4 s for the dependencies on this project's 2-core VM
+# against pip's 15 s (BENCHMARKS.md, section 6); it is taken from PATH, else installed into the
+# venv (one wheel), and where it cannot be had or fails (no network to PyPI, a local index in
+# pip.conf, which uv does not read) pip installs as before. The bytecode of the dependencies
+# is compiled at install, in parallel: without it every process of a run (the client, each
+# worker, the plots) compiles the source of every module it imports again whenever Python may
+# not write bytecode (PYTHONDONTWRITEBYTECODE), and even where it may, the first run's workers
+# each compile it at once. Stamps in .venv record what was installed: a second run with the
+# same pyproject.toml skips the install when the extras asked for are in (the install is
+# editable: source changes need no reinstall).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}
@@ -21,5 +26,14 @@ for stamp in ".venv/.hertzmap-installed-${EXTRAS:-base}" .venv/.hertzmap-install
     fi
     [ -z "$EXTRAS" ] || break       # only the test extras satisfy `install.sh test`
 done
-.venv/bin/python -m pip install --quiet --no-compile -e ".${EXTRAS:+[$EXTRAS]}"
+TARGET=".${EXTRAS:+[$EXTRAS]}"
+UV=$(command -v uv || true)
+if [ -z "$UV" ] && .venv/bin/python -m pip install --quiet uv >/dev/null 2>&1; then
+    UV=.venv/bin/uv
+fi
+if [ -z "$UV" ] || ! "$UV" pip install --quiet --python .venv/bin/python --compile-bytecode \
+        -e "$TARGET"; then
+    [ -z "$UV" ] || echo "install: uv could not install hertzmap; installing with pip" >&2
+    .venv/bin/python -m pip install --quiet -e "$TARGET"
+fi
 printf '%s' "$PROJECT" > ".venv/.hertzmap-installed-${EXTRAS:-base}"
