@@ -71,7 +71,8 @@ def _step(name: str, variational: bool, timemap: bool = False, heightmap: bool =
     contact surface) and the first component is tau = t - t_ref instead of q: q = x^2 - n, and
     every stage derivative is multiplied by dt/dx = 2 x / q' (q' < 0 on the way down).
 
-    With ``inline``, numba copies the step into its callers' code (``inline='always'``)."""
+    With ``inline``, LLVM copies the step into its callers' code (``forceinline``); without,
+    its callers call its one compiled copy (``link="symbol"``, kernels._jit)."""
     A, B, C, E3, E5 = _c.A, _c.B, _c.C, _c.E3, _c.E5
     comps = ["q", "v", "a", "b", "c", "d"] if variational else ["q", "v"]
     L = []
@@ -80,7 +81,7 @@ def _step(name: str, variational: bool, timemap: bool = False, heightmap: bool =
     if timemap or heightmap:
         sig = sig.replace(", float64, float64)", ", float64, float64, float64, float64)")
         extra = ", t_ref, sgn"
-    inlined = ', inline="llvm"' if inline else ""
+    inlined = ', inline="llvm"' if inline else ', link="symbol"'
     L.append(f'@kernel("{sig}"{inlined})')
     L.append(f"def {name}(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol{extra}):")
     L.append("    tz = 2.0 * zeta")

@@ -30,6 +30,19 @@ own tree: typing it in call order made this process wait on the helper's lock of
 whose callees the helper then compiled alone) and loads what they have finished; they exit
 when the lists are done. ``HERTZMAP_COMPILE_HELPERS=0`` turns them off.
 
+Why some kernels are linked by symbol. numba links a copy of every callee's optimised code into
+each caller's module and optimises and compiles it again there: every entry point held the whole
+integrator (about 21,000 LLVM instructions) and spent 1.5-2 s of LLVM on it again, about a
+third of a study's cold compile. A kernel declared ``link="symbol"`` (the integrator, its large
+steps, shooting) is compiled once: the kernels that call it keep numba's declaration of it
+and the JIT resolves the call against its loaded machine code. So that this holds in every
+process: its symbol name is the same in every process (numba numbers functions by a
+per-process counter, here replaced for these kernels by a hash of their name), and a kernel
+loads every symbol-linked kernel it may call (its globals, through the kernels it links whole)
+before itself, from the disk cache or compiled. Code numba compiles for anything else (a
+plain ``njit`` function calling a kernel) links all of them whole, as numba does, so it can be
+cached and loaded alone. ``HERTZMAP_SYMBOL_LINK=0`` turns it off (another cache folder).
+
 Why a typing memo. Most of a cold compile is numba's own Python, not LLVM: typing the generated
 DOP853 steps (thousands of scalar ``+ - * /`` on float64) asked numba's function templates the
 same question at every operation (about 11 templates each, the numpy ufunc loop search among
@@ -40,14 +53,18 @@ code are those numba would make without it. ``HERTZMAP_TYPING_MEMO=0`` turns it 
 """
 from __future__ import annotations
 
+import hashlib
 import os
 import subprocess
 import sys
 import time
+import types as pytypes
 from contextlib import contextmanager
 
 import numba
 from numba import njit
+from numba.core import bytecode, codegen
+from numba.core.dispatcher import Dispatcher
 
 try:
     import fcntl
@@ -102,7 +119,116 @@ def memo_scalar_typing() -> bool:
 TYPING_MEMO = memo_scalar_typing()
 
 
-def kernel(signature=None, *, inline: str | None = None, cache: bool = True):
+#: environment variable: 0 links every kernel whole into its callers, as numba does
+SYMBOL_LINK_ENV = "HERTZMAP_SYMBOL_LINK"
+
+
+def symbol_link_enabled() -> bool:
+    return os.environ.get(SYMBOL_LINK_ENV, "1") != "0"
+
+
+SYMBOL_LINK = symbol_link_enabled()
+#: the Python functions of symbol-linked kernels -> the number numba names them by
+_STABLE_IDS: dict = {}
+#: mangled name -> code library of every symbol-linked kernel this process has loaded
+_SYMBOL_LIBRARIES: dict = {}
+#: the kernels compile_once is compiling (innermost last): their own libraries link by symbol
+_compiling: list = []
+
+
+def _stable_id(fn) -> int:
+    name = f"{fn.__module__}.{fn.__qualname__}".encode()
+    return int(hashlib.sha256(name).hexdigest()[:12], 16)
+
+
+def _function_identity(cls, pyfunc):
+    """numba's FunctionIdentity.from_function, with a symbol-linked kernel's number taken from
+    its name: its machine code's symbol is then the same in every process."""
+    identity = _original_function_identity(cls, pyfunc)
+    uid = _STABLE_IDS.get(pyfunc)
+    if uid is not None:
+        identity.unique_id = uid
+        identity.unique_name = f"{identity.func_qualname}${uid}"
+    return identity
+
+
+def _declares(module, name: str) -> bool:
+    try:
+        return module.get_function(name).is_declaration
+    except NameError:
+        return False
+
+
+def _finalize(self):
+    """numba's CPUCodeLibrary.finalize, except that the library of a kernel being compiled does
+    not link in the symbol-linked kernels it calls (they stay declarations, resolved by the JIT
+    against their loaded code), and any other library links in whole what the linked code calls
+    by symbol, so that it can be cached and loaded alone."""
+    codegen.require_global_compiler_lock()
+    self._codegen._check_llvm_bugs()
+    self._raise_if_finalized()
+    own = bool(_compiling) and self.name == _compiling[-1].py_func.__qualname__
+    linked = set()
+    for library in self._linking_libraries:
+        if library in linked:
+            continue
+        self._reload_init.update(library._reload_init)
+        linked.add(library)
+        if own and getattr(library, "_hertzmap_by_symbol", False):
+            continue
+        self._final_module.link_in(library._get_module_for_linking(), preserve=True)
+    while not own:
+        missing = [lib for name, lib in _SYMBOL_LIBRARIES.items()
+                   if lib not in linked and _declares(self._final_module, name)]
+        if not missing:
+            break
+        for library in missing:
+            self._reload_init.update(library._reload_init)
+            linked.add(library)
+            self._final_module.link_in(library._get_module_for_linking(), preserve=True)
+    self._optimize_final_module()
+    self._final_module.verify()
+    self._finalize_final_module()
+
+
+if SYMBOL_LINK:
+    _original_function_identity = bytecode.FunctionIdentity.from_function.__func__
+    bytecode.FunctionIdentity.from_function = classmethod(_function_identity)
+    codegen.CPUCodeLibrary.finalize = _finalize
+
+
+def _called_dispatchers(fn) -> list:
+    """The numba dispatchers among the global names ``fn`` (and its nested code) uses."""
+    names, stack = set(), [fn.__code__]
+    while stack:
+        code = stack.pop()
+        names.update(code.co_names)
+        stack.extend(c for c in code.co_consts if isinstance(c, pytypes.CodeType))
+    found = (fn.__globals__.get(n) for n in sorted(names))
+    return [d for d in found if isinstance(d, Dispatcher)]
+
+
+def symbol_callees(dispatcher) -> list:
+    """The symbol-linked kernels the machine code of ``dispatcher`` may call by symbol: those
+    its function calls, and those called by the kernels it links whole (the walk stops at a
+    symbol-linked kernel: loading it loads its own)."""
+    found = getattr(dispatcher, "_symbol_callees", None)
+    if found is None:
+        found, seen, todo = [], {dispatcher}, [dispatcher]
+        while todo:
+            for callee in _called_dispatchers(todo.pop().py_func):
+                if callee in seen:
+                    continue
+                seen.add(callee)
+                if getattr(callee, "link_by_symbol", False):
+                    found.append(callee)
+                else:
+                    todo.append(callee)
+        dispatcher._symbol_callees = found
+    return found
+
+
+def kernel(signature=None, *, inline: str | None = None, cache: bool = True, link: str = "ir"):
     """``numba.njit(cache=True, nogil=True)`` with ``signature`` compiled on first use.
 
     Calls from Python and from other jitted functions with other argument types convert to the
@@ -120,10 +246,22 @@ def kernel(signature=None, *, inline: str | None = None, cache: bool = True):
       so it is typed again at every call site (with the caller's argument types: the signature
       documents them), but it is no library of its own. For thin wrappers, which would
       otherwise cost a full compile of everything below them.
+
+    ``link="symbol"`` (with a signature, not inlined): the kernels that call it call its one
+    compiled copy instead of holding their own (see the module's docstring). For large kernels
+    called from several others; a small one in a hot loop stays ``"ir"``, where LLVM may
+    inline it.
     """
+    if link not in ("ir", "symbol"):
+        raise ValueError(f"link must be 'ir' or 'symbol', not {link!r}")
+
     def wrap(fn):
+        by_symbol = link == "symbol" and signature is not None and inline is None
+        if by_symbol and SYMBOL_LINK:
+            _STABLE_IDS[fn] = _stable_id(fn)
         dispatcher = njit(cache=cache, nogil=True, forceinline=inline == "llvm",
                           inline="always" if inline == "ir" else "never")(fn)
+        dispatcher.link_by_symbol = by_symbol and SYMBOL_LINK
         if signature is not None:
             _fix_signature(dispatcher, signature, locked=cache)
             if inline != "ir":
@@ -139,10 +277,21 @@ def _fix_signature(dispatcher, signature, locked: bool) -> None:
 
     def compile_once():
         if dispatcher._can_compile:
+            # what its machine code may call by symbol must be in this process first
+            for callee in symbol_callees(dispatcher):
+                callee.compile_fixed()
             with (_compile_lock(dispatcher) if locked else _no_lock()):
                 # after another process's compile this loads its entry from the disk cache
-                dispatcher.compile(signature)
+                _compiling.append(dispatcher)
+                try:
+                    dispatcher.compile(signature)
+                finally:
+                    _compiling.pop()
             dispatcher.disable_compile()
+            if dispatcher.link_by_symbol:
+                cres = dispatcher.overloads[dispatcher.signatures[0]]
+                cres.library._hertzmap_by_symbol = True
+                _SYMBOL_LIBRARIES[cres.fndesc.mangled_name] = cres.library
 
     def get_call_template(args, kws):
         compile_once()

@@ -281,7 +281,7 @@ def _hermite_root(g0, d0, a0, g1, d1, a1):
     return x
 
 
-@kernel("UniTuple(float64, 2)(int64, int64, float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64, float64[::1])")
+@kernel("UniTuple(float64, 2)(int64, int64, float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64, float64[::1])", link="symbol")
 def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
                      atol, t_ref, s_guess, stats_partial):
     """Increment s in (0, h] of the mode's variable from x where q = -n, the step over h ending
@@ -342,7 +342,7 @@ def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta,
     return s, -1.0
 
 
-@kernel("int64(float64[::1], float64, float64, float64, float64, float64, float64, int64, float64, float64, float64, int64, boolean, boolean, boolean, float64, float64[:, ::1], float64[::1], float64[:, ::1], float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64[:, ::1])")
+@kernel("int64(float64[::1], float64, float64, float64, float64, float64, float64, int64, float64, float64, float64, int64, boolean, boolean, boolean, float64, float64[:, ::1], float64[::1], float64[:, ::1], float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64[:, ::1])", link="symbol")
 def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
               variational, measure, harmonics, period_harm, harm, t_eval, out_eval, stats,
               f, y_new, f_new, K, P):

@@ -94,7 +94,7 @@ def _measure_pass(x0, v0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_st
                      K, W)
 
 
-@kernel("void(float64, float64, float64, int64, float64, float64, float64, int64, float64, float64, int64, int64, boolean, float64[::1])")
+@kernel("void(float64, float64, float64, int64, float64, float64, float64, int64, float64, float64, int64, int64, boolean, float64[::1])", link="symbol")
 def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, max_iter,
                max_steps, harmonics, res):
     """Find the period-m orbit near (q_guess, v_guess); write FIELDS into res (float64[N_FIELDS]).

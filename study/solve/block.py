@@ -90,10 +90,11 @@ def entry_kernels(*, attractors="never", turn_folds=True, discover=False, locate
                   **_ignored) -> list:
     """The numba entry points a block with these options calls (kernels._jit kernels):
     the batch shooting kernel; the period map of the continuation when folds are turned or
-    branches continued; the census's batch kernel when it runs. A worker's warm-up compiles
-    these (kernels._jit.compile_kernels), so that with an empty cache two workers share them
-    instead of meeting in their first tasks, where one waits for the other's compile."""
-    from kernels.attractors import attractor_batch_into
+    branches continued; the census's batch kernel and its Lyapunov exponent when it runs. A
+    worker's warm-up compiles these (kernels._jit.compile_kernels), so that with an empty
+    cache two workers share them instead of meeting in their first tasks, where one waits for
+    the other's compile."""
+    from kernels.attractors import attractor_batch_into, lyapunov_into
     from kernels.continuation import period_map_into
     from kernels.shooting import shoot_batch_into
 
@@ -101,7 +102,7 @@ def entry_kernels(*, attractors="never", turn_folds=True, discover=False, locate
     if turn_folds or discover or locate:
         out.append(period_map_into)
     if attractors != "never":
-        out.append(attractor_batch_into)
+        out += [attractor_batch_into, lyapunov_into]
     return out
 
 

@@ -102,3 +102,81 @@ def test_a_second_process_waits_for_the_compile_and_loads_it(tmp_path):
     assert parent.returncode == 0, err[-3000:]
     child = json.loads(out.strip().splitlines()[-1])
     assert child == {"hits": 1, "misses": 0}
+
+
+#: in a child process: one orbit by the batch entry point (the first kernel this process
+#: touches), the symbol of the integrator, and whether shoot_into's code holds its own copy
+BATCH_ORBIT = """
+    import numpy as np
+    import kernels
+    from kernels.integrate import integrate
+    from kernels.shooting import N_FIELDS, shoot_batch_into, shoot_into
+    one = lambda x: np.array([x])
+    out = np.empty((1, N_FIELDS))
+    shoot_batch_into(one(1.5), one(0.2), one(0.01), np.array([1]), one(-0.16), one(0.006),
+                     1.5, 0, 1e-10, 1e-10, 30, 100000, True, out)
+    name = integrate.overloads[integrate.signatures[0]].fndesc.mangled_name
+    module = shoot_into.overloads[shoot_into.signatures[0]].library._final_module
+    try:
+        whole = not module.get_function(name).is_declaration
+    except NameError:       # loaded from the cache: its module is not kept
+        whole = None
+    print(json.dumps({"row": out[0].tolist(), "integrate": name, "integrate_whole": whole,
+                      "compiled": [k for k in compiled if k.startswith("kernels.")]}))
+"""
+
+
+@pytest.mark.slow
+def test_symbol_linked_kernels_are_called_by_name_across_processes(tmp_path):
+    """shoot_into calls the integrator's one compiled copy (its code declares it and holds no
+    copy); a second process that first touches the batch entry point loads everything from
+    the cache (nothing compiled: the callees are loaded before their callers) and gets the
+    integrator under the same symbol; the orbit is the one, to the last bit, that numba's own
+    whole linking gives (HERTZMAP_SYMBOL_LINK=0, its own cache folder)."""
+    env = dict(HERTZMAP_COMPILE_HELPERS="0")
+    first = _run(BATCH_ORBIT, tmp_path, **env)
+    again = _run(BATCH_ORBIT, tmp_path, **env)
+    whole = _run(BATCH_ORBIT, tmp_path, HERTZMAP_SYMBOL_LINK="0", **env)
+    assert first["integrate_whole"] is False
+    assert whole["integrate_whole"] is True
+    assert "kernels.integrate.integrate" in first["compiled"]
+    assert again["compiled"] == []
+    assert again["integrate"] == first["integrate"]
+    assert first["row"][0] == 0.0, first["row"]         # status CONVERGED
+    assert again["row"] == first["row"]
+    assert whole["row"] == first["row"]
+
+
+@pytest.mark.slow
+def test_a_plain_njit_caller_links_the_kernels_whole_and_loads_alone(tmp_path):
+    """Code numba compiles for anything but a kernel (here a cached njit function of another
+    module) holds its own copy of the symbol-linked kernels it calls, so that a new process
+    can load it from numba's cache and run it before any kernel is loaded."""
+    (tmp_path / "caller.py").write_text(textwrap.dedent("""
+        from numba import njit
+        from kernels.shooting import shoot_into
+
+        @njit(cache=True)
+        def first_orbit(out):
+            shoot_into(1.5, 0.2, 0.01, 1, -0.16, 0.006, 1.5, 0, 1e-10, 1e-10, 30, 100000,
+                       True, out)
+    """))
+    code = """
+        import sys
+        sys.path.insert(0, {folder!r})
+        import numpy as np
+        from caller import first_orbit
+        from kernels.shooting import N_FIELDS
+        out = np.empty(N_FIELDS)
+        first_orbit(out)
+        print(json.dumps({{"q0": out[1], "status": out[0],
+                          "compiled": [k for k in compiled if k.startswith("kernels.")],
+                          "caller": [k for k in compiled if k.startswith("caller.")]}}))
+    """.format(folder=str(tmp_path))
+    cache = tmp_path / "cache"
+    first = _run(code, cache, HERTZMAP_COMPILE_HELPERS="0")
+    again = _run(code, cache, HERTZMAP_COMPILE_HELPERS="0")
+    assert first["status"] == 0.0 and abs(first["q0"] + 0.1616) < 1e-3, first
+    assert first["caller"] == ["caller.first_orbit"]
+    assert again["caller"] == [] and again["compiled"] == []
+    assert again["q0"] == first["q0"]
