@@ -63,7 +63,7 @@ from contextlib import contextmanager
 
 import numba
 from numba import njit
-from numba.core import bytecode, codegen
+from numba.core import bytecode, codegen, sigutils, typing
 from numba.core.dispatcher import Dispatcher
 
 try:
@@ -263,27 +263,37 @@ def kernel(signature=None, *, inline: str | None = None, cache: bool = True, lin
                           inline="always" if inline == "ir" else "never")(fn)
         dispatcher.link_by_symbol = by_symbol and SYMBOL_LINK
         if signature is not None:
-            _fix_signature(dispatcher, signature, locked=cache)
+            _fix_signature(dispatcher, signature, locked=cache, deferred=inline != "ir")
             if inline != "ir":
                 KERNELS.append(dispatcher)
         return dispatcher
     return wrap
 
 
-def _fix_signature(dispatcher, signature, locked: bool) -> None:
-    """Compile ``signature`` when the dispatcher is first typed (by a jitted caller) or called
-    (from Python), then disable compilation: every later call resolves to that one overload."""
+def _fix_signature(dispatcher, signature, locked: bool, deferred: bool) -> None:
+    """Compile ``signature`` when the dispatcher is first called (from Python) or, with
+    ``deferred``, when a jitted caller is lowered (else when it is typed), then disable
+    compilation: every later call resolves to that one overload.
+
+    Why deferred. Typing a call needs only the callee's signature, which is fixed; its machine
+    code is needed when the caller is lowered and linked. So a caller is typed while another
+    process compiles its callee (a first orbit types shoot_into while the helper compiles the
+    integrator), and waits for it only then."""
     typed_call = dispatcher.get_call_template
+    overload = dispatcher.get_overload
+    fixed = []
 
     def compile_once():
         if dispatcher._can_compile:
-            # what its machine code may call by symbol must be in this process first
-            for callee in symbol_callees(dispatcher):
-                callee.compile_fixed()
             with (_compile_lock(dispatcher) if locked else _no_lock()):
-                # after another process's compile this loads its entry from the disk cache
+                if in_disk_cache(dispatcher):
+                    # loading: what its machine code calls by symbol must be in this process
+                    # first (compiling, its lowering loads them)
+                    for callee in symbol_callees(dispatcher):
+                        callee.compile_fixed()
                 _compiling.append(dispatcher)
                 try:
+                    # after another process's compile this loads its entry from the disk cache
                     dispatcher.compile(signature)
                 finally:
                     _compiling.pop()
@@ -294,8 +304,23 @@ def _fix_signature(dispatcher, signature, locked: bool) -> None:
                 _SYMBOL_LIBRARIES[cres.fndesc.mangled_name] = cres.library
 
     def get_call_template(args, kws):
+        if not deferred or not dispatcher._can_compile:
+            compile_once()
+            return typed_call(args, kws)
+        # numba's Dispatcher.get_call_template, with the fixed signature in place of the
+        # compiled overloads'
+        pysig, args = dispatcher._compiler.fold_argument_types(args, kws)
+        if not fixed:
+            arg_types, return_type = sigutils.normalize_signature(signature)
+            fixed.append(typing.signature(return_type, *arg_types))
+        name = dispatcher.py_func.__name__
+        template = typing.make_concrete_template(f"CallTemplate({name})", key=name,
+                                                 signatures=fixed)
+        return template, pysig, args, {}
+
+    def get_overload(sig):
         compile_once()
-        return typed_call(args, kws)
+        return overload(sig)
 
     def _compile_for_args(*args, **kws):
         # the C dispatcher found no overload and calls what this returns with the same
@@ -303,16 +328,25 @@ def _fix_signature(dispatcher, signature, locked: bool) -> None:
         # not convert to it gets numba's TypeError: compilation is disabled)
         if dispatcher._can_compile and start_helpers(dispatcher):
             # this process's share of what the helpers compile, from the other end, before the
-            # entry's own tree (whose typing would otherwise wait on a helper's kernel while
-            # the helper compiles everything below it)
+            # entry's own tree
             compile_shared(dispatcher.py_func.__module__.split(".")[0], 0, 1, backward=False)
         compile_once()
         return dispatcher
 
     dispatcher.get_call_template = get_call_template
+    dispatcher.get_overload = get_overload
     dispatcher._compile_for_args = _compile_for_args
     dispatcher.fixed_signature = signature
     dispatcher.compile_fixed = compile_once
+
+
+def in_disk_cache(dispatcher) -> bool:
+    """Has some process written this kernel into the disk cache (so that compiling it will
+    load it)? Without a cache: False."""
+    try:
+        return os.path.exists(dispatcher._cache._cache_file._index_path)
+    except AttributeError:
+        return False
 
 
 def compiled(dispatcher) -> bool:
@@ -451,11 +485,8 @@ def start_helpers(entry) -> int:
         return 0
     if _module_tail(entry) not in INTEGRATOR_USERS:
         return 0
-    try:
-        if os.path.exists(entry._cache._cache_file._index_path):
-            return 0        # in the disk cache: nothing to share
-    except AttributeError:
-        return 0
+    if not hasattr(getattr(entry, "_cache", None), "_cache_file") or in_disk_cache(entry):
+        return 0        # in the disk cache (nothing to share), or no cache
     package = entry.py_func.__module__.split(".")[0]
     # a helper compiles the shared stages (everything ``integrate`` calls)
     if all(compiled(d) for stage in shared_stages(package) for d in stage):
@@ -476,5 +507,9 @@ def run_helper(package: str, index: int, count: int) -> None:
     """A helper process's work: compile_shared backwards, from its share of each stage."""
     import importlib
     importlib.import_module(package)      # sets the cache folder
-    importlib.import_module(package + ".integrate")
+    integrator = importlib.import_module(package + "." + INTEGRATOR_MODULE)
     compile_shared(package, index, count, backward=True)
+    # then the integrator itself, while the first call types its own kernel (which needs only
+    # the integrator's signature until it is lowered)
+    if index == 0:
+        compile_kernels([integrator.integrate])
