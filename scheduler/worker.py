@@ -51,12 +51,18 @@ def warm_up(solver: str = DEFAULT_SOLVER, kwargs: dict[str, Any] | None = None,
         from study.solve.block import entry_kernels
         backward = order % 2 == 1
         compile_shared("kernels", 0, 1, backward)
-        # then the entry points this study calls, in the same order: each compiles its own
-        # (large) code on one worker while the other compiles another
-        entries = entry_kernels(**(kwargs or {}))
+        # then the integrator (every entry point calls it; typing them needs only its
+        # signature, so the other worker types its entries meanwhile), then the entry points
+        # this study calls, in the same order: each compiles its own (large) code on one worker
+        # while the other compiles another; the census's, the largest, last, where the other
+        # worker starts
+        from kernels.attractors import attractor_batch_into
+        from kernels.integrate import integrate
+        entries = [integrate] + entry_kernels(**(kwargs or {}))
         if curves:
             from study.solve.curves import curve_kernels
             entries += curve_kernels()
+        entries.sort(key=lambda d: d is attractor_batch_into)
         compile_kernels(entries[::-1] if backward else entries)
     fn = load_solver(solver)
     one = np.array([1.0])
