@@ -99,6 +99,12 @@ class LineSearch:
     def out_of_time(self) -> bool:
         return self.deadline is not None and time.monotonic() > self.deadline
 
+    @property
+    def grid_step(self) -> float:
+        """The line's omega step (0 for a single point)."""
+        n = self.omega.size
+        return (float(self.omega.max()) - float(self.omega.min())) / (n - 1) if n > 1 else 0.0
+
     # -- 1. the sweeps --------------------------------------------------------------------
     def mms_stride(self) -> int:
         """Every how many grid points the multiple-scales 2T seeds are shot (see
@@ -106,8 +112,7 @@ class LineSearch:
         stride = self.options.get("mms_stride", MMS_SEED_STRIDE)
         if stride is not None:
             return int(stride)
-        n = self.omega.size
-        h = (float(self.omega.max()) - float(self.omega.min())) / (n - 1) if n > 1 else 0.0
+        h = self.grid_step
         return max(1, int(MMS_SEED_SPACING / h + 1e-9)) if h > 0.0 else 1
 
     def sweep(self) -> None:
@@ -200,8 +205,7 @@ class LineSearch:
 
         Stops when KNOWN_RUN crossings in a row give orbits already known (the branch is
         retracing one) or the window is left. Returns the number of new orbits."""
-        n = self.omega.size
-        h = (float(self.omega.max()) - float(self.omega.min())) / max(n - 1, 1)
+        h = self.grid_step
         lo, hi = float(self.omega.min()) - h, float(self.omega.max()) + h
         self.traces += 1
         period = sol["period"]
@@ -280,7 +284,8 @@ class LineSearch:
 
             arc_path(self.system, np.asarray(orbit["x0"], float), float(self.omega[k]),
                      self.sigma, period, float(direction), lo, hi, ds=2.0 * h,
-                     dp_max=TRACE_DP * h, max_points=TRACE_POINTS_PER_STEP * n, on_step=on_step)
+                     dp_max=TRACE_DP * h, max_points=TRACE_POINTS_PER_STEP * self.omega.size,
+                     on_step=on_step)
             if leg["end"] is None or past_fold or state["stop"]:
                 break
             (k, orbit), direction = leg["end"], -direction
