@@ -386,10 +386,11 @@ def _edge_crossings(orbits, axes, line, ia, edge_axis, blocks, recorded, lines, 
 
 
 def curve_kernels() -> list:
-    """The numba entry points a trace calls (kernels._jit kernels): the extended system and
-    its corrector. A study that asks for curves compiles them in its workers' warm-up, beside
-    the grid's (study.solve.block.entry_kernels), not after the grid."""
-    return [cont.curve_system_into, cont._chord_into]
+    """The numba entry points a trace calls (kernels._jit kernels): the extended system, its
+    corrector and the period map (the T-shift of a 2T point). A study that asks for curves
+    compiles them in its workers' warm-up, beside the grid's
+    (study.solve.block.entry_kernels), not after the grid."""
+    return [cont.curve_system_into, cont._chord_into, cont.period_map_into]
 
 
 def trace_seed(seed: Seed, bounds: dict[str, tuple[float, float]], *, exponent: float = 1.5,
