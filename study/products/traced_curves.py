@@ -202,6 +202,10 @@ TRACED_VARIABLES: dict[str, tuple[tuple[str, ...], str, object, dict]] = {
         "index (dim seed), as seed_outcome says; -1 for traced and covered")),
 }
 
+#: the variables a one-curve part holds: all but the seeds' records (the ``seed`` dim), which
+#: only the combined product holds (combine_traced_curves, seeds_dataset)
+CURVE_VARIABLES = {name: spec for name, spec in TRACED_VARIABLES.items() if spec[0] != ("seed",)}
+
 
 def _status_code(name: str) -> int:
     return _STATUS_CODE.get(name, 5)
@@ -253,9 +257,7 @@ def traced_curves_dataset(results: list[dict], attrs: dict | None = None) -> xr.
             cols["codim2_multipliers"].append(mu)
         offset += n
     data = {}
-    for name, (dims, dtype, fill, vattrs) in TRACED_VARIABLES.items():
-        if dims == ("seed",):
-            continue                   # the seeds' records: combine_traced_curves
+    for name, (dims, dtype, fill, vattrs) in CURVE_VARIABLES.items():
         parts = cols[name]
         shape = (0, 2) if len(dims) == 2 else (0,)
         arr = np.concatenate(parts) if parts else np.zeros(shape)
@@ -315,15 +317,11 @@ def combine_traced_curves(parts: list[xr.Dataset], attrs: dict | None = None,
             offset += p.sizes["vertex"]
             fixed.append(p)
         out = xr.Dataset()
-        for name, (dims, dtype, _, vattrs) in TRACED_VARIABLES.items():
-            if dims == ("seed",):
-                continue
+        for name, (dims, dtype, _, vattrs) in CURVE_VARIABLES.items():
             arr = np.concatenate([np.asarray(p[name].values) for p in fixed], axis=0)
             out[name] = xr.Variable(dims, arr.astype(dtype), dict(vattrs))
         out = out.assign_coords(multiplier=("multiplier", np.arange(2, dtype=np.int16)))
-        out.attrs = {k: v for k, v in parts[0].attrs.items()
-                     if k not in ("hertzmap_curve_seed", "hertzmap_curve_status",
-                                  "hertzmap_curve_duplicate_of")}
+        out.attrs = {k: v for k, v in parts[0].attrs.items() if k not in PART_ATTRS}
         out.attrs.update(attrs or {})
     for name, var in seeds_dataset(seeds).variables.items():
         out[name] = var
@@ -421,14 +419,19 @@ def isola_boundary(traced: xr.Dataset) -> xr.Dataset:
     return out
 
 
+#: the attrs of a stored one-curve part that belong to it alone (not to the combined product)
+SEED_ATTR, STATUS_ATTR, DUPLICATE_ATTR = ("hertzmap_curve_seed", "hertzmap_curve_status",
+                                          "hertzmap_curve_duplicate_of")
+PART_ATTRS = (SEED_ATTR, STATUS_ATTR, DUPLICATE_ATTR)
+
+
 def part_attrs(result: dict, duplicate_of: int = -1) -> dict:
     """Attrs of a stored one-curve part: its seed and status (JSON), for reading back; for a
     trace that converged onto a curve traced from an earlier seed (a duplicate, stored without
     vertices), that seed's index."""
-    out = {"hertzmap_curve_seed": json.dumps(result["seed"]),
-           "hertzmap_curve_status": json.dumps(list(result["status"]))}
+    out = {SEED_ATTR: json.dumps(result["seed"]), STATUS_ATTR: json.dumps(list(result["status"]))}
     if duplicate_of >= 0:
-        out["hertzmap_curve_duplicate_of"] = int(duplicate_of)
+        out[DUPLICATE_ATTR] = int(duplicate_of)
     return out
 
 
@@ -436,10 +439,10 @@ def trace_from_part(part: xr.Dataset) -> dict:
     """A stored one-curve part read back as a trace (seed, status, duplicate_of (-1 unless a
     duplicate), vertices: omega, sigma, zeta, q0, v0, min_q, max_q, flag), enough to tell
     which seeds lie on it (study.solve.curves.covers)."""
-    seed = json.loads(part.attrs["hertzmap_curve_seed"])
+    seed = json.loads(part.attrs[SEED_ATTR])
     seed["plane"] = tuple(seed["plane"])
-    return {"seed": seed, "status": tuple(json.loads(part.attrs["hertzmap_curve_status"])),
-            "duplicate_of": int(part.attrs.get("hertzmap_curve_duplicate_of", -1)),
+    return {"seed": seed, "status": tuple(json.loads(part.attrs[STATUS_ATTR])),
+            "duplicate_of": int(part.attrs.get(DUPLICATE_ATTR, -1)),
             "vertices": {n: np.asarray(part[n].values, float)
                          for n in ("omega", "sigma", "zeta", "q0", "v0", "min_q", "max_q",
                                    "flag")}}
