@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 import statistics
 import subprocess
 import sys
@@ -31,6 +30,9 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from benchmarks.run_summary import run_summary  # noqa: E402
 
 ORBIT = ("import time, os; t = time.perf_counter(); import kernels; "
          "o = kernels.shoot(1.5, 0.2, 0.01, 1, guess=(-0.16, 0.006)); "
@@ -62,11 +64,9 @@ def study(cache: str, store: str) -> dict[str, float]:
     whole = time.perf_counter() - t0
     if res.returncode:
         raise RuntimeError(res.stdout + res.stderr)
-    text = res.stdout + res.stderr
-    setup = float(re.search(r"setup ([0-9.]+) s", text).group(1))
-    wall = float(re.search(r"points in ([0-9.]+) s wall", text).group(1))
-    compute = float(re.search(r"task compute ([0-9.]+) s", text).group(1))
-    return {"setup": setup, "wall": wall, "compute": compute, "whole": whole}
+    summary = run_summary(res.stdout + res.stderr)
+    return {"setup": summary["setup"], "wall": summary["wall"], "compute": summary["compute"],
+            "whole": whole}
 
 
 def main(argv=None) -> int:

@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 import subprocess
 import sys
 import shutil
@@ -42,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.run_summary import run_summary
 from kernels import continuation as cont
 from kernels import shoot, shoot_batch
 from study.products.curves import contour_lines
@@ -299,12 +299,11 @@ def run_scene(text, store, label):
     if r.returncode != 0:
         print(r.stdout, r.stderr)
         return None
-    wall = float(re.search(r"points in ([\d.]+) s wall", r.stdout).group(1))
-    m = re.search(r"curves: .*?([\d.]+) s wall \(([\d.]+) s loading", r.stdout)
-    curves = float(m.group(1)) if m else 0.0
+    summary = run_summary(r.stdout)
+    wall, curves = summary["wall"], summary["curves"] or 0.0
     line = [ln for ln in r.stdout.splitlines() if ln.startswith("curves:")]
     print(f"  {label}: whole command {total:.1f} s, grid {wall:.1f} s wall"
-          + (f", curve stage {curves:.2f} s" if m else ""))
+          + (f", curve stage {curves:.2f} s" if summary["curves"] is not None else ""))
     if line:
         print("    " + line[0])
     return total, wall, curves
