@@ -41,6 +41,7 @@ from kernels.shooting import F, N_FIELDS, shoot_batch_into  # noqa: E402
 from study.solve import block as block_mod  # noqa: E402
 from study.solve import line as line_mod  # noqa: E402
 from study.solve import point as point_mod  # noqa: E402
+from study.orbits import same_orbit  # noqa: E402
 from study.spec import load_study  # noqa: E402
 
 
@@ -65,15 +66,17 @@ def solve_grid(study, every: int):
 
 
 def stored_orbits(results):
-    """(omega, sigma, zeta, period, q0, v0, min_q, max_q) of every converged slot."""
+    """(omega, sigma, zeta, period, q0, v0, min_q, max_q, ptp, trace of M) of every converged
+    slot."""
     rows = []
     for sigma, zeta, omega, a in results:
         ok = a["status"][:, 0, 0, :] == st.CONVERGED
         for i, s in zip(*np.nonzero(ok)):
             rows.append((omega[i], sigma, zeta, int(a["period"][i, 0, 0, s]),
                          a["q0"][i, 0, 0, s], a["v0"][i, 0, 0, s],
-                         a["min_q"][i, 0, 0, s], a["max_q"][i, 0, 0, s]))
-    return np.array(rows, float).reshape(-1, 8)
+                         a["min_q"][i, 0, 0, s], a["max_q"][i, 0, 0, s],
+                         a["ptp"][i, 0, 0, s], float(np.sum(a["multipliers"][i, 0, 0, s]).real)))
+    return np.array(rows, float).reshape(-1, 10)
 
 
 def kernel_time(orbits: np.ndarray, kw: dict, rounds: int = 5):
@@ -102,7 +105,8 @@ class Recorder:
     """Wraps the shooting entry point of study.solve.point: each row solved alone and timed."""
 
     def __init__(self):
-        self.rows = []          # (omega, sigma, zeta, period, seconds, status, q0, v0, min_q, max_q)
+        # (omega, sigma, zeta, period, seconds, status, q0, v0, min_q, max_q, ptp, trace of M)
+        self.rows = []
 
     def __call__(self, w, s, z, m, q, v, *rest):
         out = rest[-1]
@@ -114,26 +118,25 @@ class Recorder:
             dt = time.perf_counter() - t0
             self.rows.append((w[i], s[i], z[i], int(m[i]), dt, int(row[0, F["status"]]),
                               row[0, F["q0"]], row[0, F["v0"]], row[0, F["min_q"]],
-                              row[0, F["max_q"]]))
+                              row[0, F["max_q"]], row[0, F["ptp"]], row[0, F["trace_m"]]))
 
 
 def classify(rec: Recorder, stored: np.ndarray):
-    """Seconds and counts per class (see the module's docstring)."""
+    """Seconds and counts per class (see the module's docstring); a solve is a stored orbit's
+    by study.orbits.same_orbit, the rule the block solver keeps orbits by."""
     index = defaultdict(list)
     for r in stored:
-        index[(r[0], r[1], r[2], int(r[3]))].append((r[6], r[7]))
+        index[(r[0], r[1], r[2], int(r[3]))].append(
+            {"period": int(r[3]), "min_q": r[6], "max_q": r[7], "ptp": r[8], "trace": r[9]})
     seen = set()
     secs, count = defaultdict(float), defaultdict(int)
-    for w, s, z, m, dt, status, q0, v0, mn, mx in rec.rows:
+    for w, s, z, m, dt, status, q0, v0, mn, mx, ptp, trace in rec.rows:
         if status != st.CONVERGED:
             cls = f"failed {m}T"
         else:
-            match = None
-            for n, (a, b) in enumerate(index.get((w, s, z, m), ())):
-                tol = 1e-6 * (1 + abs(b - a))
-                if abs(mn - a) <= tol and abs(mx - b) <= tol:
-                    match = n
-                    break
+            solved = {"period": m, "min_q": mn, "max_q": mx, "ptp": ptp, "trace": trace}
+            match = next((n for n, orbit in enumerate(index.get((w, s, z, m), ()))
+                          if same_orbit(solved, orbit)), None)
             if match is None:
                 cls = "not stored"
             elif (w, s, z, m, match) in seen:
