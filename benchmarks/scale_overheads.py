@@ -64,6 +64,7 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
 
     from scheduler.plan import choose_chunks, make_plan
+    from scheduler.run import task_specs
     from scheduler.store import Store
     from study.schema import empty_arrays, stored_variables
     from study.solve.block import solve_block
@@ -79,17 +80,12 @@ def main(argv=None) -> int:
         # 1. client bookkeeping
         tracemalloc.start()
         plan = make_plan(study, chunks)
-        om, sg, zt = study.axis("omega"), study.axis("sigma"), study.axis("zeta")
-        kwargs = study.solver_kwargs()
-        names = stored_variables(study)
-        specs = []
-        for t in plan.tasks:
-            so, ss, sz = t.slices
-            specs.append({"index": t.index, "omega": om[so], "sigma": sg[ss], "zeta": zt[sz],
-                          "kwargs": kwargs, "names": names, "solver": None,
-                          "time_budget": 600.0})
+        specs = task_specs(study, plan.tasks, study.solver_kwargs(), stored_variables(study),
+                           None, 600.0)
         current, peak = tracemalloc.get_traced_memory()
         tracemalloc.stop()
+        om, zt = study.axis("omega"), study.axis("zeta")
+        kwargs, names = study.solver_kwargs(), stored_variables(study)
         one = len(pickle.dumps(specs[0]))
         print(f"client: {len(plan.tasks):,} tasks; plan + task specs {current / 2**20:.1f} MiB "
               f"traced ({current / len(plan.tasks) / 1024:.1f} KiB per task); one spec pickled "

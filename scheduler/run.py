@@ -133,6 +133,20 @@ def _has_dashboard(client) -> bool:
         return False
 
 
+def task_specs(study: Study, tasks, kwargs: dict[str, Any], names, solver,
+               time_budget) -> list[dict[str, Any]]:
+    """What the client hands to Dask for each task (scheduler.worker.run_task's argument):
+    the block's axes, the solver's options, the variables to return."""
+    om, sg, zt = study.axis("omega"), study.axis("sigma"), study.axis("zeta")
+    specs = []
+    for t in tasks:
+        so, ss, sz = t.slices
+        specs.append({"index": t.index, "omega": om[so], "sigma": sg[ss], "zeta": zt[sz],
+                      "kwargs": kwargs, "names": names, "solver": solver,
+                      "time_budget": time_budget})
+    return specs
+
+
 class StudyRun:
     """One run of a study into its (locked) store: repair, resume, compute, summarise."""
 
@@ -230,14 +244,8 @@ class StudyRun:
               flush=True)
 
     def task_specs(self, todo, kwargs) -> list[dict[str, Any]]:
-        om, sg, zt = self.study.axis("omega"), self.study.axis("sigma"), self.study.axis("zeta")
-        specs = []
-        for t in todo:
-            so, ss, sz = t.slices
-            specs.append({"index": t.index, "omega": om[so], "sigma": sg[ss], "zeta": zt[sz],
-                          "kwargs": kwargs, "names": self.names, "solver": self.opts.solver,
-                          "time_budget": self.opts.task_timeout})
-        return specs
+        return task_specs(self.study, todo, kwargs, self.names, self.opts.solver,
+                          self.opts.task_timeout)
 
     def compute(self, client, cluster, todo, n_done, t_setup, own_client) -> dict[str, Any]:
         from distributed import as_completed
