@@ -27,8 +27,10 @@ That first call starts HELPERS background processes (at most one fewer than the 
 compile the leaves, then the integrator's small kernels, from the other end of each list,
 under the same locks, while this process compiles the same lists from their start (before its
 own tree: typing it in call order made this process wait on the helper's lock of a kernel
-whose callees the helper then compiled alone) and loads what they have finished; they exit
-when the lists are done. ``HERTZMAP_COMPILE_HELPERS=0`` turns them off.
+whose callees the helper then compiled alone) and loads what they have finished. The first
+helper then compiles the integrator while this process types its own kernel (typing needs
+only the integrator's signature: ``_fix_signature``); they exit when that is done.
+``HERTZMAP_COMPILE_HELPERS=0`` turns them off.
 
 Why some kernels are linked by symbol. numba links a copy of every callee's optimised code into
 each caller's module and optimises and compiles it again there: every entry point held the whole
@@ -38,10 +40,11 @@ steps, shooting) is compiled once: the kernels that call it keep numba's declara
 and the JIT resolves the call against its loaded machine code. So that this holds in every
 process: its symbol name is the same in every process (numba numbers functions by a
 per-process counter, here replaced for these kernels by a hash of their name), and a kernel
-loads every symbol-linked kernel it may call (its globals, through the kernels it links whole)
-before itself, from the disk cache or compiled. Code numba compiles for anything else (a
-plain ``njit`` function calling a kernel) links all of them whole, as numba does, so it can be
-cached and loaded alone. ``HERTZMAP_SYMBOL_LINK=0`` turns it off (another cache folder).
+loaded from the disk cache first loads every symbol-linked kernel it may call (its globals,
+through the kernels it links whole); one being compiled gets them as it is lowered. Code numba
+compiles for anything else (a plain ``njit`` function calling a kernel) links all of them
+whole, as numba does, so it can be cached and loaded alone. ``HERTZMAP_SYMBOL_LINK=0`` turns
+it off (another cache folder).
 
 Why a typing memo. Most of a cold compile is numba's own Python, not LLVM: typing the generated
 DOP853 steps (thousands of scalar ``+ - * /`` on float64) asked numba's function templates the
