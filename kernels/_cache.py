@@ -14,7 +14,7 @@ import pathlib
 
 import numba
 
-from kernels._jit import symbol_link_enabled
+from kernels._jit import SYMBOL_LINK
 
 
 def kernels_source_hash() -> str:
@@ -24,7 +24,7 @@ def kernels_source_hash() -> str:
         h.update(path.name.encode())
         h.update(path.read_bytes())
     h.update(numba.__version__.encode())
-    h.update(b"link-by-symbol" if symbol_link_enabled() else b"link-whole")
+    h.update(b"link-by-symbol" if SYMBOL_LINK else b"link-whole")
     return h.hexdigest()[:16]
 
 

@@ -124,13 +124,7 @@ TYPING_MEMO = memo_scalar_typing()
 
 #: environment variable: 0 links every kernel whole into its callers, as numba does
 SYMBOL_LINK_ENV = "HERTZMAP_SYMBOL_LINK"
-
-
-def symbol_link_enabled() -> bool:
-    return os.environ.get(SYMBOL_LINK_ENV, "1") != "0"
-
-
-SYMBOL_LINK = symbol_link_enabled()
+SYMBOL_LINK = os.environ.get(SYMBOL_LINK_ENV, "1") != "0"
 #: the Python functions of symbol-linked kernels -> the number numba names them by
 _STABLE_IDS: dict = {}
 #: mangled name -> code library of every symbol-linked kernel this process has loaded
@@ -172,23 +166,22 @@ def _finalize(self):
     self._raise_if_finalized()
     own = bool(_compiling) and self.name == _compiling[-1].py_func.__qualname__
     linked = set()
-    for library in self._linking_libraries:
-        if library in linked:
-            continue
+
+    def link(library, whole=True):
         self._reload_init.update(library._reload_init)
         linked.add(library)
-        if own and getattr(library, "_hertzmap_by_symbol", False):
-            continue
-        self._final_module.link_in(library._get_module_for_linking(), preserve=True)
+        if whole:
+            self._final_module.link_in(library._get_module_for_linking(), preserve=True)
+
+    for library in dict.fromkeys(self._linking_libraries):
+        link(library, whole=not (own and getattr(library, "_hertzmap_by_symbol", False)))
     while not own:
         missing = [lib for name, lib in _SYMBOL_LIBRARIES.items()
                    if lib not in linked and _declares(self._final_module, name)]
         if not missing:
             break
         for library in missing:
-            self._reload_init.update(library._reload_init)
-            linked.add(library)
-            self._final_module.link_in(library._get_module_for_linking(), preserve=True)
+            link(library)
     self._optimize_final_module()
     self._final_module.verify()
     self._finalize_final_module()
@@ -343,13 +336,17 @@ def _fix_signature(dispatcher, signature, locked: bool, deferred: bool) -> None:
     dispatcher.compile_fixed = compile_once
 
 
+def _cache_index(dispatcher) -> str | None:
+    """The path of the kernel's numba cache index; None for a kernel without a disk cache."""
+    cache_file = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
+    return None if cache_file is None else cache_file._index_path
+
+
 def in_disk_cache(dispatcher) -> bool:
     """Has some process written this kernel into the disk cache (so that compiling it will
     load it)? Without a cache: False."""
-    try:
-        return os.path.exists(dispatcher._cache._cache_file._index_path)
-    except AttributeError:
-        return False
+    index = _cache_index(dispatcher)
+    return index is not None and os.path.exists(index)
 
 
 def compiled(dispatcher) -> bool:
@@ -488,8 +485,9 @@ def start_helpers(entry) -> int:
         return 0
     if _module_tail(entry) not in INTEGRATOR_USERS:
         return 0
-    if not hasattr(getattr(entry, "_cache", None), "_cache_file") or in_disk_cache(entry):
-        return 0        # in the disk cache (nothing to share), or no cache
+    index = _cache_index(entry)
+    if index is None or os.path.exists(index):
+        return 0        # no cache, or in it (nothing to share)
     package = entry.py_func.__module__.split(".")[0]
     # a helper compiles the shared stages (everything ``integrate`` calls)
     if all(compiled(d) for stage in shared_stages(package) for d in stage):
