@@ -6,9 +6,9 @@ with numba's whole linking, in one run.
 
 Each round, for HERTZMAP_SYMBOL_LINK=1 (the default) and =0, in that order and then the other: a
 new process with an empty numba cache and no helper processes compiles, one after the other, what
-the default study's workers compile (kernels._jit.compile_shared, the integrator, then
-study.solve.block.entry_kernels with the census and study.solve.curves.curve_kernels): the CPU
-of each kernel (its callees compiled inside it included) and in all. Printed: per kernel the
+the default study's workers compile (kernels._jit.compile_shared, then
+scheduler.worker.warm_up_kernels with the census and the curves): the CPU of each kernel (its
+callees compiled inside it included) and in all. Printed: per kernel the
 medians over the rounds, the totals and the ratio whole / by symbol taken round by round. The
 machine's load average is printed before and after.
 """
@@ -29,14 +29,12 @@ CHILD = """
 import json, time
 import kernels
 from kernels._jit import compile_kernels, compile_shared, kernel_name
-from kernels.integrate import integrate
-from study.solve.block import entry_kernels
-from study.solve.curves import curve_kernels
+from scheduler.worker import warm_up_kernels
 cpu = {}
 t0 = time.process_time()
 compile_shared("kernels", 0, 1, backward=False)
 cpu["shared stages (leaves, the integrator's small kernels)"] = time.process_time() - t0
-for d in [integrate] + entry_kernels(attractors="auto") + curve_kernels():
+for d in warm_up_kernels({"attractors": "auto"}, curves=True):
     t = time.process_time()
     compile_kernels([d])
     cpu[kernel_name(d)] = time.process_time() - t

@@ -35,34 +35,39 @@ def load_solver(path: str = DEFAULT_SOLVER) -> Callable[..., dict]:
     return fn
 
 
+def warm_up_kernels(kwargs: dict[str, Any] | None = None, curves: bool = False) -> list:
+    """What a worker's warm-up compiles after the shared stages (kernels._jit.compile_shared),
+    in order, each once: the integrator (every entry point calls it; typing them needs only
+    its signature, so the other worker types its entries meanwhile), the entry points the
+    study's blocks call (study.solve.block.entry_kernels) and, with ``curves``, those of the
+    traced curves (study.solve.curves.curve_kernels); the census's, the largest, last, where
+    the other worker (which takes the list backward) starts."""
+    from kernels.attractors import attractor_batch_into
+    from kernels.integrate import integrate
+    from study.solve.block import entry_kernels
+    entries = [integrate] + entry_kernels(**(kwargs or {}))
+    if curves:
+        from study.solve.curves import curve_kernels
+        entries += curve_kernels()
+    entries = list(dict.fromkeys(entries))
+    entries.sort(key=lambda d: d is attractor_batch_into)
+    return entries
+
+
 def warm_up(solver: str = DEFAULT_SOLVER, kwargs: dict[str, Any] | None = None,
             order: int = 0, curves: bool = False) -> float:
     """Import the solver and solve one grid point; returns the seconds it took. For the
     default solver, first compile (or load) what every entry point calls (the kernels' leaves,
-    then the integrator's small kernels: kernels._jit.compile_shared), then the entry points
-    the study's blocks call (study.solve.block.entry_kernels) and, with ``curves``, those of
-    the traced curves (study.solve.curves.curve_kernels), each list backward when
-    ``order`` is odd: two workers starting together with an empty cache then compile half
-    each."""
+    then the integrator's small kernels: kernels._jit.compile_shared), then warm_up_kernels,
+    each list backward when ``order`` is odd: two workers starting together with an empty
+    cache then compile half each."""
     t0 = time.perf_counter()
     if solver == DEFAULT_SOLVER:
         from kernels import compile_kernels
         from kernels._jit import compile_shared
-        from study.solve.block import entry_kernels
         backward = order % 2 == 1
         compile_shared("kernels", 0, 1, backward)
-        # then the integrator (every entry point calls it; typing them needs only its
-        # signature, so the other worker types its entries meanwhile), then the entry points
-        # this study calls, in the same order: each compiles its own (large) code on one worker
-        # while the other compiles another; the census's, the largest, last, where the other
-        # worker starts
-        from kernels.attractors import attractor_batch_into
-        from kernels.integrate import integrate
-        entries = [integrate] + entry_kernels(**(kwargs or {}))
-        if curves:
-            from study.solve.curves import curve_kernels
-            entries += curve_kernels()
-        entries.sort(key=lambda d: d is attractor_batch_into)
+        entries = warm_up_kernels(kwargs, curves)
         compile_kernels(entries[::-1] if backward else entries)
     fn = load_solver(solver)
     one = np.array([1.0])
