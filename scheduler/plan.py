@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from study.schema import chunk_counts, chunk_slices
+from study.solve.line import PROBE_POINTS
 from study.spec import Study
 
 #: Estimated seconds of solver work per grid point, per period searched (a 1T search, a 2T
@@ -22,11 +23,16 @@ from study.spec import Study
 #: and for --dry-run estimates.
 SECONDS_PER_POINT = {1: 1.4e-4, 2: 6.4e-4}  # study.solve.block, default window (zeta 0.01, 5 sigma
 #: lines): 0.134 ms per point for 1T, 0.772 ms for 1T + 2T; measured 2026-11-23 on 2 cores
-#: Target duration of one task (seconds). Dask costs a few ms per task: 1 s keeps it < 1 %.
 #: extra per point with [search] discover = true (transients + continuation, ~1.5 s per
 #: 161-point line, docs/discovery.md)
 SECONDS_PER_POINT_DISCOVER = 1e-2
-DEFAULT_TASK_SECONDS = 1.0
+#: Target duration of one task (seconds, as estimated by seconds_per_point). Dask costs a few
+#: ms per task, but the client also writes every finished chunk, one file per variable (~36):
+#: about 65 ms of the client's CPU per task on this project's 2-core VM, where the client
+#: shares the cores with the workers. The default study in tasks of one sigma line (~0.3 s
+#: each) gave the client 40 % of a core and its grid took 1.25-1.3x the wall of tasks of 3-4
+#: lines; the fine map 1.24x (benchmarks/task_size.py).
+DEFAULT_TASK_SECONDS = 2.0
 DEFAULT_TASK_TIMEOUT = 600.0   # wall-clock budget of one task (s): see solve_block's time_budget
 #: Longest omega block in one chunk.
 MAX_OMEGA_CHUNK = 4096
@@ -71,10 +77,16 @@ class Plan:
 #: settle (the full budget of 500 + 128 periods; measured 60-80 ms for 16 states at zeta 0.01,
 #: sigma 2-3); settling ones take a tenth of it.
 SECONDS_PER_CENSUS_STATE = 4.5e-3
-#: Share of grid points assumed to need the census when search.attractors is
-#: "where-none-stable" (those without a stable orbit are not known before the run: a planning
-#: guess, for task sizes and the dry run's estimate only).
-CENSUS_SHARE = 0.05
+#: Share of grid points assumed to need the census for want of a stable orbit when
+#: search.attractors is "where-none-stable" (not known before the run: a planning guess, for
+#: task sizes and the dry run's estimate only). Measured: none of the default study's or the
+#: fine map's points; 35 % of the vibro-impact scene's (whose tasks run longer than planned).
+CENSUS_SHARE = 0.01
+#: Solver seconds per initial state at the census's probe points (study.solve.line
+#: PROBE_POINTS per line, run whatever shooting found): transients that settle on the point's
+#: orbits (~0.65 ms each) and the tracing along the line of what they find (~0.6 ms per state);
+#: the default study's 308 probe points, 2026-11-24.
+SECONDS_PER_PROBE_STATE = 1.25e-3
 
 
 def seconds_per_point(study: Study) -> float:
@@ -87,6 +99,9 @@ def seconds_per_point(study: Study) -> float:
         share = 1.0 if mode == "always" else CENSUS_SHARE
         seconds += share * study.initial_states * SECONDS_PER_CENSUS_STATE \
             * (study.transient_periods + study.record_periods) / 628
+        if mode == "where-none-stable":
+            probes = min(PROBE_POINTS, study.shape[0])
+            seconds += probes * study.initial_states * SECONDS_PER_PROBE_STATE / study.shape[0]
     return seconds
 
 

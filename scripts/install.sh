@@ -5,11 +5,13 @@
 # uv installs the wheels in parallel: 4 s for the dependencies on this project's 2-core VM
 # against pip's 15 s (BENCHMARKS.md, section 6); it is taken from PATH, else installed into the
 # venv (one wheel), and where it cannot be had or fails (no network to PyPI, a local index in
-# pip.conf, which uv does not read) pip installs as before. The bytecode of the dependencies
-# is compiled at install, in parallel: without it every process of a run (the client, each
-# worker, the plots) compiles the source of every module it imports again whenever Python may
-# not write bytecode (PYTHONDONTWRITEBYTECODE), and even where it may, the first run's workers
-# each compile it at once. Stamps in .venv record what was installed: a second run with the
+# pip.conf, which uv does not read) pip installs as before. The bytecode of the modules a run
+# imports is written at install (scripts/compile_bytecode.py, two processes at once): without it
+# every process of a run (the client, each worker, the plots) compiles the source of every
+# module it imports again whenever Python may not write bytecode (PYTHONDONTWRITEBYTECODE), and
+# even where it may, the first run's workers each compile it at once. Only those modules: all
+# of site-packages (uv's --compile-bytecode) took twice as long, mostly for modules no run
+# imports. Stamps in .venv record what was installed: a second run with the
 # same pyproject.toml skips the install when the extras asked for are in (the install is
 # editable: source changes need no reinstall).
 set -euo pipefail
@@ -31,9 +33,16 @@ UV=$(command -v uv || true)
 if [ -z "$UV" ] && .venv/bin/python -m pip install --quiet uv >/dev/null 2>&1; then
     UV=.venv/bin/uv
 fi
-if [ -z "$UV" ] || ! "$UV" pip install --quiet --python .venv/bin/python --compile-bytecode \
-        -e "$TARGET"; then
+if [ -n "$UV" ] && "$UV" pip install --quiet --python .venv/bin/python -e "$TARGET"; then
+    # a failure here costs time only (modules then compile from source): warn, go on
+    .venv/bin/python scripts/compile_bytecode.py client &
+    client=$!
+    .venv/bin/python scripts/compile_bytecode.py worker \
+        || echo "install: writing the workers' bytecode failed (runs are slower, not wrong)" >&2
+    wait "$client" \
+        || echo "install: writing the client's bytecode failed (runs are slower, not wrong)" >&2
+else
     [ -z "$UV" ] || echo "install: uv could not install hertzmap; installing with pip" >&2
-    .venv/bin/python -m pip install --quiet -e "$TARGET"
+    .venv/bin/python -m pip install --quiet -e "$TARGET"      # pip compiles all the bytecode
 fi
 printf '%s' "$PROJECT" > ".venv/.hertzmap-installed-${EXTRAS:-base}"
