@@ -19,7 +19,8 @@ cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}
 EXTRAS=${1:-}
 if [ ! -x .venv/bin/python ]; then
-    "$PY" -m venv .venv
+    # without pip: ensurepip took 3.7 s of the fresh install; pip comes with uv's install below
+    "$PY" -m venv --without-pip .venv
 fi
 PROJECT="$(cat pyproject.toml)"
 for stamp in ".venv/.hertzmap-installed-${EXTRAS:-base}" .venv/.hertzmap-installed-test; do
@@ -29,11 +30,17 @@ for stamp in ".venv/.hertzmap-installed-${EXTRAS:-base}" .venv/.hertzmap-install
     [ -z "$EXTRAS" ] || break       # only the test extras satisfy `install.sh test`
 done
 TARGET=".${EXTRAS:+[$EXTRAS]}"
+has_pip() { .venv/bin/python -m pip --version >/dev/null 2>&1; }
 UV=$(command -v uv || true)
-if [ -z "$UV" ] && .venv/bin/python -m pip install --quiet uv >/dev/null 2>&1; then
-    UV=.venv/bin/uv
+if [ -z "$UV" ]; then
+    # into the venv, by the interpreter's own pip (pip >= 22.3: --python), else by the venv's
+    if "$PY" -m pip --python .venv/bin/python install --quiet uv >/dev/null 2>&1 \
+            || { { has_pip || .venv/bin/python -m ensurepip >/dev/null 2>&1; } \
+                 && .venv/bin/python -m pip install --quiet uv >/dev/null 2>&1; }; then
+        UV=.venv/bin/uv
+    fi
 fi
-if [ -n "$UV" ] && "$UV" pip install --quiet --python .venv/bin/python -e "$TARGET"; then
+if [ -n "$UV" ] && "$UV" pip install --quiet --python .venv/bin/python -e "$TARGET" pip; then
     # a failure here costs time only (modules then compile from source): warn, go on
     .venv/bin/python scripts/compile_bytecode.py client &
     client=$!
@@ -43,6 +50,7 @@ if [ -n "$UV" ] && "$UV" pip install --quiet --python .venv/bin/python -e "$TARG
         || echo "install: writing the client's bytecode failed (runs are slower, not wrong)" >&2
 else
     [ -z "$UV" ] || echo "install: uv could not install hertzmap; installing with pip" >&2
+    has_pip || .venv/bin/python -m ensurepip >/dev/null
     .venv/bin/python -m pip install --quiet -e "$TARGET"      # pip compiles all the bytecode
 fi
 printf '%s' "$PROJECT" > ".venv/.hertzmap-installed-${EXTRAS:-base}"
