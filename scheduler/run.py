@@ -13,6 +13,7 @@ import importlib.util
 import math
 import sys
 import time
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
@@ -81,22 +82,43 @@ def run_study(study: Study, opts: RunOptions, *, out: TextIO | None = None,
     check_resources(study, plan, opts.store,
                     new_store=opts.overwrite or not note.startswith("exists (same"))
     chunks = choose_chunks(study, opts.task_seconds)
-    early = None
-    if client is None and opts.cluster.kind != "local" and not _store_complete(
-            study, opts.store, len(plan.tasks), note):
+    early = warming = None
+    t_setup = time.perf_counter()
+    if client is None and not _store_complete(study, opts.store, len(plan.tasks), note):
         # connect (an existing scheduler) or have the first worker jobs accepted (a batch
         # system) before anything is written: an unreachable scheduler or a refused option
-        # changes nothing
+        # changes nothing. The embedded cluster starts here too, and its workers compile the
+        # kernels while this process creates the store (1-1.5 s of the client's on the
+        # default study, otherwise spent before the workers start)
         early = make_client(opts.cluster, report=_printer(out))
+        if opts.cluster.kind == "local":
+            warming = start_warm_up(early[0], study, opts)
     try:
         store, resumed = open_or_create(opts.store, study, chunks, overwrite=opts.overwrite,
                                         action=f"{opts.command}: created")
         with Lock(store.path):
-            return StudyRun(study, opts, store, out, err).run(resumed, client, early)
+            return StudyRun(study, opts, store, out, err).run(resumed, client, early, warming,
+                                                              t_setup)
     except BaseException:
         if early is not None:
             close_quietly(*early)
         raise
+
+
+def warm_up_plugin(study: Study, opts: RunOptions) -> Warmup:
+    """The worker plugin that compiles (or loads) the study's kernels on every worker."""
+    return Warmup(opts.solver, study.solver_kwargs(), curves="curves" in study.products)
+
+
+def start_warm_up(client, study: Study, opts: RunOptions) -> Future:
+    """Register the warm-up plugin from a thread: the returned future is done when every
+    current worker has run it (its exception, if any, is raised by ``result()``)."""
+    pool = ThreadPoolExecutor(1, thread_name_prefix="hertzmap-warmup")
+    try:
+        return pool.submit(client.register_plugin, warm_up_plugin(study, opts),
+                           name="hertzmap-warmup")
+    finally:
+        pool.shutdown(wait=False)
 
 
 def _printer(stream: TextIO):
@@ -160,6 +182,7 @@ class StudyRun:
         self.names = stored_variables(study)
         self.interrupt = DeferInterrupt()
         self.futures: list = []
+        self.warming: Future | None = None        # the warm-up registered in the background
         self.summary: dict[str, Any] = {"store": str(store.path), "tasks_total": len(self.plan.tasks),
                                         "tasks_done_before": 0, "tasks_run": 0, "failed": []}
         # the traced curves of a study with the "curves" output, after its grid
@@ -199,7 +222,8 @@ class StudyRun:
         print(f"resuming {self.store.path}: {n_done}/{total} tasks already done", file=self.out)
 
     # -- the run --------------------------------------------------------------------------
-    def run(self, resumed: bool, client=None, early=None) -> dict[str, Any]:
+    def run(self, resumed: bool, client=None, early=None, warming: Future | None = None,
+            t_setup: float | None = None) -> dict[str, Any]:
         if resumed:
             self.repair()
         done = self.store.done_mask()
@@ -214,13 +238,17 @@ class StudyRun:
             self.summary.update(complete=True, wall=0.0)
             if self.curves.pending():
                 return self.curves_only(client, early)
+            if early is not None:
+                close_quietly(*early)
             return self.summary
         own_client = client is None
         cluster = None
-        t_setup = time.perf_counter()
+        if early is None or t_setup is None:
+            t_setup = time.perf_counter()
         if own_client:
             client, cluster = early if early is not None else make_client(
                 self.opts.cluster, report=_printer(self.out))
+        self.warming = warming
         try:
             with self.interrupt:
                 return self.compute(client, cluster, todo, n_done, t_setup, own_client)
@@ -268,9 +296,10 @@ class StudyRun:
             client.wait_for_workers(opts.cluster.workers if opts.cluster.kind == "address"
                                     and opts.cluster.workers else 1)
         kwargs = self.study.solver_kwargs()
-        client.register_plugin(Warmup(opts.solver, kwargs,
-                                      curves="curves" in self.study.products),
-                               name="hertzmap-warmup")
+        if self.warming is not None:
+            self.warming.result()       # registered when the embedded cluster started
+        else:
+            client.register_plugin(warm_up_plugin(self.study, opts), name="hertzmap-warmup")
         n_workers = worker_count(client)
         setup = time.perf_counter() - t_setup
         dash = client.dashboard_link if _has_dashboard(client) else "unavailable (pip install bokeh)"
