@@ -32,7 +32,8 @@ line search (study.solve.line) finds its branch ends with it, the traced curves'
 """
 from __future__ import annotations
 
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -104,13 +105,19 @@ def class_codes(ok, period, stable, loses_contact) -> np.ndarray:
 
 def class_code(orbit) -> int:
     """Class code of one converged orbit: a solution mapping (study.solve) or a kernels.Orbit."""
-    get = orbit.get if isinstance(orbit, Mapping) else lambda k: getattr(orbit, k)
+    get = orbit.get if _is_mapping(orbit) else lambda k: getattr(orbit, k)
     return int(class_codes(True, get("period"), bool(get("stable")),
                            bool(get("loses_contact"))))
 
 
+def _is_mapping(x) -> bool:
+    # the solver's orbits are dicts: the exact type test first (the ABC's check is ~10x slower
+    # and same_orbit runs ~30,000 times per 20 lines of the default study)
+    return type(x) is dict or isinstance(x, Mapping)
+
+
 def _trace(orbit: Any) -> float:
-    if isinstance(orbit, Mapping):
+    if _is_mapping(orbit):
         if "trace" in orbit:
             return float(orbit["trace"])
         return float(np.sum(orbit["multipliers"]).real)
@@ -120,8 +127,8 @@ def _trace(orbit: Any) -> float:
 def same_orbit(a, b) -> bool:
     """The identity rule on two converged orbits (mappings with period, min_q, max_q, ptp and
     trace or multipliers, or kernels.Orbit objects)."""
-    get_a = a.get if isinstance(a, Mapping) else lambda k: getattr(a, k)
-    get_b = b.get if isinstance(b, Mapping) else lambda k: getattr(b, k)
+    get_a = a.get if _is_mapping(a) else lambda k: getattr(a, k)
+    get_b = b.get if _is_mapping(b) else lambda k: getattr(b, k)
     if get_a("period") != get_b("period"):
         return False
     tol = SAME_ORBIT_TOL * (1.0 + abs(get_a("ptp")))
