@@ -33,6 +33,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from benchmarks.machine import load_average  # noqa: E402
 from benchmarks.run_summary import run_summary  # noqa: E402
 
 ORBIT = ("import time, os; import kernels; "
@@ -42,7 +43,7 @@ ORBIT = ("import time, os; import kernels; "
 
 
 def load() -> str:
-    return "load average " + " ".join(f"{x:.2f}" for x in os.getloadavg())
+    return "load average " + load_average()
 
 
 def first_orbit(cache: str) -> tuple[float, float, float]:

@@ -7,7 +7,7 @@ pair (A B, then B A, ...), in one session.
 
 Each run clones the repository at the revision into a new temporary folder and points
 XDG_CACHE_HOME at a new empty folder (uv's, pip's and hertzmap's numba caches all live under
-it), then runs the three lines of scripts/run-default.sh one after the other, timing each: the
+it), then runs the three commands of its scripts/run-default.sh one after the other, timing each: the
 install (scripts/install.sh), ``hertzmap run studies/default.toml`` (its setup, grid and
 curves as it prints them: benchmarks.run_summary) and ``hertzmap plot``. The whole is their
 sum (the script itself adds nothing but bash's start). The machine's load average is printed
@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import shlex
 import statistics
 import subprocess
 import sys
@@ -27,16 +28,20 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from benchmarks.machine import load_average  # noqa: E402
 from benchmarks.run_summary import run_summary  # noqa: E402
 
-#: the lines of scripts/run-default.sh (without its "$@")
-STEPS = (("install", ["bash", "scripts/install.sh"]),
-         ("run", [".venv/bin/hertzmap", "run", "studies/default.toml"]),
-         ("plot", [".venv/bin/hertzmap", "plot", "results/default.zarr"]))
-
-
-def load() -> str:
-    return " ".join(f"{x:.2f}" for x in os.getloadavg())
+def steps(clone: Path) -> list[tuple[str, list[str]]]:
+    """The commands of the clone's own scripts/run-default.sh (without its "$@"), named by what
+    they do: install, run, plot."""
+    out = []
+    for line in (clone / "scripts" / "run-default.sh").read_text().splitlines():
+        cmd = [w for w in shlex.split(line, comments=True) if w != "$@"]
+        if not cmd or cmd[0] in ("set", "cd"):
+            continue
+        name = "install" if cmd[-1].endswith("install.sh") else cmd[1]
+        out.append((name, cmd))
+    return out
 
 
 def one_run(rev: str) -> dict:
@@ -46,8 +51,8 @@ def one_run(rev: str) -> dict:
         subprocess.run(["git", "-C", str(clone), "checkout", "-q", rev], check=True)
         env = dict(os.environ, XDG_CACHE_HOME=str(cache))
         env.pop("NUMBA_CACHE_DIR", None)
-        got = {"load": load()}
-        for name, cmd in STEPS:
+        got = {"load": load_average()}
+        for name, cmd in steps(clone):
             t0 = time.perf_counter()
             p = subprocess.run(cmd, cwd=clone, env=env, capture_output=True, text=True)
             got[name] = time.perf_counter() - t0
@@ -76,7 +81,7 @@ def main(argv=None) -> int:
                                 capture_output=True, text=True, check=True).stdout.strip()}
     if a.vs:
         revs["B"] = a.vs
-    print(f"the README command on a fresh clone, empty caches: "
+    print("the README command on a fresh clone, empty caches: "
           + ", ".join(f"{k} = {v}" for k, v in revs.items()))
     wholes = {k: [] for k in revs}
     ratios = []
@@ -96,7 +101,7 @@ def main(argv=None) -> int:
     if ratios:
         print(f"B / A, pair by pair: median {statistics.median(ratios):.2f}x "
               f"({', '.join(f'{r:.2f}' for r in ratios)})")
-    print(f"load average at the end {load()}")
+    print(f"load average at the end {load_average()}")
     return 0
 
 

@@ -29,7 +29,6 @@
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 from collections import defaultdict
@@ -40,6 +39,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from benchmarks.machine import load_average  # noqa: E402
 from kernels import status as st  # noqa: E402
 from kernels.api import DEFAULT_MAX_STEPS  # noqa: E402
 from kernels.model import MODELS  # noqa: E402
@@ -168,7 +168,7 @@ def main(argv=None) -> int:
     study = load_study(a.study)
     kw = study.solver_kwargs()
     print(f"{study.name}: every {a.every}th sigma line; load average "
-          + " ".join(f"{x:.2f}" for x in os.getloadavg()), flush=True)
+          + load_average(), flush=True)
     # compile (or load) everything first: the first line would otherwise pay it
     first = next(lines(study, a.every))
     block_mod.solve_block(first[0][:8], first[1], first[2], **kw)

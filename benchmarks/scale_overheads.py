@@ -37,6 +37,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from benchmarks.machine import load_average  # noqa: E402
+
 
 def big_study_file(folder: str) -> str:
     text = (ROOT / "studies" / "fine_map.toml").read_text()
@@ -75,7 +77,7 @@ def main(argv=None) -> int:
         study = load_study(a.study or big_study_file(tmp))
         chunks = choose_chunks(study)
         print(f"{study.name}: {study.size:,} points, chunk {chunks}; load average "
-              + " ".join(f"{x:.2f}" for x in os.getloadavg()), flush=True)
+              + load_average(), flush=True)
 
         # 1. client bookkeeping
         tracemalloc.start()

@@ -15,7 +15,6 @@ is taken from theirs.
 from __future__ import annotations
 
 import argparse
-import os
 import re
 import statistics
 import subprocess
@@ -29,11 +28,12 @@ import psutil
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from benchmarks.machine import load_average  # noqa: E402
 from benchmarks.run_summary import run_summary  # noqa: E402
 
 
 def load() -> str:
-    return "load average " + " ".join(f"{x:.2f}" for x in os.getloadavg())
+    return "load average " + load_average()
 
 
 def one_run(study: str, task_seconds: float) -> dict:

@@ -27,11 +27,10 @@ SECONDS_PER_POINT = {1: 1.4e-4, 2: 6.4e-4}  # study.solve.block, default window 
 #: 161-point line, docs/discovery.md)
 SECONDS_PER_POINT_DISCOVER = 1e-2
 #: Target duration of one task (seconds, as estimated by seconds_per_point). Dask costs a few
-#: ms per task, but the client also writes every finished chunk, one file per variable (~36):
-#: about 65 ms of the client's CPU per task on this project's 2-core VM, where the client
-#: shares the cores with the workers. The default study in tasks of one sigma line (~0.3 s
-#: each) gave the client 40 % of a core and its grid took 1.25-1.3x the wall of tasks of 3-4
-#: lines; the fine map 1.24x (benchmarks/task_size.py).
+#: ms per task, but the client also writes every finished chunk, one file per variable (~36),
+#: and on a small machine shares the cores with the workers: the default study in 77 tasks of
+#: one sigma line (~0.3 s each) cost the client 8.6-9.8 s of CPU against 5.6-6.2 s in 26 tasks
+#: of three, and its grid 1.09-1.14x the wall (benchmarks/task_size.py).
 DEFAULT_TASK_SECONDS = 2.0
 DEFAULT_TASK_TIMEOUT = 600.0   # wall-clock budget of one task (s): see solve_block's time_budget
 #: Longest omega block in one chunk.
@@ -84,8 +83,9 @@ SECONDS_PER_CENSUS_STATE = 4.5e-3
 CENSUS_SHARE = 0.01
 #: Solver seconds per initial state at the census's probe points (study.solve.line
 #: PROBE_POINTS per line, run whatever shooting found): transients that settle on the point's
-#: orbits (~0.65 ms each) and the tracing along the line of what they find (~0.6 ms per state);
-#: the default study's 308 probe points, 2026-11-24.
+#: orbits and the tracing along the line of what they find. benchmarks/grid_cost.py on the
+#: default study (no point there without a stable orbit: the census phase is all probes):
+#: 1.56-1.75 s for 80 probe points of 16 states, 1.2-1.4 ms per state.
 SECONDS_PER_PROBE_STATE = 1.25e-3
 
 

@@ -82,14 +82,14 @@ def run_study(study: Study, opts: RunOptions, *, out: TextIO | None = None,
     check_resources(study, plan, opts.store,
                     new_store=opts.overwrite or not note.startswith("exists (same"))
     chunks = choose_chunks(study, opts.task_seconds)
-    early = warming = None
-    t_setup = time.perf_counter()
+    early = warming = t_setup = None
     if client is None and not _store_complete(study, opts.store, len(plan.tasks), note):
         # connect (an existing scheduler) or have the first worker jobs accepted (a batch
         # system) before anything is written: an unreachable scheduler or a refused option
         # changes nothing. The embedded cluster starts here too, and its workers compile the
         # kernels while this process creates the store (1-1.5 s of the client's on the
         # default study, otherwise spent before the workers start)
+        t_setup = time.perf_counter()
         early = make_client(opts.cluster, report=_printer(out))
         if opts.cluster.kind == "local":
             warming = start_warm_up(early[0], study, opts)
@@ -97,8 +97,8 @@ def run_study(study: Study, opts: RunOptions, *, out: TextIO | None = None,
         store, resumed = open_or_create(opts.store, study, chunks, overwrite=opts.overwrite,
                                         action=f"{opts.command}: created")
         with Lock(store.path):
-            return StudyRun(study, opts, store, out, err).run(resumed, client, early, warming,
-                                                              t_setup)
+            return StudyRun(study, opts, store, out, err, warming).run(resumed, client, early,
+                                                                       t_setup)
     except BaseException:
         if early is not None:
             close_quietly(*early)
@@ -172,7 +172,8 @@ def task_specs(study: Study, tasks, kwargs: dict[str, Any], names, solver,
 class StudyRun:
     """One run of a study into its (locked) store: repair, resume, compute, summarise."""
 
-    def __init__(self, study: Study, opts: RunOptions, store: Store, out: TextIO, err: TextIO):
+    def __init__(self, study: Study, opts: RunOptions, store: Store, out: TextIO, err: TextIO,
+                 warming: Future | None = None):
         self.study = study
         self.opts = opts
         self.store = store
@@ -182,7 +183,8 @@ class StudyRun:
         self.names = stored_variables(study)
         self.interrupt = DeferInterrupt()
         self.futures: list = []
-        self.warming: Future | None = None        # the warm-up registered in the background
+        #: the warm-up plugin's registration, started with the embedded cluster (start_warm_up)
+        self.warming = warming
         self.summary: dict[str, Any] = {"store": str(store.path), "tasks_total": len(self.plan.tasks),
                                         "tasks_done_before": 0, "tasks_run": 0, "failed": []}
         # the traced curves of a study with the "curves" output, after its grid
@@ -222,8 +224,10 @@ class StudyRun:
         print(f"resuming {self.store.path}: {n_done}/{total} tasks already done", file=self.out)
 
     # -- the run --------------------------------------------------------------------------
-    def run(self, resumed: bool, client=None, early=None, warming: Future | None = None,
+    def run(self, resumed: bool, client=None, early=None,
             t_setup: float | None = None) -> dict[str, Any]:
+        """``early``: (client, cluster) made before the store was opened, used instead of
+        making them; ``t_setup``: when the setup began (the cluster's start), else now."""
         if resumed:
             self.repair()
         done = self.store.done_mask()
@@ -243,12 +247,11 @@ class StudyRun:
             return self.summary
         own_client = client is None
         cluster = None
-        if early is None or t_setup is None:
+        if t_setup is None:
             t_setup = time.perf_counter()
         if own_client:
             client, cluster = early if early is not None else make_client(
                 self.opts.cluster, report=_printer(self.out))
-        self.warming = warming
         try:
             with self.interrupt:
                 return self.compute(client, cluster, todo, n_done, t_setup, own_client)
