@@ -107,3 +107,63 @@ def test_census_where_none_stable_names_the_motion_on_the_vibro_impact_line():
 def test_census_never_runs_nothing():
     ls = search(np.linspace(0.6, 1.0, 5), 2.0, census=("never", 16, 500, 128))
     assert not ls.attractors
+
+
+# A stable 16T orbit the census meets on studies/fine_map.toml's line sigma = 0.939 (grid point
+# 233 of 250) at omega = 1.1667 (point 133 of 400): a bouncing motion with long flights, born
+# from a flip of an unstable 8T orbit; its branch spans omega ~1.139 .. 1.247.
+FINE_OMEGA = np.linspace(0.5, 2.5, 400)
+FINE_SIGMA = 0.05 + 233 * 0.95 / 249
+FINE_I = 133
+
+
+@pytest.fixture(scope="module")
+def orbit_16t():
+    from study.solve.point import shoot_seeds_minimal
+    got = shoot_seeds_minimal(FINE_OMEGA[FINE_I], FINE_SIGMA, 0.01, 16, [(-11.1085, -2.8141)],
+                              OPTIONS)
+    sol = got[0]
+    assert sol["status"] == st.CONVERGED and sol["period"] == 16 and sol["stable"]
+    return sol
+
+
+def test_arc_path_follows_a_long_period_branch_with_full_steps(orbit_16t):
+    """The forward difference in omega errs by 1e-3 of its column on this 16T map: the
+    corrector converged linearly and the steps fell to ~1e-3 of arc length (omega +4.5e-5 per
+    point). With the central difference it switches to, 150 points go beyond the branch's
+    end (omega 1.247), each a fixed point of the 16T map."""
+    from kernels.continuation import System
+    from study.solve.line import arc_path
+    system = System(0.01, 1.5, "hertz", 1e-10)
+    h = FINE_OMEGA[1] - FINE_OMEGA[0]
+    points = []
+    arc_path(system, np.asarray(orbit_16t["x0"]), FINE_OMEGA[FINE_I], FINE_SIGMA, 16, 1.0,
+             0.5 - h, 2.5 + h, ds=2 * h, dp_max=h, max_points=150,
+             on_step=lambda a, b: points.append(b.copy()) or True)
+    U = np.array(points)
+    assert U[:, 2].max() > 1.25
+    for u in U[::15]:
+        # the corrector's tolerance is loose (1e-7 relative, the points only seed Newton)
+        phi, _, code = system.map(u[:2], u[2], FINE_SIGMA, 16)
+        assert code == st.CONVERGED
+        assert np.hypot(*(phi - u[:2])) < 1e-5 * (1 + np.hypot(*u[:2]))
+
+
+def test_a_trace_stops_where_its_path_joins_the_lower_period_branch(orbit_16t, monkeypatch):
+    """Beyond omega 1.247 the 16T branch ends on the 8T orbit it doubled from; a path that
+    goes on follows the 8T branch (a closed loop, traced as a double cover: 2,400 points, the
+    whole budget, before). The trace stops there, having kept the 16T orbits of the grid
+    points the branch crosses."""
+    import study.solve.line as line
+    taken = []
+    arc_path = line.arc_path
+    monkeypatch.setattr(line, "arc_path", lambda *a, **k: taken.append(arc_path(*a, **k))
+                        or taken[-1])
+    ls = LineSearch(FINE_OMEGA, FINE_SIGMA, 0.01, (1, 2), OPTIONS)
+    ls.per_point[FINE_I].append(dict(orbit_16t, omega=FINE_OMEGA[FINE_I]))
+    ls.trace(FINE_I, ls.per_point[FINE_I][-1], +1, past_fold=True)
+    found = [FINE_OMEGA[i] for i in range(FINE_OMEGA.size)
+             if any(s["period"] == 16 for s in ls.per_point[i])]
+    assert min(found) == FINE_OMEGA[FINE_I] and max(found) > 1.24
+    assert len(found) >= 15
+    assert sum(taken) < 400
