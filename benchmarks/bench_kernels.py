@@ -28,7 +28,6 @@ import subprocess
 import sys
 import tempfile
 import time
-from math import pi
 
 import numpy as np
 

@@ -14,8 +14,6 @@ from __future__ import annotations
 import argparse
 import time
 
-import numpy as np
-
 import study.solve.census as census_module
 from study.solve.line import LineSearch
 from study.spec import load_study

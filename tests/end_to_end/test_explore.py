@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.helpers import REPO, free_port, hertzmap_cmd, subprocess_env
+from tests.helpers import free_port, hertzmap_cmd, subprocess_env
 
 CHROMIUM = os.environ.get("HERTZMAP_CHROMIUM", "/usr/bin/chromium")
 CHROMEDRIVER = os.environ.get("HERTZMAP_CHROMEDRIVER", "/usr/bin/chromedriver")
