@@ -400,7 +400,7 @@ def arc_path(system, x0, omega, sigma, period, direction, w_lo, w_hi, *, ds, dp_
     (ratio 0.3 per iteration), the step fell to 1/30 of ds and the path spent its whole
     point budget (2 x 2,400 points, 48,000 maps of 16 periods: 7 s, 89 % of that line); with
     the central difference the corrector converges in 3-4 iterations at 4 ds. Paths that never
-    stall are those of the forward difference, bit for bit.
+    stall keep the forward difference.
 
     The steps grow (by 1.5 after a corrector of at most 2 iterations) to 4 ds times
     max(1, |x|): in arc length the state dominates, and the long-flight orbits the census
