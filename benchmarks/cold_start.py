@@ -33,17 +33,13 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from benchmarks.machine import load_average  # noqa: E402
+from benchmarks.machine import load_line  # noqa: E402
 from benchmarks.run_summary import run_summary  # noqa: E402
 
 ORBIT = ("import time, os; import kernels; "
          "o = kernels.shoot(1.5, 0.2, 0.01, 1, guess=(-0.16, 0.006)); "
          "assert o.status == 0, o; "
          "print(time.time(), time.process_time())")
-
-
-def load() -> str:
-    return "load average " + load_average()
 
 
 def first_orbit(cache: str) -> tuple[float, float, float]:
@@ -78,7 +74,7 @@ def main(argv=None) -> int:
     ap.add_argument("--rounds", type=int, default=2, help="cold/warm pairs of the first orbit")
     ap.add_argument("--no-study", action="store_true", help="skip the default study")
     a = ap.parse_args(argv)
-    print(f"cores {os.cpu_count()}; {load()}; helpers: "
+    print(f"cores {os.cpu_count()}; {load_line()}; helpers: "
           f"{os.environ.get('HERTZMAP_COMPILE_HELPERS', 'default')}; typing memo: "
           f"{os.environ.get('HERTZMAP_TYPING_MEMO', 'on')}", flush=True)
 
@@ -99,7 +95,7 @@ def main(argv=None) -> int:
               f"{med(c[1] for c, _ in rows):.2f} s), {med(c[2] for c, _ in rows):.2f} s CPU; "
               f"warm disk cache {med(w[0] for _, w in rows):.2f} s wall, "
               f"{med(w[2] for _, w in rows):.2f} s CPU; cold / warm "
-              f"{med(c[0] / w[0] for c, w in rows):.1f}x (pair by pair); {load()}", flush=True)
+              f"{med(c[0] / w[0] for c, w in rows):.1f}x (pair by pair); {load_line()}", flush=True)
 
     if not a.no_study:
         with tempfile.TemporaryDirectory(prefix="hertzmap-cold-") as tmp:
@@ -111,7 +107,7 @@ def main(argv=None) -> int:
                   f"{s['wall']:.1f} s wall ({s['compute']:.1f} s of task time), whole command "
                   f"{s['whole']:.1f} s", flush=True)
         print(f"default study: setup cold / warm {cold['setup'] / warm['setup']:.1f}x, whole "
-              f"command cold / warm {cold['whole'] / warm['whole']:.1f}x; {load()}", flush=True)
+              f"command cold / warm {cold['whole'] / warm['whole']:.1f}x; {load_line()}", flush=True)
     return 0
 
 

@@ -26,7 +26,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from benchmarks.machine import load_average  # noqa: E402
+from benchmarks.machine import load_line  # noqa: E402
 
 CHILD = """
 import json, time
@@ -46,10 +46,6 @@ print(json.dumps(cpu))
 """
 
 
-def load() -> str:
-    return "load average " + load_average()
-
-
 def compile_once(symbol: bool) -> dict[str, float]:
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache, HERTZMAP_COMPILE_HELPERS="0",
@@ -63,7 +59,7 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=1)
     args = parser.parse_args(argv)
-    print(f"cores {os.cpu_count()}; {load()}")
+    print(f"cores {os.cpu_count()}; {load_line()}")
     runs = {True: [], False: []}
     for r in range(args.rounds):
         for symbol in ((True, False) if r % 2 == 0 else (False, True)):
@@ -78,7 +74,7 @@ def main(argv=None) -> None:
     print(f"the default study's kernels compiled serially, CPU: linked by symbol "
           f"{statistics.median(r['all'] for r in runs[True]):.1f} s, whole "
           f"{statistics.median(r['all'] for r in runs[False]):.1f} s; whole / by symbol "
-          f"{statistics.median(ratios):.2f}x (round by round); {load()}")
+          f"{statistics.median(ratios):.2f}x (round by round); {load_line()}")
 
 
 if __name__ == "__main__":

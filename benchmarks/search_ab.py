@@ -14,7 +14,7 @@ benchmarks/orbit_census.py in both trees. Every ``--every``-th sigma line (from 
 is one block, solved by A then B, then B then A on the next line (a drift of the machine's
 speed falls on both alike); CPU is this process's. Orbits come from the solver's own lists
 (16 slots: none dropped), classed by study.orbits and compared orbit by orbit with its identity
-rule (study.orbits.same_orbit: period, min q, max q, tr M).
+rule, as benchmarks/census_comparison.py reads them (its orbits_of).
 """
 from __future__ import annotations
 
@@ -31,12 +31,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from benchmarks.census_comparison import SLOTS, orbits_of  # noqa: E402
 from benchmarks.machine import load_average  # noqa: E402
 from study.orbits import CLASS_NAMES, class_codes, same_orbit  # noqa: E402
 from study.solve import block as block_mod  # noqa: E402
 from study.spec import load_study  # noqa: E402
-
-SLOTS = 16
 
 
 def line_module(rev: str, folder: str):
@@ -50,16 +49,6 @@ def line_module(rev: str, folder: str):
     sys.modules[path.stem] = mod            # dataclasses look their module up there
     spec.loader.exec_module(mod)
     return mod
-
-
-def orbits(r) -> list[list[dict]]:
-    """Per omega point of a one-line block, its converged orbits as the identity rule needs."""
-    ok = r["status"][:, 0, 0, :] == 0
-    return [[dict(period=int(r["period"][i, 0, 0, k]), min_q=float(r["min_q"][i, 0, 0, k]),
-                  max_q=float(r["max_q"][i, 0, 0, k]), ptp=float(r["ptp"][i, 0, 0, k]),
-                  trace=float(r["multipliers"][i, 0, 0, k].sum().real),
-                  stable=bool(r["stable"][i, 0, 0, k]))
-             for k in np.nonzero(ok[i])[0]] for i in range(ok.shape[0])]
 
 
 def main() -> None:
@@ -94,7 +83,7 @@ def main() -> None:
                     ok = r["status"] == 0
                     codes = class_codes(ok, r["period"], r["stable"], r["loses_contact"])
                     count[w] += np.bincount(codes[ok].ravel(), minlength=size)
-                oa, ob = orbits(got["A"]), orbits(got["B"])
+                oa, ob = orbits_of(got["A"]), orbits_of(got["B"])
                 for i in range(omega.size):
                     lost += [(omega[i], sigma[j], o["period"], o["stable"]) for o in ob[i]
                              if not any(same_orbit(o, x) for x in oa[i])]

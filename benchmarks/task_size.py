@@ -28,12 +28,8 @@ import psutil
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from benchmarks.machine import load_average  # noqa: E402
+from benchmarks.machine import load_line  # noqa: E402
 from benchmarks.run_summary import run_summary  # noqa: E402
-
-
-def load() -> str:
-    return "load average " + load_average()
 
 
 def one_run(study: str, task_seconds: float) -> dict:
@@ -66,7 +62,7 @@ def main(argv=None) -> int:
     ap.add_argument("--b", type=float, default=2.0, help="task seconds of run B (the default)")
     ap.add_argument("--pairs", type=int, default=2)
     args = ap.parse_args(argv)
-    print(f"{args.study}; A: --task-seconds {args.a}, B: --task-seconds {args.b}; {load()}")
+    print(f"{args.study}; A: --task-seconds {args.a}, B: --task-seconds {args.b}; {load_line()}")
     ratios = []
     for k in range(args.pairs):
         order = ("A", "B") if k % 2 == 0 else ("B", "A")
@@ -76,7 +72,7 @@ def main(argv=None) -> int:
             print(f"  {name}: {r['tasks']:4d} tasks, grid {r['wall']:6.2f} s wall, task compute "
                   f"{r['compute']:6.2f} s, client CPU {r['client']:5.2f} s (whole run)")
         ratios.append(got["A"]["wall"] / got["B"]["wall"])
-        print(f"pair {k + 1}: grid wall A / B = {ratios[-1]:.2f}x; {load()}")
+        print(f"pair {k + 1}: grid wall A / B = {ratios[-1]:.2f}x; {load_line()}")
     print(f"median A / B over {len(ratios)} pairs: {statistics.median(ratios):.2f}x")
     return 0
 

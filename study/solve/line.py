@@ -55,7 +55,8 @@ MMS_SEED_SPACING = 0.0125
 PROBE_POINTS = 4
 #: Branch ends traced per line and period.
 MAX_TURNS = 12
-#: A trace stops after this many grid crossings in a row that give known orbits.
+#: A trace stops after this many grid crossings in a row that give known orbits (or orbits of
+#: a lower period: LineSearch.trace).
 KNOWN_RUN = 2
 #: A trace's steps change omega by at most this many grid steps (every grid point crossed is
 #: solved for, whatever the steps)
@@ -232,13 +233,12 @@ class LineSearch:
             got = [g for g in shoot_seeds_minimal(self.omega[k], self.sigma, self.zeta, period,
                                                   [x], self.options)
                    if g["status"] == st.CONVERGED]
-            if got and got[0]["period"] != period and period % got[0]["period"] == 0:
-                # an orbit of a lower period: the path has left the branch at a flip of that
-                # orbit, onto the branch it doubled from (traced as a double cover)
+            if got and got[0]["period"] < period:
+                # its minimal period divides this one: the path has left the branch at a flip
+                # of that orbit, onto the branch it doubled from (traced as a double cover)
                 state["lower"] += 1
                 return None
             state["lower"] = 0
-            got = [g for g in got if g["period"] == period]
             return got[0] if got else None
 
         def continues(a, b) -> bool:
@@ -396,11 +396,12 @@ def arc_path(system, x0, omega, sigma, period, direction, w_lo, w_hi, *, ds, dp_
 
     Why the switch: the forward difference's error grows with the map's curvature in omega,
     which grows with the period. On a stable 16T orbit met by the census (studies/fine_map.toml,
-    sigma 0.939, omega 1.167) it erred by 1e-3 of the column, the corrector converged linearly
-    (ratio 0.3 per iteration), the step fell to 1/30 of ds and the path spent its whole
-    point budget (2 x 2,400 points, 48,000 maps of 16 periods: 7 s, 89 % of that line); with
-    the central difference the corrector converges in 3-4 iterations at 4 ds. Paths that never
-    stall keep the forward difference.
+    sigma 0.939, omega 1.167) the corrector converged only linearly, the steps shrank and the
+    path spent its whole point budget (2,400 points each way; tests/study/solve/test_line.py
+    follows that path). That line's search took 7.1 s, 0.6 s with the switch (and the trace's
+    stop on a lower period): ``benchmarks/search_ab.py --vs 2ec7ef9 --study
+    studies/fine_map.toml --every 250 --offset 233``. Paths that never stall keep the forward
+    difference.
 
     The steps grow (by 1.5 after a corrector of at most 2 iterations) to 4 ds times
     max(1, |x|): in arc length the state dominates, and the long-flight orbits the census
@@ -445,7 +446,7 @@ def arc_path(system, x0, omega, sigma, period, direction, w_lo, w_hi, *, ds, dp_
         while h > 1e-7 * ds and accepted is None:
             pred = u + h * t
             v = pred.copy()
-            stalled, dv_prev = False, None
+            step_prev = shrinking = None
             for it in range(1, CORRECTOR_ITERATIONS + 1):
                 F, J = residual(v)
                 if F is None:
@@ -456,17 +457,18 @@ def arc_path(system, x0, omega, sigma, period, direction, w_lo, w_hi, *, ds, dp_
                 except np.linalg.LinAlgError:
                     break
                 v = v + dv
-                if np.linalg.norm(dv) <= tol * (1.0 + np.linalg.norm(v)):
+                step = np.linalg.norm(dv)
+                if step <= tol * (1.0 + np.linalg.norm(v)):
                     t_new = tangent(J, t)
                     if t_new @ t > 0.9 and np.linalg.norm(v - pred) <= 0.5 * h:
                         accepted = (v, t_new, it)
                     break
-                stalled = it == CORRECTOR_ITERATIONS and dv_prev is not None \
-                    and np.linalg.norm(dv) < np.linalg.norm(dv_prev)
-                dv_prev = dv
-            if accepted is None and stalled and not central:
-                central = True          # the same step again, with the better derivative
-            elif accepted is None:
+                shrinking, step_prev = step_prev is not None and step < step_prev, step
+            else:
+                if shrinking and not central:
+                    central = True      # stalled: the same step again, the better derivative
+                    continue
+            if accepted is None:
                 h *= 0.5
         if accepted is None:
             break

@@ -128,10 +128,10 @@ def orbit_16t():
 
 
 def test_arc_path_follows_a_long_period_branch_with_full_steps(orbit_16t):
-    """The forward difference in omega errs by 1e-3 of its column on this 16T map: the
-    corrector converged linearly and the steps fell to ~1e-3 of arc length (omega +4.5e-5 per
-    point). With the central difference it switches to, 150 points go beyond the branch's
-    end (omega 1.247), each a fixed point of the 16T map."""
+    """On this 16T map the forward difference in omega leaves the corrector converging only
+    linearly: with it alone, 150 points reached omega 1.173 (this test fails there). With the
+    central difference arc_path switches to, they go beyond the branch's end (omega 1.247),
+    each a fixed point of the 16T map."""
     from kernels.continuation import System
     from study.solve.line import arc_path
     system = System(0.01, 1.5, "hertz", 1e-10)
