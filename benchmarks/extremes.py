@@ -1,5 +1,5 @@
 """The extreme-case table of benchmarks/extreme_cases.py (tested by tests/kernels/test_extremes.py),
-as markdown (for BENCHMARKS.md).
+as markdown (for RELIABILITY.md).
 
     .venv/bin/python benchmarks/extremes.py        (about 10-20 s with a warm numba cache)
 
