@@ -34,7 +34,7 @@ def compare_solves(rev: str) -> int:
     from bench_kernels import CASES
 
     a = importlib.import_module(extract(rev, Path(tempfile.mkdtemp())))
-    import kernels as b
+    import hertzmap.kernels as b
 
     rng = np.random.default_rng(1)
     n = differ = 0
@@ -59,7 +59,7 @@ def compare_solves(rev: str) -> int:
 
 
 def save_block(path: str) -> None:
-    from study.solve.block import solve_block
+    from hertzmap.study.solve.block import solve_block
 
     out = solve_block(np.linspace(0.5, 2.5, 400), np.array([0.3, 0.6, 0.9]), np.array([0.01]))
     np.savez(path, **{k: np.asarray(v) for k, v in out.items()})

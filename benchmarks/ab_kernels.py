@@ -84,8 +84,8 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         os.environ.setdefault("NUMBA_CACHE_DIR", str(Path(tmp) / "numba"))
         pkg_a = extract(a.rev, Path(tmp))
-        from kernels import shoot
-        from kernels.shooting import N_FIELDS, shoot_batch_into as new_into
+        from hertzmap.kernels import shoot
+        from hertzmap.kernels.shooting import N_FIELDS, shoot_batch_into as new_into
         old_into = importlib.import_module(f"{pkg_a}.shooting").shoot_batch_into
         print(f"A = kernels/ of {a.rev}, B = the working tree; ratio A/B > 1: B is faster")
         for name, omega, sigma, zeta, m, guess in CASES:

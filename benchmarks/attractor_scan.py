@@ -23,8 +23,8 @@ import time
 
 import numpy as np
 
-from kernels import attractor, attractor_batch, shoot, status
-from kernels.shooting import F as ORBIT
+from hertzmap.kernels import attractor, attractor_batch, shoot, status
+from hertzmap.kernels.shooting import F as ORBIT
 
 STATES = np.array([(0.0, 0.0), (-1.0, 1.0), (1.0, -1.0), (2.0, 2.0), (-3.0, 0.0), (0.5, 3.0),
                    (-2.0, -2.0), (3.0, 0.5)])

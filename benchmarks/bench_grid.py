@@ -72,7 +72,7 @@ def _noop(i):
 
 
 def cold_start(cache_dir: str) -> float:
-    code = ("import time; t = time.perf_counter(); from scheduler.worker import warm_up; "
+    code = ("import time; t = time.perf_counter(); from hertzmap.scheduler.worker import warm_up; "
             "warm_up(); print(time.perf_counter() - t)")
     env = dict(os.environ, NUMBA_CACHE_DIR=cache_dir)
     r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
@@ -84,7 +84,7 @@ def _solve_default_window(_):
     """Seconds per block (4 sigma lines x 161 omega of the default window), best of 3."""
     import numpy as np
 
-    from study.solve.block import solve_block
+    from hertzmap.study.solve.block import solve_block
     omega, sigma, zeta = np.linspace(0.5, 2.5, 161), np.array([0.1, 0.3, 0.5, 0.8]), np.array([0.01])
     solve_block(omega[:5], sigma[:1], zeta, harmonics=False)      # kernels from the cache
     times = []
@@ -111,9 +111,9 @@ def machine_ceiling() -> float:
 
 
 def run_on(workers: int, study, tmp: Path) -> dict:
-    from scheduler.cluster import ClusterSpec, make_client
-    from scheduler.run import RunOptions, run_study
-    from scheduler.store import read_attrs
+    from hertzmap.scheduler.cluster import ClusterSpec, make_client
+    from hertzmap.scheduler.run import RunOptions, run_study
+    from hertzmap.scheduler.store import read_attrs
 
     spec = ClusterSpec(kind="local", workers=workers)
     client, cluster = make_client(spec)     # the cluster `hertzmap run` would start
@@ -153,8 +153,8 @@ def main(argv=None):
     ap.add_argument("--no-cold-start", action="store_true", help="skip the numba cold-start figure")
     a = ap.parse_args(argv)
     if a.with_profiler:
-        import scheduler.cluster
-        scheduler.cluster.CLUSTER_CONFIG = {**scheduler.cluster.CLUSTER_CONFIG,
+        from hertzmap.scheduler import cluster
+        cluster.CLUSTER_CONFIG = {**cluster.CLUSTER_CONFIG,
                                             "distributed.worker.profile.enabled": True}
     if a.ceiling:
         machine_ceiling()
@@ -163,7 +163,7 @@ def main(argv=None):
     import logging
     for name in ("distributed", "tornado", "asyncio"):   # shutdown chatter (closed comms)
         logging.getLogger(name).setLevel(logging.CRITICAL)
-    from study.spec import load_study
+    from hertzmap.study.spec import load_study
 
     print(f"machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f} at start "
           "(shared machine: timings are noisy)")

@@ -35,10 +35,10 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 
 from benchmarks import oracle  # noqa: E402  (scipy reference, shares no code with kernels/)
 
-from kernels import shoot  # noqa: E402
-from kernels.shooting import N_FIELDS, shoot_batch_into  # noqa: E402
+from hertzmap.kernels import shoot  # noqa: E402
+from hertzmap.kernels.shooting import N_FIELDS, shoot_batch_into  # noqa: E402
 from benchmarks.work_precision import bare_step_seconds, paper_scheme_xtol  # noqa: E402
-from kernels.central_difference import cd_shoot, cd_shoot_tuned  # noqa: E402
+from hertzmap.kernels.central_difference import cd_shoot, cd_shoot_tuned  # noqa: E402
 
 CASES = [
     # name, omega, sigma, zeta, period, rough guess

@@ -22,7 +22,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from study.solve.block import solve_block  # noqa: E402
+from hertzmap.study.solve.block import solve_block  # noqa: E402
 
 
 def main(argv=None):

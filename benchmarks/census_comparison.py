@@ -28,9 +28,9 @@ import time
 
 import numpy as np
 
-from study.orbits import CLASS_NAMES, class_codes, same_orbit
-from study.solve.block import solve_block
-from study.spec import load_study
+from hertzmap.study.orbits import CLASS_NAMES, class_codes, same_orbit
+from hertzmap.study.solve.block import solve_block
+from hertzmap.study.spec import load_study
 
 SEARCHES = {"before": dict(turn_folds=False, seed_strides=(1, 1)),
             "no-census": dict(turn_folds=True, attractors="never"),

@@ -75,8 +75,7 @@ def main(argv=None) -> int:
     ap.add_argument("--no-study", action="store_true", help="skip the default study")
     a = ap.parse_args(argv)
     print(f"cores {os.cpu_count()}; {load_line()}; helpers: "
-          f"{os.environ.get('HERTZMAP_COMPILE_HELPERS', 'default')}; typing memo: "
-          f"{os.environ.get('HERTZMAP_TYPING_MEMO', 'on')}", flush=True)
+          f"{os.environ.get('HERTZMAP_COMPILE_HELPERS', 'default')}", flush=True)
 
     rows = []
     for r in range(a.rounds):      # --rounds 0: the study only

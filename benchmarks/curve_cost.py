@@ -42,11 +42,11 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.run_summary import run_summary
-from kernels import continuation as cont
-from kernels import shoot, shoot_batch
-from study.products.curves import contour_lines
-from study.solve.discovery import discover_line
-from study.solve.seeds import linear_response_seed
+from hertzmap.kernels import continuation as cont
+from hertzmap.kernels import shoot, shoot_batch
+from hertzmap.study.products.curves import contour_lines
+from hertzmap.study.solve.discovery import discover_line
+from hertzmap.study.solve.seeds import linear_response_seed
 
 REPO = Path(__file__).resolve().parent.parent
 AUTO_MS_PER_POINT = 1.0
@@ -291,7 +291,7 @@ def run_scene(text, store, label):
     with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as f:
         f.write(text)
     t0 = time.perf_counter()
-    r = subprocess.run([sys.executable, "-m", "scheduler.cli", "run", f.name, "--store",
+    r = subprocess.run([sys.executable, "-m", "hertzmap.scheduler.cli", "run", f.name, "--store",
                         str(store), "--workers", "2"],
                        capture_output=True, text=True, cwd=REPO)
     total = time.perf_counter() - t0

@@ -61,7 +61,7 @@ def main(argv=None):
     ap.add_argument("--each", action="store_true",
                     help="also each setting of CLUSTER_CONFIG alone, on Dask's defaults")
     a = ap.parse_args(argv)
-    from scheduler.cluster import CLUSTER_CONFIG
+    from hertzmap.scheduler.cluster import CLUSTER_CONFIG
 
     configs = {"Dask defaults": {}, "scheduler.cluster.CLUSTER_CONFIG": CLUSTER_CONFIG}
     if a.each:

@@ -23,7 +23,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 def solve_one_block(_tag):
     import time
 
-    from study.solve.block import solve_block
+    from hertzmap.study.solve.block import solve_block
     t0 = time.perf_counter()
     solve_block(np.linspace(0.5, 2.5, 161), np.array([0.4, 0.5]), np.array([0.01]),
                 periods=(1, 2), rtol=1e-10)

@@ -9,8 +9,8 @@ import argparse
 
 import numpy as np
 
-from study.orbits import CLASS_NAMES
-from study.solve.discovery import discover_line
+from hertzmap.study.orbits import CLASS_NAMES
+from hertzmap.study.solve.discovery import discover_line
 
 
 def main(argv=None) -> int:

@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from kernels import shoot, simulate
+from hertzmap.kernels import shoot, simulate
 
 
 RTOL = 1e-10
@@ -63,7 +63,7 @@ ROUTES = {
 def continuation_guess(omega, sigma, zeta, m, n, route):
     """A start point for (omega, sigma) from continuation along ``route`` (see ROUTES): the
     branch's last point past the target value, or None if the branch does not get there."""
-    from kernels.continuation import continue_orbit
+    from hertzmap.kernels.continuation import continue_orbit
 
     param, start, kw = route
     w0, s0 = (omega, start) if param == "sigma" else (start, sigma)
@@ -154,7 +154,7 @@ def solve_case(omega, sigma, zeta, m, n, extra_guess=None) -> dict:
 
 def _events(omega, sigma, zeta, m, x0, n):
     """Contact switches per orbit (losses + recontacts) from the kernel's batch output."""
-    from kernels import shoot_batch
+    from hertzmap.kernels import shoot_batch
     r = shoot_batch(omega, sigma, zeta, m, x0[0], x0[1], exponent=n, rtol=RTOL)
     return int(r["events"][()]) if np.isfinite(r["events"][()]) else 0
 

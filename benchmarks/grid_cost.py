@@ -40,18 +40,18 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from benchmarks.machine import load_average  # noqa: E402
-from kernels import status as st  # noqa: E402
-from kernels.api import DEFAULT_MAX_STEPS  # noqa: E402
-from kernels.model import MODELS  # noqa: E402
-from kernels import attractors as attractors_mod  # noqa: E402
-from kernels.shooting import F, N_FIELDS, shoot_batch_into  # noqa: E402
-from kernels import continuation as cont_mod  # noqa: E402
-from study.solve import block as block_mod  # noqa: E402
-from study.solve import census as census_mod  # noqa: E402
-from study.solve import line as line_mod  # noqa: E402
-from study.solve import point as point_mod  # noqa: E402
-from study.orbits import same_orbit  # noqa: E402
-from study.spec import load_study  # noqa: E402
+from hertzmap.kernels import status as st  # noqa: E402
+from hertzmap.kernels.api import DEFAULT_MAX_STEPS  # noqa: E402
+from hertzmap.kernels.model import MODELS  # noqa: E402
+from hertzmap.kernels import attractors as attractors_mod  # noqa: E402
+from hertzmap.kernels.shooting import F, N_FIELDS, shoot_batch_into  # noqa: E402
+from hertzmap.kernels import continuation as cont_mod  # noqa: E402
+from hertzmap.study.solve import block as block_mod  # noqa: E402
+from hertzmap.study.solve import census as census_mod  # noqa: E402
+from hertzmap.study.solve import line as line_mod  # noqa: E402
+from hertzmap.study.solve import point as point_mod  # noqa: E402
+from hertzmap.study.orbits import same_orbit  # noqa: E402
+from hertzmap.study.spec import load_study  # noqa: E402
 
 
 def lines(study, every: int):

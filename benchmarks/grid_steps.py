@@ -15,8 +15,8 @@ from collections import defaultdict
 
 import numpy as np
 
-import study.solve.block as block
-from kernels.shooting import F
+import hertzmap.study.solve.block as block
+from hertzmap.kernels.shooting import F
 
 
 def main() -> None:

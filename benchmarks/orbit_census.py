@@ -35,7 +35,7 @@ LINES = [
 
 
 def census() -> dict[str, np.ndarray]:
-    from study.solve.block import solve_block
+    from hertzmap.study.solve.block import solve_block
 
     out = {}
     for i, (name, omega, sigma, zeta, kw) in enumerate(LINES):

@@ -14,10 +14,10 @@ import time
 
 import numpy as np
 
-from kernels import continuation as cont
-from study.analytic import multiple_scales as ms
-from study.solve.seeds import linear_response_seed
-from study.solve.discovery import discover_line
+from hertzmap.kernels import continuation as cont
+from hertzmap.study.analytic import multiple_scales as ms
+from hertzmap.study.solve.seeds import linear_response_seed
+from hertzmap.study.solve.discovery import discover_line
 
 RTOLS = (1e-8, 1e-10, 1e-12)
 

@@ -55,7 +55,7 @@ def noop(i):
 
 def block_payload(nbytes_spec):
     names, shape, slots = nbytes_spec
-    from study.schema import empty_arrays
+    from hertzmap.study.schema import empty_arrays
     return {"index": (0, 0, 0), "arrays": empty_arrays(shape, slots, names), "seconds": 0.0}
 
 
@@ -65,12 +65,12 @@ def main(argv=None) -> int:
     ap.add_argument("--tasks", type=int, default=2000)
     a = ap.parse_args(argv)
 
-    from scheduler.plan import choose_chunks, make_plan
-    from scheduler.run import task_specs
-    from scheduler.store import Store
-    from study.schema import empty_arrays, stored_variables
-    from study.solve.block import solve_block
-    from study.spec import load_study
+    from hertzmap.scheduler.plan import choose_chunks, make_plan
+    from hertzmap.scheduler.run import task_specs
+    from hertzmap.scheduler.store import Store
+    from hertzmap.study.schema import empty_arrays, stored_variables
+    from hertzmap.study.solve.block import solve_block
+    from hertzmap.study.spec import load_study
 
     tmp = tempfile.mkdtemp(prefix="hertzmap-scale-")
     try:

@@ -33,9 +33,9 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.census_comparison import SLOTS, orbits_of  # noqa: E402
 from benchmarks.machine import load_average  # noqa: E402
-from study.orbits import CLASS_NAMES, class_codes, same_orbit  # noqa: E402
-from study.solve import block as block_mod  # noqa: E402
-from study.spec import load_study  # noqa: E402
+from hertzmap.study.orbits import CLASS_NAMES, class_codes, same_orbit  # noqa: E402
+from hertzmap.study.solve import block as block_mod  # noqa: E402
+from hertzmap.study.spec import load_study  # noqa: E402
 
 
 def line_module(rev: str, folder: str):

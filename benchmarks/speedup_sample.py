@@ -31,9 +31,9 @@ sys.path.insert(0, str(ROOT))
 
 from bench_kernels import RTOLS, per_call  # noqa: E402  (same directory)
 
-from kernels import shoot  # noqa: E402
-from kernels.central_difference import cd_shoot, cd_shoot_tuned  # noqa: E402
-from kernels.shooting import N_FIELDS, shoot_batch_into  # noqa: E402
+from hertzmap.kernels import shoot  # noqa: E402
+from hertzmap.kernels.central_difference import cd_shoot, cd_shoot_tuned  # noqa: E402
+from hertzmap.kernels.shooting import N_FIELDS, shoot_batch_into  # noqa: E402
 from benchmarks.work_precision import paper_scheme_xtol  # noqa: E402
 
 N_PAPER = 10_000

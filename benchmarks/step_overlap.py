@@ -25,7 +25,7 @@ from numba import njit
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from kernels._dop853 import step_var  # noqa: E402
+from hertzmap.kernels._dop853 import step_var  # noqa: E402
 from benchmarks.work_precision import STEP_PARAMS, seconds_per_step, step_loop  # noqa: E402
 
 N = 300_000     # steps per timing

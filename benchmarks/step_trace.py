@@ -23,8 +23,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-import kernels.integrate as integ  # noqa: E402
-from kernels import shoot  # noqa: E402
+import hertzmap.kernels.integrate as integ  # noqa: E402
+from hertzmap.kernels import shoot  # noqa: E402
 
 MODE_NAMES = {integ.MODE_T: "t", integ.MODE_RECONTACT: "rec", integ.MODE_LOSS: "loss",
               integ.MODE_HEIGHT: "hgt"}

@@ -23,9 +23,9 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from bench_grid import STUDY  # noqa: E402
-from scheduler.plan import choose_chunks, make_plan  # noqa: E402
-from scheduler.worker import run_task  # noqa: E402
-from study.spec import load_study  # noqa: E402
+from hertzmap.scheduler.plan import choose_chunks, make_plan  # noqa: E402
+from hertzmap.scheduler.worker import run_task  # noqa: E402
+from hertzmap.study.spec import load_study  # noqa: E402
 
 
 def makespan(seconds: np.ndarray, order, workers: int = 2) -> float:

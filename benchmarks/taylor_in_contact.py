@@ -27,9 +27,9 @@ from numba import njit
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-import kernels.integrate as integ  # noqa: E402
-from kernels import shoot  # noqa: E402
-from kernels.shooting import _start  # noqa: E402  (y = (q, q', Phi = I))
+import hertzmap.kernels.integrate as integ  # noqa: E402
+from hertzmap.kernels import shoot  # noqa: E402
+from hertzmap.kernels.shooting import _start  # noqa: E402  (y = (q, q', Phi = I))
 
 CASES = [  # name, omega, sigma, zeta, period, rough guess (benchmarks/bench_kernels.py)
     ("1T in contact", 1.5, 0.2, 0.01, 1, (-0.16, 0.006)),

@@ -26,10 +26,10 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, ".."))
 
-from kernels._dop853 import step_state  # noqa: E402
-from kernels.attractors import (A, N_ATTRACTOR_FIELDS, N_LYAPUNOV_FIELDS,  # noqa: E402
+from hertzmap.kernels._dop853 import step_state  # noqa: E402
+from hertzmap.kernels.attractors import (A, N_ATTRACTOR_FIELDS, N_LYAPUNOV_FIELDS,  # noqa: E402
                                 attractor_batch_into, lyapunov_into)
-from kernels.shooting import N_FIELDS  # noqa: E402
+from hertzmap.kernels.shooting import N_FIELDS  # noqa: E402
 from benchmarks.work_precision import bare_step_seconds, seconds_per_step, step_loop  # noqa: E402
 
 CASES = [

@@ -14,9 +14,9 @@ from __future__ import annotations
 import argparse
 import time
 
-import study.solve.census as census_module
-from study.solve.line import LineSearch
-from study.spec import load_study
+import hertzmap.study.solve.census as census_module
+from hertzmap.study.solve.line import LineSearch
+from hertzmap.study.spec import load_study
 
 
 def main(argv=None) -> int:

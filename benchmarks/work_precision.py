@@ -102,7 +102,7 @@ def paper_scheme_xtol(omega, sigma, zeta, m, guess, exponent, x_ref, N) -> tuple
     point is as accurate (within 1 %) as at 1e-10. Its discretisation error dominates long
     before; a tighter xtol only adds iterations (three period maps each), which would flatter
     the comparison. Returns (xtol, Newton iterations)."""
-    from kernels.central_difference import cd_shoot
+    from hertzmap.kernels.central_difference import cd_shoot
 
     out = np.zeros(9)
     found = {}
@@ -183,7 +183,7 @@ def bare_step_seconds(n: int = 500_000, chained: bool = False, adaptive: bool = 
     ``adaptive=True``: chained, each step's size waiting for the previous step's error norm, as
     in any adaptive integrator: the floor one can actually reach. See ``step_loop``.
     """
-    from kernels._dop853 import step_var
+    from hertzmap.kernels._dop853 import step_var
 
     mode = "adaptive" if adaptive else ("chained" if chained else "repeated")
     return seconds_per_step(step_loop(step_var, mode), n)
@@ -202,10 +202,10 @@ def mult_error(mu, mu_ref) -> float:
 # -- one case ---------------------------------------------------------------------------------
 
 def run_case(name, omega, sigma, zeta, m, rough, cfg, log=print) -> list[Point]:
-    from kernels import shoot
-    from kernels import status as kst
-    from kernels.central_difference import cd_shoot, cd_shoot_tuned
-    from kernels.shooting import FIELDS, N_FIELDS, shoot_batch_into
+    from hertzmap.kernels import shoot
+    from hertzmap.kernels import status as kst
+    from hertzmap.kernels.central_difference import cd_shoot, cd_shoot_tuned
+    from hertzmap.kernels.shooting import FIELDS, N_FIELDS, shoot_batch_into
 
     ref = shoot(omega, sigma, zeta, m, guess=rough, rtol=REF_RTOL, exponent=N_EXP)
     if not ref.converged:

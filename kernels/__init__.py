@@ -2,7 +2,7 @@
 
 Public API::
 
-    from kernels import shoot, shoot_batch, simulate, Orbit, status
+    from hertzmap.kernels import shoot, shoot_batch, simulate, Orbit, status
     orbit = shoot(omega, sigma, zeta, period=1, guess=(q0, v0), exponent=1.5, rtol=1e-10)
     a = attractor(omega, sigma, zeta, x0=(q0, v0), transient_periods=1000, record_periods=500)
 
@@ -11,13 +11,13 @@ integrator steps), ``integrate`` (events, dense output, measures), ``shooting`` 
 ``attractors`` (stroboscopic transients, period detection, Lyapunov exponents),
 ``central_difference`` (the paper's own scheme, baseline), ``api`` (this interface).
 """
-from kernels._cache import configure_cache_dir
+from hertzmap.kernels._cache import configure_cache_dir
 
 CACHE_DIR = configure_cache_dir()   # before any kernel module is compiled
 
-from kernels import status  # noqa: E402
-from kernels._jit import compile_kernels, leaf_kernels  # noqa: E402
-from kernels.api import (Attractor, Orbit, attractor, attractor_batch, lyapunov,  # noqa: E402
+from hertzmap.kernels import status  # noqa: E402
+from hertzmap.kernels._jit import compile_kernels, leaf_kernels  # noqa: E402
+from hertzmap.kernels.api import (Attractor, Orbit, attractor, attractor_batch, lyapunov,  # noqa: E402
                          shoot, shoot_batch, simulate)
 
 __all__ = ["Attractor", "Orbit", "attractor", "attractor_batch", "compile_kernels",

@@ -5,16 +5,12 @@ in another module does: after an edit of integrate.py, shooting.py's cached mach
 still hold the old integrator, silently. Pointing the cache at a folder named after a hash of
 all kernels/*.py makes any change to any kernel a fresh cache, shared by every process (Dask
 workers included) that runs the same code. NUMBA_CACHE_DIR, if set, is respected as a root.
-Kernels linked by symbol (kernels._jit) and kernels linked whole never share a folder: a cached
-caller of one kind cannot be loaded by a process of the other.
 """
 import hashlib
 import os
 import pathlib
 
 import numba
-
-from kernels._jit import SYMBOL_LINK
 
 
 def kernels_source_hash() -> str:
@@ -24,7 +20,6 @@ def kernels_source_hash() -> str:
         h.update(path.name.encode())
         h.update(path.read_bytes())
     h.update(numba.__version__.encode())
-    h.update(b"link-by-symbol" if SYMBOL_LINK else b"link-whole")
     return h.hexdigest()[:16]
 
 

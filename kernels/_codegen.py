@@ -5,7 +5,7 @@ tableau dropped and the state held in scalars, costs about half of a generic loo
 tableau (numerics.md). Code built with ``exec`` cannot be cached by numba, so the generator
 writes a module file that is committed; ``tests/test_codegen.py`` checks it is up to date.
 
-Run:  python -m kernels._codegen        (rewrites kernels/_dop853.py)
+Run:  python -m hertzmap.kernels._codegen        (rewrites kernels/_dop853.py)
 
 The tableau is Hairer's DOP853 (Hairer, Norsett & Wanner, Solving ODEs I, sec. II.10), taken
 from scipy's published coefficients so that the two implementations share the exact numbers.
@@ -33,10 +33,10 @@ The error norm is Hairer's combined 5th/3rd order estimate (as in scipy) on all 
 """
 from math import cos, sin, sqrt
 
-from kernels._jit import kernel
-from kernels.model import contact_side_force as rhs_force
-from kernels.model import cos_shifted
-from kernels.model import contact_side_force_and_stiffness as rhs_force_and_stiffness
+from hertzmap.kernels._jit import kernel
+from hertzmap.kernels.model import contact_side_force as rhs_force
+from hertzmap.kernels.model import cos_shifted
+from hertzmap.kernels.model import contact_side_force_and_stiffness as rhs_force_and_stiffness
 
 '''
 
@@ -72,7 +72,7 @@ def _step(name: str, variational: bool, timemap: bool = False, heightmap: bool =
     every stage derivative is multiplied by dt/dx = 2 x / q' (q' < 0 on the way down).
 
     With ``inline``, LLVM copies the step into its callers' code (``forceinline``); without,
-    its callers call its one compiled copy (``link="symbol"``, kernels._jit)."""
+    its callers each link a copy of its compiled code (numba's way)."""
     A, B, C, E3, E5 = _c.A, _c.B, _c.C, _c.E3, _c.E5
     comps = ["q", "v", "a", "b", "c", "d"] if variational else ["q", "v"]
     L = []
@@ -81,7 +81,7 @@ def _step(name: str, variational: bool, timemap: bool = False, heightmap: bool =
     if timemap or heightmap:
         sig = sig.replace(", float64, float64)", ", float64, float64, float64, float64)")
         extra = ", t_ref, sgn"
-    inlined = ', inline="llvm"' if inline else ', link="symbol"'
+    inlined = ', inline="llvm"' if inline else ""
     L.append(f'@kernel("{sig}"{inlined})')
     L.append(f"def {name}(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol{extra}):")
     L.append("    tz = 2.0 * zeta")

@@ -13,10 +13,10 @@ The error norm is Hairer's combined 5th/3rd order estimate (as in scipy) on all 
 """
 from math import cos, sin, sqrt
 
-from kernels._jit import kernel
-from kernels.model import contact_side_force as rhs_force
-from kernels.model import cos_shifted
-from kernels.model import contact_side_force_and_stiffness as rhs_force_and_stiffness
+from hertzmap.kernels._jit import kernel
+from hertzmap.kernels.model import contact_side_force as rhs_force
+from hertzmap.kernels.model import cos_shifted
+from hertzmap.kernels.model import contact_side_force_and_stiffness as rhs_force_and_stiffness
 
 
 @kernel("float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64)", inline="llvm")
@@ -292,7 +292,7 @@ def step_var(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, at
     return abs(h) * e5 / sqrt(6.0 * (e5 + 0.01 * e3))
 
 
-@kernel("float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64)", link="symbol")
+@kernel("float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64)")
 def step_state(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol):
     tz = 2.0 * zeta
     phi0 = omega * t
@@ -502,7 +502,7 @@ def dense_coefficients(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P):
     P[6, 1] = h * (-25.69393346270375 * k0v + -154.18974869023643 * k5v + -231.5293791760455 * k6v + 357.6391179106141 * k7v + 93.40532418362432 * k8v + -37.45832313645163 * k9v + 104.0996495089623 * k10v + 29.8402934266605 * k11v + -43.53345659001114 * k12v + 96.32455395918828 * k13v + -39.17726167561544 * k14v + -149.72683625798564 * k15v)
 
 
-@kernel("float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64)", link="symbol")
+@kernel("float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64)")
 def step_var_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol, t_ref, sgn):
     tz = 2.0 * zeta
     phi0 = omega * (t_ref + sgn * t * t)
@@ -799,7 +799,7 @@ def step_var_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     return abs(h) * e5 / sqrt(6.0 * (e5 + 0.01 * e3))
 
 
-@kernel("float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64)", link="symbol")
+@kernel("float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64)")
 def step_state_w(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol, t_ref, sgn):
     tz = 2.0 * zeta
     phi0 = omega * (t_ref + sgn * t * t)
@@ -1039,7 +1039,7 @@ def dense_coefficients_w(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P,
     P[6, 1] = h * (-25.69393346270375 * k0v + -154.18974869023643 * k5v + -231.5293791760455 * k6v + 357.6391179106141 * k7v + 93.40532418362432 * k8v + -37.45832313645163 * k9v + 104.0996495089623 * k10v + 29.8402934266605 * k11v + -43.53345659001114 * k12v + 96.32455395918828 * k13v + -39.17726167561544 * k14v + -149.72683625798564 * k15v)
 
 
-@kernel("float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64)", link="symbol")
+@kernel("float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64)")
 def step_var_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol, t_ref, sgn):
     tz = 2.0 * zeta
     phi0 = omega * (t_ref + y[0])
@@ -1336,7 +1336,7 @@ def step_var_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     return abs(h) * e5 / sqrt(6.0 * (e5 + 0.01 * e3))
 
 
-@kernel("float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64)", link="symbol")
+@kernel("float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64)")
 def step_state_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol, t_ref, sgn):
     tz = 2.0 * zeta
     phi0 = omega * (t_ref + y[0])

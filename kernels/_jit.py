@@ -32,47 +32,39 @@ helper then compiles the integrator while this process types its own kernel (typ
 only the integrator's signature: ``_fix_signature``); they exit when that is done.
 ``HERTZMAP_COMPILE_HELPERS=0`` turns them off.
 
-Why some kernels are linked by symbol. numba links a copy of every callee's optimised code into
-each caller's module and optimises and compiles it again there: every entry point held the whole
-integrator (about 21,000 LLVM instructions) and spent 1.5-2 s of LLVM on it again, about a
-third of a study's cold compile. A kernel declared ``link="symbol"`` (the integrator, its large
-steps, shooting) is compiled once: the kernels that call it keep numba's declaration of it
-and the JIT resolves the call against its loaded machine code. So that this holds in every
-process: its symbol name is the same in every process (numba numbers functions by a
-per-process counter, here replaced for these kernels by a hash of their name), and a kernel
-loaded from the disk cache first loads every symbol-linked kernel it may call (its globals,
-through the kernels it links whole); one being compiled gets them as it is lowered. Code numba
-compiles for anything else (a plain ``njit`` function calling a kernel) links all of them
-whole, as numba does, so it can be cached and loaded alone. ``HERTZMAP_SYMBOL_LINK=0`` turns
-it off (another cache folder).
-
-Why a typing memo. Most of a cold compile is numba's own Python, not LLVM: typing the generated
-DOP853 steps (thousands of scalar ``+ - * /`` on float64) asked numba's function templates the
-same question at every operation (about 11 templates each, the numpy ufunc loop search among
-them): a fifth of the CPU of a first orbit. ``memo_scalar_typing`` keeps the answer numba gave
-for a function type and scalar argument types (float, integer, boolean; no literals, no
-keywords) and gives it again: the same signature object, so typing, lowering and the machine
-code are those numba would make without it. ``HERTZMAP_TYPING_MEMO=0`` turns it off.
+What is numba's own and what is not. No class of numba's is patched: an earlier version linked
+the large kernels by symbol (replacing ``CPUCodeLibrary.finalize`` and
+``FunctionIdentity.from_function``) and memoised numba's scalar typing (replacing
+``types.Function.get_call_type``) for a quicker cold compile, which made every numba release a
+new risk for every numba user in the process. What stays, the fixed signature compiled on
+first use, sets methods on the kernels' own dispatcher objects and reads three of their private
+members (``_can_compile``, ``_compile_for_args``, ``_compiler.fold_argument_types``); it is on
+only for the numba versions in CHECKED_NUMBA, which tests/kernels/test_jit.py pins (the lock
+file installs one of them). On any other version ``kernel`` is numba's plain lazy ``njit``: the same arithmetic, without the lock and the
+helpers, and possibly more than one specialisation of a kernel.
 """
 from __future__ import annotations
 
-import hashlib
 import os
 import subprocess
 import sys
 import time
-import types as pytypes
 from contextlib import contextmanager
 
 import numba
 from numba import njit
-from numba.core import bytecode, codegen, sigutils, typing
+from numba.core import sigutils, typing
 from numba.core.dispatcher import Dispatcher
 
 try:
     import fcntl
 except ImportError:     # not on POSIX: no lock, each process compiles what it needs
     fcntl = None
+
+#: the numba versions the lazy fixed signature (``_fix_signature``) was checked on: the whole
+#: test suite passed with each (uv.lock pins one). On any other, kernels are plain njit.
+CHECKED_NUMBA = ("0.68.1",)
+LAZY_SIGNATURES = numba.__version__ in CHECKED_NUMBA
 
 #: every kernel with a fixed signature, in definition order (modules are imported callees
 #: first, so a kernel's callees mostly come before it)
@@ -84,147 +76,7 @@ LOCK_TIMEOUT = 900.0
 HELPERS_ENV = "HERTZMAP_COMPILE_HELPERS"
 
 
-#: environment variable: 0 turns the scalar typing memo off (benchmarks/cold_start.py compares)
-TYPING_MEMO_ENV = "HERTZMAP_TYPING_MEMO"
-
-
-def memo_scalar_typing() -> bool:
-    """Memoise numba's ``types.Function.get_call_type`` for scalar argument types (see the
-    module's docstring). Idempotent; returns whether the memo is on."""
-    from numba.core import types
-    from numba.core.types import functions
-
-    if os.environ.get(TYPING_MEMO_ENV, "1") == "0":
-        return False
-    if getattr(functions.Function.get_call_type, "_hertzmap_memo", False):
-        return True
-    original = functions.Function.get_call_type
-    scalar = (types.Float, types.Integer, types.Boolean)
-    memo: dict = {}
-
-    def get_call_type(self, context, args, kws):
-        if kws or not all(isinstance(a, scalar) and not isinstance(a, types.Literal)
-                          for a in args):
-            return original(self, context, args, kws)
-        key = (self, type(context), tuple(args))
-        sig = memo.get(key)
-        if sig is None:
-            sig = original(self, context, args, kws)
-            if sig is not None:     # failures are not kept: numba reports them each time
-                memo[key] = sig
-        return sig
-
-    get_call_type._hertzmap_memo = True
-    functions.Function.get_call_type = get_call_type
-    return True
-
-
-TYPING_MEMO = memo_scalar_typing()
-
-
-#: environment variable: 0 links every kernel whole into its callers, as numba does
-SYMBOL_LINK_ENV = "HERTZMAP_SYMBOL_LINK"
-SYMBOL_LINK = os.environ.get(SYMBOL_LINK_ENV, "1") != "0"
-#: the Python functions of symbol-linked kernels -> the number numba names them by
-_STABLE_IDS: dict = {}
-#: mangled name -> code library of every symbol-linked kernel this process has loaded
-_SYMBOL_LIBRARIES: dict = {}
-#: the kernels compile_once is compiling (innermost last): their own libraries link by symbol
-_compiling: list = []
-
-
-def _stable_id(fn) -> int:
-    name = f"{fn.__module__}.{fn.__qualname__}".encode()
-    return int(hashlib.sha256(name).hexdigest()[:12], 16)
-
-
-def _function_identity(cls, pyfunc):
-    """numba's FunctionIdentity.from_function, with a symbol-linked kernel's number taken from
-    its name: its machine code's symbol is then the same in every process."""
-    identity = _original_function_identity(cls, pyfunc)
-    uid = _STABLE_IDS.get(pyfunc)
-    if uid is not None:
-        identity.unique_id = uid
-        identity.unique_name = f"{identity.func_qualname}${uid}"
-    return identity
-
-
-def _declares(module, name: str) -> bool:
-    try:
-        return module.get_function(name).is_declaration
-    except NameError:
-        return False
-
-
-def _finalize(self):
-    """numba's CPUCodeLibrary.finalize, except that the library of a kernel being compiled does
-    not link in the symbol-linked kernels it calls (they stay declarations, resolved by the JIT
-    against their loaded code), and any other library links in whole what the linked code calls
-    by symbol, so that it can be cached and loaded alone."""
-    codegen.require_global_compiler_lock()
-    self._codegen._check_llvm_bugs()
-    self._raise_if_finalized()
-    own = bool(_compiling) and self.name == _compiling[-1].py_func.__qualname__
-    linked = set()
-
-    def link(library, whole=True):
-        self._reload_init.update(library._reload_init)
-        linked.add(library)
-        if whole:
-            self._final_module.link_in(library._get_module_for_linking(), preserve=True)
-
-    for library in dict.fromkeys(self._linking_libraries):
-        link(library, whole=not (own and getattr(library, "_hertzmap_by_symbol", False)))
-    while not own:
-        missing = [lib for name, lib in _SYMBOL_LIBRARIES.items()
-                   if lib not in linked and _declares(self._final_module, name)]
-        if not missing:
-            break
-        for library in missing:
-            link(library)
-    self._optimize_final_module()
-    self._final_module.verify()
-    self._finalize_final_module()
-
-
-if SYMBOL_LINK:
-    _original_function_identity = bytecode.FunctionIdentity.from_function.__func__
-    bytecode.FunctionIdentity.from_function = classmethod(_function_identity)
-    codegen.CPUCodeLibrary.finalize = _finalize
-
-
-def _called_dispatchers(fn) -> list:
-    """The numba dispatchers among the global names ``fn`` (and its nested code) uses."""
-    names, stack = set(), [fn.__code__]
-    while stack:
-        code = stack.pop()
-        names.update(code.co_names)
-        stack.extend(c for c in code.co_consts if isinstance(c, pytypes.CodeType))
-    found = (fn.__globals__.get(n) for n in sorted(names))
-    return [d for d in found if isinstance(d, Dispatcher)]
-
-
-def symbol_callees(dispatcher) -> list:
-    """The symbol-linked kernels the machine code of ``dispatcher`` may call by symbol: those
-    its function calls, and those called by the kernels it links whole (the walk stops at a
-    symbol-linked kernel: loading it loads its own)."""
-    found = getattr(dispatcher, "_symbol_callees", None)
-    if found is None:
-        found, seen, todo = [], {dispatcher}, [dispatcher]
-        while todo:
-            for callee in _called_dispatchers(todo.pop().py_func):
-                if callee in seen:
-                    continue
-                seen.add(callee)
-                if getattr(callee, "link_by_symbol", False):
-                    found.append(callee)
-                else:
-                    todo.append(callee)
-        dispatcher._symbol_callees = found
-    return found
-
-
-def kernel(signature=None, *, inline: str | None = None, cache: bool = True, link: str = "ir"):
+def kernel(signature=None, *, inline: str | None = None, cache: bool = True):
     """``numba.njit(cache=True, nogil=True)`` with ``signature`` compiled on first use.
 
     Calls from Python and from other jitted functions with other argument types convert to the
@@ -242,28 +94,31 @@ def kernel(signature=None, *, inline: str | None = None, cache: bool = True, lin
       so it is typed again at every call site (with the caller's argument types: the signature
       documents them), but it is no library of its own. For thin wrappers, which would
       otherwise cost a full compile of everything below them.
-
-    ``link="symbol"`` (with a signature, not inlined): the kernels that call it call its one
-    compiled copy instead of holding their own (see the module's docstring). For large kernels
-    called from several others; a small one in a hot loop stays ``"ir"``, where LLVM may
-    inline it.
     """
-    if link not in ("ir", "symbol"):
-        raise ValueError(f"link must be 'ir' or 'symbol', not {link!r}")
-
     def wrap(fn):
-        by_symbol = link == "symbol" and signature is not None and inline is None
-        if by_symbol and SYMBOL_LINK:
-            _STABLE_IDS[fn] = _stable_id(fn)
-        dispatcher = njit(cache=cache, nogil=True, forceinline=inline == "llvm",
-                          inline="always" if inline == "ir" else "never")(fn)
-        dispatcher.link_by_symbol = by_symbol and SYMBOL_LINK
+        options = dict(cache=cache, nogil=True, forceinline=inline == "llvm",
+                       inline="always" if inline == "ir" else "never")
+        if not LAZY_SIGNATURES:
+            return _plain(fn, signature, inline, options)
+        dispatcher = njit(**options)(fn)
         if signature is not None:
             _fix_signature(dispatcher, signature, locked=cache, deferred=inline != "ir")
             if inline != "ir":
                 KERNELS.append(dispatcher)
         return dispatcher
     return wrap
+
+
+def _plain(fn, signature, inline, options):
+    """numba's own lazy njit, for the numba versions the fixed signature was not checked on:
+    one specialisation per argument types (a caller's literal arguments may compile more than
+    one), ``compile_fixed`` compiles the signature (the workers' warm-up)."""
+    dispatcher = njit(**options)(fn)
+    if signature is not None and inline != "ir":
+        dispatcher.fixed_signature = signature
+        dispatcher.compile_fixed = lambda: dispatcher.compile(signature)
+        KERNELS.append(dispatcher)
+    return dispatcher
 
 
 def _fix_signature(dispatcher, signature, locked: bool, deferred: bool) -> None:
@@ -282,22 +137,9 @@ def _fix_signature(dispatcher, signature, locked: bool, deferred: bool) -> None:
     def compile_once():
         if dispatcher._can_compile:
             with (_compile_lock(dispatcher) if locked else _no_lock()):
-                if in_disk_cache(dispatcher):
-                    # loading: what its machine code calls by symbol must be in this process
-                    # first (compiling, its lowering loads them)
-                    for callee in symbol_callees(dispatcher):
-                        callee.compile_fixed()
-                _compiling.append(dispatcher)
-                try:
-                    # after another process's compile this loads its entry from the disk cache
-                    dispatcher.compile(signature)
-                finally:
-                    _compiling.pop()
+                # after another process's compile this loads its entry from the disk cache
+                dispatcher.compile(signature)
             dispatcher.disable_compile()
-            if dispatcher.link_by_symbol:
-                cres = dispatcher.overloads[dispatcher.signatures[0]]
-                cres.library._hertzmap_by_symbol = True
-                _SYMBOL_LIBRARIES[cres.fndesc.mangled_name] = cres.library
 
     def get_call_template(args, kws):
         if not deferred or not dispatcher._can_compile:
@@ -325,7 +167,7 @@ def _fix_signature(dispatcher, signature, locked: bool, deferred: bool) -> None:
         if dispatcher._can_compile and start_helpers(dispatcher):
             # this process's share of what the helpers compile, from the other end, before the
             # entry's own tree
-            compile_shared(dispatcher.py_func.__module__.split(".")[0], 0, 1, backward=False)
+            compile_shared(0, 1, backward=False)
         compile_once()
         return dispatcher
 
@@ -351,7 +193,7 @@ def in_disk_cache(dispatcher) -> bool:
 
 def compiled(dispatcher) -> bool:
     """Has this process compiled or loaded the kernel yet?"""
-    return not dispatcher._can_compile
+    return bool(dispatcher.signatures)
 
 
 def compile_kernels(dispatchers) -> int:
@@ -426,28 +268,27 @@ def _module_tail(dispatcher) -> str:
 
 
 def leaf_kernels() -> list:
-    """The leaf kernels (LEAF_MODULES) of the kernels package defined so far (``import
-    kernels`` defines them all), in definition order: the first of its shared stages."""
-    return shared_stages("kernels")[0]
+    """The leaf kernels (LEAF_MODULES) defined so far (``import hertzmap.kernels`` defines
+    them all), in definition order: the first of the shared stages."""
+    return shared_stages()[0]
 
 
-def shared_stages(package: str) -> list[list]:
+def shared_stages() -> list[list]:
     """What every integrating entry point compiles below ``integrate``, in two stages of
     independent kernels, each in definition order: the leaves (LEAF_MODULES: the DOP853 steps
     are most of it), then the integrator's own small kernels (which call the leaves)."""
-    mine = [d for d in KERNELS if d.py_func.__module__.split(".")[0] == package]
-    return [[d for d in mine if _module_tail(d) in LEAF_MODULES],
-            [d for d in mine if _module_tail(d) == INTEGRATOR_MODULE
+    return [[d for d in KERNELS if _module_tail(d) in LEAF_MODULES],
+            [d for d in KERNELS if _module_tail(d) == INTEGRATOR_MODULE
              and d.py_func.__name__ != "integrate"]]
 
 
-def compile_shared(package: str, index: int, count: int, backward: bool) -> int:
+def compile_shared(index: int, count: int, backward: bool) -> int:
     """Compile shared_stages stage by stage, each from its start (``backward``: from its end),
     rotated to the index-th of count shares: processes that take different ends and shares
     split each stage between them and meet inside it, the heavy leaves included, before the
     next stage (whose kernels call them). Returns how many were compiled or loaded."""
     done = 0
-    for stage in shared_stages(package):
+    for stage in shared_stages():
         todo = stage[::-1] if backward else stage
         start = index * len(todo) // count
         done += compile_kernels(todo[start:] + todo[:start])
@@ -488,14 +329,11 @@ def start_helpers(entry) -> int:
     index = _cache_index(entry)
     if index is None or os.path.exists(index):
         return 0        # no cache, or in it (nothing to share)
-    package = entry.py_func.__module__.split(".")[0]
     # a helper compiles the shared stages (everything ``integrate`` calls)
-    if all(compiled(d) for stage in shared_stages(package) for d in stage):
+    if all(compiled(d) for stage in shared_stages() for d in stage):
         return 0
-    root = os.path.dirname(os.path.dirname(sys.modules[package].__file__))
     env = dict(os.environ, **{HELPERS_ENV: "0"})
-    code = (f"import sys; sys.path.insert(0, {root!r}); "
-            f"from {package}._jit import run_helper; run_helper({package!r}, {{i}}, {n})")
+    code = f"from {__name__} import run_helper; run_helper({{i}}, {n})"
     _helpers_started = True
     for i in range(n):
         _helpers.append(subprocess.Popen(
@@ -504,12 +342,13 @@ def start_helpers(entry) -> int:
     return n
 
 
-def run_helper(package: str, index: int, count: int) -> None:
+def run_helper(index: int, count: int) -> None:
     """A helper process's work: compile_shared backwards, from its share of each stage."""
     import importlib
+    package = __name__.rpartition(".")[0]
     importlib.import_module(package)      # sets the cache folder
     integrator = importlib.import_module(package + "." + INTEGRATOR_MODULE)
-    compile_shared(package, index, count, backward=True)
+    compile_shared(index, count, backward=True)
     # then the integrator itself, while the first call types its own kernel (which needs only
     # the integrator's signature until it is lowered)
     if index == 0:

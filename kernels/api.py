@@ -11,10 +11,10 @@ from math import isfinite, pi
 
 import numpy as np
 
-from kernels import status as st
-from kernels.integrate import N_HARMONICS, N_STATS, integrate
-from kernels.model import MODELS, rhs_force
-from kernels.shooting import (FIELDS, I_FLIGHT, I_H1, I_IMPACT, I_ITER, I_LIOU, I_LOSES,
+from hertzmap.kernels import status as st
+from hertzmap.kernels.integrate import N_HARMONICS, N_STATS, integrate
+from hertzmap.kernels.model import MODELS, rhs_force
+from hertzmap.kernels.shooting import (FIELDS, I_FLIGHT, I_H1, I_IMPACT, I_ITER, I_LIOU, I_LOSES,
                               I_M1I, I_M1R, I_M2I, I_M2R, I_M11, I_M22, I_MEANF, I_MAXQ,
                               I_MINPER, I_MINQ, I_PTP, I_Q0, I_RES, I_STABLE, I_STATUS,
                               I_STEPS, I_V0, N_FIELDS, F, shoot_batch_into, shoot_into)
@@ -288,7 +288,7 @@ DEFAULT_ATTRACTOR_RTOL = 1e-8
 def _attractors():
     """kernels.attractors, imported on first use: its kernels have fixed signatures and compile
     (or load from the cache) when imported, which a study that only shoots need not pay for."""
-    from kernels import attractors
+    from hertzmap.kernels import attractors
     return attractors
 
 

@@ -54,13 +54,13 @@ from math import exp, hypot, log, pi, sqrt
 
 import numpy as np
 
-from kernels import status as st
-from kernels._jit import kernel
-from kernels.integrate import (N_STATS, S_ACCEPTED, S_EVENTS, S_FLIGHT_TIME,
+from hertzmap.kernels import status as st
+from hertzmap.kernels._jit import kernel
+from hertzmap.kernels.integrate import (N_STATS, S_ACCEPTED, S_EVENTS, S_FLIGHT_TIME,
                                S_H_FIRST, S_MAX_IMPACT, S_MAX_Q, S_MIN_Q, S_PARTIAL, S_REJECTED,
                                integrate, integrator_scratch, state_arrays)
-from kernels.model import rhs_force
-from kernels.shooting import (I_M1I, I_M1R, I_M2I, I_M2R, I_MINPER, I_Q0, I_STABLE, I_STATUS,
+from hertzmap.kernels.model import rhs_force
+from hertzmap.kernels.shooting import (I_M1I, I_M1R, I_M2I, I_M2R, I_MINPER, I_Q0, I_STABLE, I_STATUS,
                               I_V0, shoot_into)
 
 M_MAX = 16              # longest period (in forcing periods) looked for on the stroboscopic map

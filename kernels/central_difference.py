@@ -21,8 +21,8 @@ from math import cos, hypot, pi, sin, sqrt
 import numpy as np
 from numba import njit
 
-from kernels import status as st
-from kernels.model import TAYLOR, rhs_force
+from hertzmap.kernels import status as st
+from hertzmap.kernels.model import TAYLOR, rhs_force
 
 
 @njit(cache=True, nogil=True)

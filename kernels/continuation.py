@@ -56,12 +56,12 @@ from math import pi
 
 import numpy as np
 
-from kernels import status as st
-from kernels._jit import kernel
-from kernels.api import DEFAULT_MAX_STEPS, DEFAULT_RTOL, _check_exponent, _model_code, shoot
-from kernels.integrate import S_MAX_Q, S_MIN_Q, integrator_scratch
-from kernels.model import contact_loss_level
-from kernels.shooting import _map, _measure_pass
+from hertzmap.kernels import status as st
+from hertzmap.kernels._jit import kernel
+from hertzmap.kernels.api import DEFAULT_MAX_STEPS, DEFAULT_RTOL, _check_exponent, _model_code, shoot
+from hertzmap.kernels.integrate import S_MAX_Q, S_MIN_Q, integrator_scratch
+from hertzmap.kernels.model import contact_loss_level
+from hertzmap.kernels.shooting import _map, _measure_pass
 
 # ---- branch status codes ------------------------------------------------------------------
 BOUNDARY = 0        # left the parameter window

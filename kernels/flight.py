@@ -18,7 +18,7 @@ from math import cos, expm1, pi, sin
 from numba import float64, int64
 from numba.types import UniTuple
 
-from kernels._jit import kernel
+from hertzmap.kernels._jit import kernel
 
 _SCAN_PER_PERIOD = 32.0   # scan intervals per forcing period: v has at most one root in each
 

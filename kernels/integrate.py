@@ -34,13 +34,13 @@ from math import cos, pi, sin, sqrt
 import numpy as np
 from numba import boolean, float64, int64
 
-from kernels import status as st
-from kernels._jit import kernel
-from kernels._dop853 import (dense_coefficients, dense_coefficients_h, dense_coefficients_w,
+from hertzmap.kernels import status as st
+from hertzmap.kernels._jit import kernel
+from hertzmap.kernels._dop853 import (dense_coefficients, dense_coefficients_h, dense_coefficients_w,
                              step_state, step_state_h, step_state_w, step_var, step_var_h,
                              step_var_w)
-from kernels.flight import flight_state, flight_until_recontact
-from kernels.model import HERTZ, rhs_force, rhs_force_and_stiffness
+from hertzmap.kernels.flight import flight_state, flight_until_recontact
+from hertzmap.kernels.model import HERTZ, rhs_force, rhs_force_and_stiffness
 
 # layout of the ``stats`` array filled by ``integrate``
 (S_ACCEPTED, S_REJECTED, S_EVENTS, S_FLIGHT_TIME, S_MIN_Q, S_MAX_Q, S_MAX_IMPACT, S_H_FIRST,
@@ -281,7 +281,7 @@ def _hermite_root(g0, d0, a0, g1, d1, a1):
     return x
 
 
-@kernel("UniTuple(float64, 2)(int64, int64, float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64, float64[::1])", link="symbol")
+@kernel("UniTuple(float64, 2)(int64, int64, float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64, float64[::1])")
 def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
                      atol, t_ref, s_guess, stats_partial):
     """Increment s in (0, h] of the mode's variable from x where q = -n, the step over h ending
@@ -342,7 +342,7 @@ def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta,
     return s, -1.0
 
 
-@kernel("int64(float64[::1], float64, float64, float64, float64, float64, float64, int64, float64, float64, float64, int64, boolean, boolean, boolean, float64, float64[:, ::1], float64[::1], float64[:, ::1], float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64[:, ::1])", link="symbol")
+@kernel("int64(float64[::1], float64, float64, float64, float64, float64, float64, int64, float64, float64, float64, int64, boolean, boolean, boolean, float64, float64[:, ::1], float64[::1], float64[:, ::1], float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64[:, ::1])")
 def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
               variational, measure, harmonics, period_harm, harm, t_eval, out_eval, stats,
               f, y_new, f_new, K, P):

@@ -20,7 +20,7 @@ from math import cos, sqrt
 from numba import float64, int64
 from numba.types import UniTuple
 
-from kernels._jit import kernel
+from hertzmap.kernels._jit import kernel
 
 HERTZ = 0
 TAYLOR = 1

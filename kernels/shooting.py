@@ -17,13 +17,13 @@ from math import exp, hypot, pi, sqrt
 
 import numpy as np
 
-from kernels import status as st
-from kernels._jit import kernel
-from kernels.integrate import (N_HARMONICS, N_STATS, S_ACCEPTED, S_EVENTS, S_FLIGHT_TIME,
+from hertzmap.kernels import status as st
+from hertzmap.kernels._jit import kernel
+from hertzmap.kernels.integrate import (N_HARMONICS, N_STATS, S_ACCEPTED, S_EVENTS, S_FLIGHT_TIME,
                                S_H_FIRST, S_H_RECONTACT, S_MAX_IMPACT, S_MAX_Q, S_MIN_Q,
                                S_REJECTED, BIG,
                                integrate, integrator_scratch)
-from kernels.model import HERTZ, TAYLOR_CONTACT_LOSS
+from hertzmap.kernels.model import HERTZ, TAYLOR_CONTACT_LOSS
 
 FIELDS = (
     "status", "q0", "v0",
@@ -94,7 +94,7 @@ def _measure_pass(x0, v0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_st
                      K, W)
 
 
-@kernel("void(float64, float64, float64, int64, float64, float64, float64, int64, float64, float64, int64, int64, boolean, float64[::1])", link="symbol")
+@kernel("void(float64, float64, float64, int64, float64, float64, float64, int64, float64, float64, int64, int64, boolean, float64[::1])")
 def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, max_iter,
                max_steps, harmonics, res):
     """Find the period-m orbit near (q_guess, v_guess); write FIELDS into res (float64[N_FIELDS]).

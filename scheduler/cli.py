@@ -1,5 +1,5 @@
-"""The ``hertzmap`` command line: ``run``, ``status``, ``plot``, ``bench``. The only place that
-parses arguments.
+"""The ``hertzmap`` command line: ``run``, ``scenes``, ``status``, ``plot``, ``bench``,
+``explore``. The only place that parses arguments.
 
 Subcommands register themselves in :data:`SUBCOMMANDS` (name -> (add_arguments, handler)),
 so ``plot``, ``bench``... can be added without touching the others.
@@ -40,7 +40,8 @@ def _error(msg: str) -> int:
 # -- run --------------------------------------------------------------------------------------
 
 def _run_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("study", type=Path, help="study file (TOML), see docs/study-file.md")
+    p.add_argument("study", type=Path, help="study file (TOML, docs/study-file.md) or the name "
+                   "of a shipped scene (hertzmap scenes lists them)")
     p.add_argument("--store", type=Path, default=None,
                    help="zarr store path (default: results/<study name>.zarr)")
     where = p.add_mutually_exclusive_group()
@@ -85,19 +86,20 @@ def run_command_line(args: argparse.Namespace) -> str:
 
 @subcommand("run", "run (or resume) a study into a zarr store")(_run_args)
 def cmd_run(args: argparse.Namespace) -> int:
-    from study.spec import StudyError, load_study
+    from hertzmap.study.scenes import load_scene_or_file
+    from hertzmap.study.spec import StudyError
 
     try:
-        study = load_study(args.study)
+        study = load_scene_or_file(args.study)
     except StudyError as exc:
         return _error(f"{args.study}: {exc}")
 
-    from scheduler.cluster import ClusterSpec, parse_cluster_options
-    from scheduler.dry_run import describe
-    from scheduler.errors import ClusterError, RefusedError
-    from scheduler.plan import DEFAULT_TASK_SECONDS, DEFAULT_TASK_TIMEOUT
-    from scheduler.run import RunOptions, default_store_path, run_study
-    from scheduler.worker import DEFAULT_SOLVER
+    from hertzmap.scheduler.cluster import ClusterSpec, parse_cluster_options
+    from hertzmap.scheduler.dry_run import describe
+    from hertzmap.scheduler.errors import ClusterError, RefusedError
+    from hertzmap.scheduler.plan import DEFAULT_TASK_SECONDS, DEFAULT_TASK_TIMEOUT
+    from hertzmap.scheduler.run import RunOptions, default_store_path, run_study
+    from hertzmap.scheduler.worker import DEFAULT_SOLVER
 
     try:
         if args.scheduler:
@@ -117,7 +119,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.error_sample is not None and args.error_sample < 0:
         return _error(f"--error-sample must be >= 0, got {args.error_sample}")
     if spec.kind == "local" and spec.workers is None:
-        from scheduler.cluster import default_workers
+        from hertzmap.scheduler.cluster import default_workers
         spec.workers = default_workers()
 
     opts = RunOptions(
@@ -149,6 +151,27 @@ def cmd_run(args: argparse.Namespace) -> int:
     return EXIT_OK if not summary["failed"] and not curves_failed else EXIT_FAILED
 
 
+# -- scenes -----------------------------------------------------------------------------------
+
+def _scenes_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--path", action="store_true", help="print each scene's file path too")
+
+
+@subcommand("scenes", "the study files shipped with hertzmap (hertzmap run NAME runs one)")(
+    _scenes_args)
+def cmd_scenes(args: argparse.Namespace) -> int:
+    from hertzmap.study.scenes import scene_paths
+    from hertzmap.study.spec import StudyError, load_study
+
+    for name, path in scene_paths().items():
+        try:
+            about = load_study(path).description
+        except StudyError as exc:       # a shipped scene is tested valid; say so if not
+            about = f"(invalid: {exc})"
+        print(f"{name:20s} {about}" + (f"\n{'':20s} {path}" if args.path else ""))
+    return EXIT_OK
+
+
 # -- status -----------------------------------------------------------------------------------
 
 def _status_args(p: argparse.ArgumentParser) -> None:
@@ -160,8 +183,8 @@ def _status_args(p: argparse.ArgumentParser) -> None:
 
 @subcommand("status", "tasks done/total, study name and hash, versions of a store")(_status_args)
 def cmd_status(args: argparse.Namespace) -> int:
-    from scheduler.errors import StoreError
-    from scheduler.store import store_status
+    from hertzmap.scheduler.errors import StoreError
+    from hertzmap.scheduler.store import store_status
 
     try:
         info = store_status(args.store, check=args.check)
@@ -209,10 +232,10 @@ def _plot_args(p: argparse.ArgumentParser) -> None:
 def cmd_plot(args: argparse.Namespace) -> int:
     """Compute the products of a store (study.products), store them in its products/ groups
     (scheduler.store) unless --no-products, and draw the figures (study.plots)."""
-    from scheduler.errors import StoreError
-    from scheduler.store import list_products, read_product, write_products
-    from study import plots
-    from study import products as P
+    from hertzmap.scheduler.errors import StoreError
+    from hertzmap.scheduler.store import list_products, read_product, write_products
+    from hertzmap.study import plots
+    from hertzmap.study import products as P
 
     if args.store is None and not args.paper:
         return _error("plot: give a STORE or --paper FIG ...")
@@ -260,6 +283,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
     benchmarks stand above the packages and are not imported by them."""
     import subprocess
 
+    if not Path("benchmarks/work_precision.py").is_file():
+        return _error("bench runs benchmarks/work_precision.py of a hertzmap checkout, which the "
+                      "installed package does not hold: run it from the repository's folder")
     cmd = [sys.executable, "-m", "benchmarks.work_precision", "--out", str(args.out)]
     if args.quick:
         cmd.append("--quick")
@@ -285,9 +311,9 @@ def _explore_args(p: argparse.ArgumentParser) -> None:
 
 
 @subcommand("explore", "the map of a store in the browser: click a point for its orbits, "
-            "refine a window (pip install 'hertzmap[explore]')")(_explore_args)
+            "refine a window")(_explore_args)
 def cmd_explore(args: argparse.Namespace) -> int:
-    from scheduler.explore import explore_command
+    from hertzmap.scheduler.explore import explore_command
     return explore_command(args)
 
 
@@ -310,7 +336,12 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = parser.parse_args(argv)      # usage errors exit with code 2 (argparse)
     args.argv = argv
-    return args.handler(args)
+    try:
+        return args.handler(args)
+    except BrokenPipeError:         # `hertzmap scenes | head`: the reader is gone, not an error
+        import os
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_OK
 
 
 if __name__ == "__main__":

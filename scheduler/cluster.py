@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 
-from scheduler.errors import ClusterError
+from hertzmap.scheduler.errors import ClusterError
 
 
 JOBQUEUE = {"slurm": "SLURMCluster", "pbs": "PBSCluster", "sge": "SGECluster",
@@ -160,7 +160,7 @@ def worker_job_prologue() -> list[str]:
       job's start directory (the submitting shell's cwd, for Slurm) first on sys.path, and
       a checkout of another hertzmap version there would be imported instead of the
       environment's."""
-    import kernels   # its CACHE_DIR is <root>/numba-<hash of the kernels' sources>
+    from hertzmap import kernels  # its CACHE_DIR is <root>/numba-<hash of the kernels' sources>
 
     root = os.path.dirname(os.path.abspath(kernels.CACHE_DIR))
     return config_env_lines(CLUSTER_CONFIG) + [

@@ -28,25 +28,25 @@ from typing import Any, TextIO
 import numpy as np
 import xarray as xr
 
-from scheduler.store import (Store, finish_traced_curves, has_traced_curves, read_curve_parts,
+from hertzmap.scheduler.store import (Store, finish_traced_curves, has_traced_curves, read_curve_parts,
                              write_curve_part)
-from study.products.results import quiet
-from kernels.model import contact_loss_level
-from study.products.traced_curves import (combine_traced_curves, part_attrs, trace_from_part,
+from hertzmap.study.products.results import quiet
+from hertzmap.kernels.model import contact_loss_level
+from hertzmap.study.products.traced_curves import (combine_traced_curves, part_attrs, trace_from_part,
                                           traced_curves_dataset)
-from study.schema import CROSSING_VARIABLES
-from study.solve.curves import SEED_SOURCES, Seed, SeedBook, curve_seeds, window
-from study.spec import Study
+from hertzmap.study.schema import CROSSING_VARIABLES
+from hertzmap.study.solve.curves import SEED_SOURCES, Seed, SeedBook, curve_seeds, window
+from hertzmap.study.spec import Study
 
 IN_FLIGHT_PER_WORKER = 2
 #: what traces one seed's curve (module:function, imported on the worker by name)
-DEFAULT_TRACER = "study.solve.curves:trace_seed"
+DEFAULT_TRACER = "hertzmap.study.solve.curves:trace_seed"
 
 
 def trace_task(spec: dict[str, Any]) -> dict[str, Any]:
     """Trace the curve of one seed. Runs on a worker. ``spec``: seed (Seed fields), bounds
     ({param: (lo, hi)}), options (exponent, model, rtol), tracer (module:function)."""
-    from scheduler.worker import load_solver
+    from hertzmap.scheduler.worker import load_solver
 
     trace = load_solver(spec.get("tracer", DEFAULT_TRACER))
     seed = Seed(**dict(spec["seed"], plane=tuple(spec["seed"]["plane"])))
@@ -63,8 +63,8 @@ def warm_curve_kernels() -> float:
     curves has no warm-up). Returns the seconds it took."""
     import scipy.optimize  # noqa: F401  (the extremum search's; ~0.4 s on a first import)
 
-    from kernels import compile_kernels
-    from study.solve.curves import curve_kernels
+    from hertzmap.kernels import compile_kernels
+    from hertzmap.study.solve.curves import curve_kernels
 
     t0 = time.perf_counter()
     compile_kernels(curve_kernels())

@@ -3,12 +3,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from scheduler.plan import Plan, choose_chunks, make_plan
-from scheduler.report import fmt_bytes, fmt_time
-from scheduler.resources import check_resources
-from scheduler.store import Store, StoreError, read_attrs
-from study.schema import bytes_per_point, stored_variables
-from study.spec import Study
+from hertzmap.scheduler.plan import Plan, choose_chunks, make_plan
+from hertzmap.scheduler.report import fmt_bytes, fmt_time
+from hertzmap.scheduler.resources import check_resources
+from hertzmap.scheduler.store import Store, StoreError, read_attrs
+from hertzmap.study.schema import bytes_per_point, stored_variables
+from hertzmap.study.spec import Study
 
 
 def plan_for(study: Study, store_path: Path, task_seconds: float) -> tuple[Plan, str]:

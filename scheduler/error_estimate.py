@@ -9,9 +9,9 @@ from typing import Any
 
 import numpy as np
 
-from scheduler.plan import Task
-from scheduler.worker import DEFAULT_SOLVER, solve_points
-from study.spec import Study
+from hertzmap.scheduler.plan import Task
+from hertzmap.scheduler.worker import DEFAULT_SOLVER, solve_points
+from hertzmap.study.spec import Study
 
 #: Grid points re-solved by the error estimate.
 ERROR_SAMPLE = 8

@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from study.schema import chunk_counts, chunk_slices
-from study.solve.line import PROBE_POINTS
-from study.spec import Study
+from hertzmap.study.schema import chunk_counts, chunk_slices
+from hertzmap.study.solve.line import PROBE_POINTS
+from hertzmap.study.spec import Study
 
 #: Estimated seconds of solver work per grid point, per period searched (a 1T search, a 2T
 #: search). Calibrated on the block solver (see docs/running.md); used only to size tasks

@@ -5,7 +5,7 @@ import math
 import time
 from typing import TextIO
 
-from scheduler.report import fmt_time
+from hertzmap.scheduler.report import fmt_time
 
 
 class Progress:

@@ -6,11 +6,11 @@ import os
 import shutil
 from pathlib import Path
 
-from scheduler.errors import RunError
-from scheduler.plan import Plan
-from scheduler.report import fmt_bytes
-from study.schema import bytes_per_point, stored_variables
-from study.spec import Study
+from hertzmap.scheduler.errors import RunError
+from hertzmap.scheduler.plan import Plan
+from hertzmap.scheduler.report import fmt_bytes
+from hertzmap.study.schema import bytes_per_point, stored_variables
+from hertzmap.study.spec import Study
 
 #: Bytes the client holds per task while a study runs (plan, spec, future, bookkeeping).
 CLIENT_BYTES_PER_TASK = 8_000

@@ -18,22 +18,22 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
-from kernels.status import TIME_LIMIT
-from scheduler.cluster import (JOBQUEUE, ClusterSpec, WorkerJobsEnded, close_quietly,
+from hertzmap.kernels.status import TIME_LIMIT
+from hertzmap.scheduler.cluster import (JOBQUEUE, ClusterSpec, WorkerJobsEnded, close_quietly,
                                make_client, wait_for_first_worker, worker_count)
-from scheduler.curve_tasks import DEFAULT_TRACER, CurveRun
-from scheduler.dry_run import plan_for
-from scheduler.error_estimate import ERROR_SAMPLE, Sampler, estimate_error, record_error_estimate
-from scheduler.errors import RunError
-from scheduler.interrupt import DeferInterrupt
-from scheduler.plan import DEFAULT_TASK_SECONDS, DEFAULT_TASK_TIMEOUT, choose_chunks, make_plan
-from scheduler.progress import Progress
-from scheduler.report import overhead, print_summary
-from scheduler.resources import check_resources
-from scheduler.store import Lock, Store, StoreError, open_or_create
-from scheduler.worker import DEFAULT_SOLVER, Warmup, run_task
-from study.schema import code_fingerprint, stored_variables
-from study.spec import Study
+from hertzmap.scheduler.curve_tasks import DEFAULT_TRACER, CurveRun
+from hertzmap.scheduler.dry_run import plan_for
+from hertzmap.scheduler.error_estimate import ERROR_SAMPLE, Sampler, estimate_error, record_error_estimate
+from hertzmap.scheduler.errors import RunError
+from hertzmap.scheduler.interrupt import DeferInterrupt
+from hertzmap.scheduler.plan import DEFAULT_TASK_SECONDS, DEFAULT_TASK_TIMEOUT, choose_chunks, make_plan
+from hertzmap.scheduler.progress import Progress
+from hertzmap.scheduler.report import overhead, print_summary
+from hertzmap.scheduler.resources import check_resources
+from hertzmap.scheduler.store import Lock, Store, StoreError, open_or_create
+from hertzmap.scheduler.worker import DEFAULT_SOLVER, Warmup, run_task
+from hertzmap.study.schema import code_fingerprint, stored_variables
+from hertzmap.study.spec import Study
 
 
 @dataclass

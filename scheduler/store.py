@@ -29,10 +29,10 @@ import zarr
 # all of a block's variables in one call
 from zarr.core.sync import sync as zarr_sync
 
-from scheduler.errors import StoreError
-from study.schema import (PRODUCT_GROUP, STORE_FORMAT, VARIABLES, history_line, parse_attrs,
+from hertzmap.scheduler.errors import StoreError
+from hertzmap.study.schema import (PRODUCT_GROUP, STORE_FORMAT, VARIABLES, history_line, parse_attrs,
                           stored_variables, study_from_attrs, template)
-from study.spec import Study, StudyError
+from hertzmap.study.spec import Study, StudyError
 
 ALL_CHUNKS_ATTR = "hertzmap_all_chunks_written"
 LOCK_SUFFIX = ".lock"      # the lock of STORE is the file STORE.lock next to it
@@ -394,7 +394,7 @@ def store_status(path: str | Path, check: bool = False) -> dict[str, Any]:
     except (OSError, ValueError):
         info["locked_by"] = {"host": "?", "pid": "? (unreadable lock file)"}
     if check:
-        from scheduler.plan import make_plan
+        from hertzmap.scheduler.plan import make_plan
 
         try:
             study = study_from_attrs(store.attrs)

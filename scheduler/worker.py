@@ -20,7 +20,7 @@ from typing import Any, Callable
 import numpy as np
 from distributed import WorkerPlugin
 
-DEFAULT_SOLVER = "study.solve.block:solve_block"
+DEFAULT_SOLVER = "hertzmap.study.solve.block:solve_block"
 
 _SOLVERS: dict[str, Callable[..., dict]] = {}
 
@@ -42,12 +42,12 @@ def warm_up_kernels(kwargs: dict[str, Any] | None = None, curves: bool = False) 
     study's blocks call (study.solve.block.entry_kernels) and, with ``curves``, those of the
     traced curves (study.solve.curves.curve_kernels); the census's, the largest, last, where
     the other worker (which takes the list backward) starts."""
-    from kernels.attractors import attractor_batch_into
-    from kernels.integrate import integrate
-    from study.solve.block import entry_kernels
+    from hertzmap.kernels.attractors import attractor_batch_into
+    from hertzmap.kernels.integrate import integrate
+    from hertzmap.study.solve.block import entry_kernels
     entries = [integrate] + entry_kernels(**(kwargs or {}))
     if curves:
-        from study.solve.curves import curve_kernels
+        from hertzmap.study.solve.curves import curve_kernels
         entries += curve_kernels()
     entries = list(dict.fromkeys(entries))
     entries.sort(key=lambda d: d is attractor_batch_into)
@@ -63,10 +63,10 @@ def warm_up(solver: str = DEFAULT_SOLVER, kwargs: dict[str, Any] | None = None,
     cache then compile half each."""
     t0 = time.perf_counter()
     if solver == DEFAULT_SOLVER:
-        from kernels import compile_kernels
-        from kernels._jit import compile_shared
+        from hertzmap.kernels import compile_kernels
+        from hertzmap.kernels._jit import compile_shared
         backward = order % 2 == 1
-        compile_shared("kernels", 0, 1, backward)
+        compile_shared(0, 1, backward)
         entries = warm_up_kernels(kwargs, curves)
         compile_kernels(entries[::-1] if backward else entries)
     fn = load_solver(solver)
@@ -112,7 +112,7 @@ def run_task(spec: dict[str, Any]) -> dict[str, Any]:
     names (variables to return), solver ("module:function").
     Returns the arrays (only ``names``, contract-checked), the solve time and the worker pid.
     """
-    from study.schema import VARIABLES, check_block
+    from hertzmap.study.schema import VARIABLES, check_block
 
     fn = load_solver(spec.get("solver", DEFAULT_SOLVER))
     omega = np.ascontiguousarray(spec["omega"], dtype=np.float64)

@@ -28,8 +28,8 @@ sys.dont_write_bytecode = False
 #: dependencies' modules was left to compile but the few each process imports at startup.
 MODULES = {
     "client": [
-        "scheduler.cli", "scheduler.cluster", "scheduler.curve_tasks", "scheduler.report",
-        "scheduler.run", "scheduler.store", "study.plots", "study.products",
+        "hertzmap.scheduler.cli", "hertzmap.scheduler.cluster", "hertzmap.scheduler.curve_tasks", "hertzmap.scheduler.report",
+        "hertzmap.scheduler.run", "hertzmap.scheduler.store", "hertzmap.study.plots", "hertzmap.study.products",
         "contourpy", "dask.array", "distributed.deploy.local", "distributed.diagnostics.websocket",
         "distributed.http.health", "distributed.http.prometheus", "distributed.http.scheduler.info",
         "distributed.http.scheduler.json", "distributed.http.scheduler.prometheus",
@@ -39,7 +39,7 @@ MODULES = {
         "hypothesis", "pytest",             # the test extras, when installed (scripts/test.sh)
     ],
     "worker": [
-        "scheduler.worker", "study.solve.block", "distributed.nanny", "distributed.worker",
+        "hertzmap.scheduler.worker", "hertzmap.study.solve.block", "distributed.nanny", "distributed.worker",
         "numba", "scipy.ndimage", "scipy.optimize", "scipy.spatial",
     ],
 }

@@ -26,9 +26,9 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from study import products as P
-from study.orbits import CLASS_LABELS
-from study.schema import ATTRACTOR_KINDS
+from hertzmap.study import products as P
+from hertzmap.study.orbits import CLASS_LABELS
+from hertzmap.study.schema import ATTRACTOR_KINDS
 
 __all__ = [
     "MAX_REFINE_POINTS",
@@ -140,12 +140,12 @@ def _hex(color: str) -> str:
 
 def class_colors() -> dict[int, tuple[str, str]]:
     """{orbit class code: (hex colour, label)}: the colours of the PNG figures."""
-    from study import plots
+    from hertzmap.study import plots
     return {c: (_hex(col), label) for c, (col, label) in plots.CLASS_STYLE.items()}
 
 
 def _set_styles() -> tuple[dict[int, str], dict[int, str]]:
-    from study import plots
+    from hertzmap.study import plots
     # the loss-of-contact map's colours and labels of its classes (map_class)
     return ({c: _hex(v) for c, v in plots.SET_COLORS.items()}, dict(plots.SET_LABELS))
 
@@ -360,7 +360,7 @@ def orbit_history(orbits: xr.Dataset, k: int, *, samples_per_period: int = 1024
     start point over one period of the orbit (``period`` forcing periods), at the store's rtol:
     {"tau", "q", "v", "force" (F/N), "status"} on ``period x samples_per_period + 1`` uniform
     samples, the last one closing the orbit."""
-    from kernels import simulate
+    from hertzmap.kernels import simulate
 
     w, s, z = (orbits.attrs[a] for a in ("omega", "sigma", "zeta"))
     per = int(orbits["period"].values[k])
@@ -414,7 +414,7 @@ def stroboscopic_points(omega: float, sigma: float, zeta: float, x0, *, transien
     """(periods, 2) array of (q, q') at tau = m T, m = transient+1 .. transient+periods, of a
     simulation from ``x0``: the Poincare section of whatever attractor the start point falls
     on (one point for a 1T orbit, two for 2T, a cloud for a non-periodic attractor)."""
-    from kernels import simulate
+    from hertzmap.kernels import simulate
 
     T = 2 * np.pi / omega
     m = np.arange(transient + 1, transient + periods + 1)
@@ -507,7 +507,7 @@ def refine_study(ds: xr.Dataset, omega_range: tuple[float, float],
     ``.refine-<hash8>`` (hash8: of the refined content, so the same window gives the same
     study and a rerun resumes its store). Raises ValueError naming what is wrong (no recorded
     study, an empty window, too few or too many points)."""
-    from study.spec import StudyError, parse_study
+    from hertzmap.study.spec import StudyError, parse_study
 
     text = ds.attrs.get("hertzmap_study_toml")
     if not text:

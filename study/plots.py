@@ -28,11 +28,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.colors import BoundaryNorm, ListedColormap  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
 
-from kernels.model import TAYLOR_CONTACT_LOSS  # noqa: E402
-from study import products as P  # noqa: E402
-from study.analytic import multiple_scales as mms  # noqa: E402
-from study.analytic.rig import restoring_force  # noqa: E402
-from study.orbits import CLASS_LABELS  # noqa: E402
+from hertzmap.kernels.model import TAYLOR_CONTACT_LOSS  # noqa: E402
+from hertzmap.study import products as P  # noqa: E402
+from hertzmap.study.analytic import multiple_scales as mms  # noqa: E402
+from hertzmap.study.analytic.rig import restoring_force  # noqa: E402
+from hertzmap.study.orbits import CLASS_LABELS  # noqa: E402
 
 __all__ = [
     "WHICH",

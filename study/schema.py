@@ -26,9 +26,9 @@ from typing import Any, Mapping
 import numpy as np
 import xarray as xr
 
-from kernels import status as _status
-from kernels.integrate import N_HARMONICS
-from study.spec import Study, StudyError, parse_study
+from hertzmap.kernels import status as _status
+from hertzmap.kernels.integrate import N_HARMONICS
+from hertzmap.study.spec import Study, StudyError, parse_study
 
 __all__ = [
     "VarSpec",

@@ -20,13 +20,32 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from study.schema import ATTRACTOR_VARIABLES, ORBIT_VARIABLES, empty_arrays, template
-from study.spec import parse_study
+from hertzmap.study.schema import ATTRACTOR_VARIABLES, ORBIT_VARIABLES, empty_arrays, template
+from hertzmap.study.spec import parse_study
 
 REPO = Path(__file__).resolve().parent.parent
 TESTS = Path(__file__).resolve().parent
 
 PLACEHOLDER = "tests.helpers:placeholder_solve_block"
+
+
+def _hold_after_the_first_block(gate: str | None, timeout: float = 600.0) -> None:
+    """With a gate path (``$HERTZMAP_PLACEHOLDER_HOLD``): the first task's block to get here goes on
+    (it creates ``<gate>.first``), every later one waits until the test creates the gate
+    file itself. A run then holds its lock with exactly its first task done, for as long as
+    the test needs, whatever the machine's load (an event, not a sleep)."""
+    if not gate:
+        return
+    try:
+        os.close(os.open(gate + ".first", os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+        return
+    except FileExistsError:
+        pass
+    deadline = time.monotonic() + timeout
+    while not os.path.exists(gate):
+        if time.monotonic() > deadline:
+            raise TimeoutError(f"the test never opened the gate {gate}")
+        time.sleep(0.01)
 
 
 def placeholder_solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hertz",
@@ -38,6 +57,8 @@ def placeholder_solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5,
     delay = float(os.environ.get("HERTZMAP_PLACEHOLDER_DELAY", "0"))
     if delay:
         time.sleep(delay * len(omega) * len(sigma) * len(zeta))
+    if omega.size * sigma.size * zeta.size > 1:     # a worker's warm-up solves one point
+        _hold_after_the_first_block(os.environ.get("HERTZMAP_PLACEHOLDER_HOLD"))
     w, s, z = np.meshgrid(omega, sigma, zeta, indexing="ij")
     out = empty_arrays((len(omega), len(sigma), len(zeta)), max_solutions,
                        ORBIT_VARIABLES + ("orbits_found",))
@@ -112,12 +133,12 @@ def subprocess_env(**extra) -> dict[str, str]:
 
 
 def hertzmap_cmd(*args: str) -> list[str]:
-    return [sys.executable, "-m", "scheduler.cli", *args]
+    return [sys.executable, "-m", "hertzmap.scheduler.cli", *args]
 
 
 def done_count(store) -> int:
     """Tasks marked done in a store (0 while it does not exist or cannot be read yet)."""
-    from scheduler.store import Store
+    from hertzmap.scheduler.store import Store
     try:
         return int(Store(store).done_mask().sum())
     except Exception:
@@ -186,8 +207,8 @@ def placeholder_study(text: str = STORE_TEST_STUDY):
 
 def placeholder_run(path, client, text: str = STORE_TEST_STUDY, **kw):
     """Run a study with the placeholder solver on ``client`` into ``path``; the summary."""
-    from scheduler.cluster import ClusterSpec
-    from scheduler.run import RunOptions, run_study
+    from hertzmap.scheduler.cluster import ClusterSpec
+    from hertzmap.scheduler.run import RunOptions, run_study
 
     opts = RunOptions(store=path, solver=PLACEHOLDER, cluster=ClusterSpec(kind="address"),
                       error_sample=kw.pop("error_sample", 0), **kw)
@@ -278,7 +299,7 @@ SLOW_TRACER = "tests.helpers:slow_trace_seed"
 def slow_trace_seed(seed, bounds, **kwargs):
     """study.solve.curves.trace_seed after a pause ($HERTZMAP_CURVE_DELAY s, default 1): a
     curve stage slow enough for a test to kill it between two committed curves."""
-    from study.solve.curves import trace_seed
+    from hertzmap.study.solve.curves import trace_seed
 
     time.sleep(float(os.environ.get("HERTZMAP_CURVE_DELAY", "1")))
     return trace_seed(seed, bounds, **kwargs)

@@ -67,17 +67,17 @@ def explore_command(args) -> int:
     if args.max_refine_points is not None and args.max_refine_points < 4:
         return _error(f"--max-refine-points must be >= 4, got {args.max_refine_points}")
     if importlib.util.find_spec("bokeh") is None:
-        return _error("the page needs bokeh: pip install 'hertzmap[explore]'")
+        return _error("the page needs bokeh (a dependency of hertzmap): pip install 'bokeh>=3.1'")
     import bokeh
     if tuple(int(x) for x in bokeh.__version__.split(".")[:2]) < BOKEH_MIN:
         return _error(f"the page needs bokeh >= {'.'.join(map(str, BOKEH_MIN))}, found "
-                      f"{bokeh.__version__}: pip install 'hertzmap[explore]'")
+                      f"{bokeh.__version__}: pip install 'bokeh>=3.1'")
     why = _port_in_use(args.port)
     if why:
         return _error(f"port {args.port} is in use on {ADDRESS} ({why}); choose another with "
                       "--port")
 
-    from scheduler.cluster import ClusterError, ClusterSpec
+    from hertzmap.scheduler.cluster import ClusterError, ClusterSpec
     spec = (ClusterSpec(kind="address", address=args.scheduler) if args.scheduler else
             ClusterSpec(kind="local", workers=args.workers))
     try:
@@ -85,8 +85,8 @@ def explore_command(args) -> int:
     except ClusterError as exc:
         return _error(str(exc))
 
-    from scheduler.explore.state import ExploreState
-    from study import explore_data as E
+    from hertzmap.scheduler.explore.state import ExploreState
+    from hertzmap.study import explore_data as E
     state = ExploreState(base=store.resolve(), cluster=spec,
                          max_refine_points=args.max_refine_points or E.MAX_REFINE_POINTS)
     try:
@@ -99,7 +99,7 @@ def explore_command(args) -> int:
     from bokeh.application.handlers.function import FunctionHandler
     from bokeh.server.server import Server
 
-    from scheduler.explore.page import make_document
+    from hertzmap.scheduler.explore.page import make_document
 
     try:
         server = Server({"/": Application(FunctionHandler(partial(make_document, state=state)))},

@@ -19,10 +19,10 @@ from bokeh.models import (Button, ColumnDataSource, Div, HoverTool, InlineStyleS
                           LegendItem, Range1d, Select, Span, Spinner)
 from bokeh.plotting import figure
 
-from study import explore_data as E
+from hertzmap.study import explore_data as E
 
-from scheduler.explore.state import ExploreState, StoreView
-from scheduler.explore.table import orbit_table
+from hertzmap.scheduler.explore.state import ExploreState, StoreView
+from hertzmap.scheduler.explore.table import orbit_table
 
 POLL_MS = 1000
 LEFT_W, RIGHT_W = 860, 730

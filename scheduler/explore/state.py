@@ -16,13 +16,13 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from scheduler.cluster import ClusterError, ClusterSpec, make_client
-from scheduler.plan import DEFAULT_TASK_SECONDS, choose_chunks, make_plan
-from scheduler.errors import RunError, StoreError
-from scheduler.run import RunOptions, run_study
-from scheduler.store import lock_path, read_attrs, read_done_flags
-from study import explore_data as E
-from study import products as P
+from hertzmap.scheduler.cluster import ClusterError, ClusterSpec, make_client
+from hertzmap.scheduler.plan import DEFAULT_TASK_SECONDS, choose_chunks, make_plan
+from hertzmap.scheduler.errors import RunError, StoreError
+from hertzmap.scheduler.run import RunOptions, run_study
+from hertzmap.scheduler.store import lock_path, read_attrs, read_done_flags
+from hertzmap.study import explore_data as E
+from hertzmap.study import products as P
 
 
 @contextlib.contextmanager

@@ -260,7 +260,7 @@ class Rig:
     @classmethod
     def paper(cls):
         """The paper's rig: E = 210 GPa, nu = 0.29, R = 12.7 mm, m = 7.1 kg, N = 69.7 N, double contact."""
-        from study.analytic import paper as pc
+        from hertzmap.study.analytic import paper as pc
 
         return cls.hertz(pc.E, pc.NU, pc.R, pc.M, pc.N, contact="double")
 

@@ -32,18 +32,18 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from kernels.model import TAYLOR_CONTACT_LOSS
-from study.products.attractors import stroboscopic_diagram
-from study.products.classes import orbit_classes, valid_orbits
-from study.products.curves import (CURVES, LOCATED_KINDS, bifurcation_curves, contour_lines,
+from hertzmap.kernels.model import TAYLOR_CONTACT_LOSS
+from hertzmap.study.products.attractors import stroboscopic_diagram
+from hertzmap.study.products.classes import orbit_classes, valid_orbits
+from hertzmap.study.products.curves import (CURVES, LOCATED_KINDS, bifurcation_curves, contour_lines,
                                    curve_segments, located_curves)
-from study.products.maps import MAP_CLASSES, STABLE_SET_FLAGS, isola_mask, loss_of_contact_map
-from study.products.multiple_scales import MMS_HALF_WIDTH, mms_curves, mms_response
-from study.products.paper_numbers import branch_end, flip_minimum
-from study.products.response import force_harmonics, frequency_response, time_histories
-from study.products.traced_curves import (TRACED_VARIABLES, failed_traces, isola_boundary,
+from hertzmap.study.products.maps import MAP_CLASSES, STABLE_SET_FLAGS, isola_mask, loss_of_contact_map
+from hertzmap.study.products.multiple_scales import MMS_HALF_WIDTH, mms_curves, mms_response
+from hertzmap.study.products.paper_numbers import branch_end, flip_minimum
+from hertzmap.study.products.response import force_harmonics, frequency_response, time_histories
+from hertzmap.study.products.traced_curves import (TRACED_VARIABLES, failed_traces, isola_boundary,
                                           traced_segments)
-from study.products.results import (completed, contact_threshold, exponent_of, open_store,
+from hertzmap.study.products.results import (completed, contact_threshold, exponent_of, open_store,
                                     rig_of, source_attrs)
 
 __all__ = [

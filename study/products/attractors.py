@@ -11,9 +11,9 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from study.products.classes import valid_orbits
-from study.products.results import open_store, source_attrs, var_attrs
-from study.schema import ATTRACTOR_KINDS
+from hertzmap.study.products.classes import valid_orbits
+from hertzmap.study.products.results import open_store, source_attrs, var_attrs
+from hertzmap.study.schema import ATTRACTOR_KINDS
 
 
 def stroboscopic_diagram(ds: xr.Dataset, sigma: float | None = None,

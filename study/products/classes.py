@@ -7,8 +7,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from study.orbits import ORBIT_CLASSES, class_codes, first_of_duplicates
-from study.products.results import var_attrs
+from hertzmap.study.orbits import ORBIT_CLASSES, class_codes, first_of_duplicates
+from hertzmap.study.products.results import var_attrs
 
 
 def class_flag_attrs() -> dict[str, Any]:

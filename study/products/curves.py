@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from study.products.results import var_attrs, source_attrs
-from study.schema import BIFURCATION_KINDS
+from hertzmap.study.products.results import var_attrs, source_attrs
+from hertzmap.study.schema import BIFURCATION_KINDS
 
 #: Curve kinds of :func:`bifurcation_curves`: (code, name, indicator, level, description).
 CURVES: tuple[tuple[int, str, str, float, str], ...] = (

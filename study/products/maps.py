@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from study.orbits import ORBIT_CLASSES
-from study.schema import ATTRACTOR_KINDS
-from study.products.classes import orbit_classes, valid_orbits
-from study.products.results import (var_attrs, coord_attrs, quiet, source_attrs,
+from hertzmap.study.orbits import ORBIT_CLASSES
+from hertzmap.study.schema import ATTRACTOR_KINDS
+from hertzmap.study.products.classes import orbit_classes, valid_orbits
+from hertzmap.study.products.results import (var_attrs, coord_attrs, quiet, source_attrs,
                                     contact_threshold, open_store)
 
 #: Bits of ``stable_set``: which kinds of stable response exist at a point.

@@ -8,9 +8,9 @@ from typing import Iterable
 import numpy as np
 import xarray as xr
 
-from kernels.model import TAYLOR_CONTACT_LOSS
-from study.analytic import multiple_scales as mms
-from study.products.results import var_attrs
+from hertzmap.kernels.model import TAYLOR_CONTACT_LOSS
+from hertzmap.study.analytic import multiple_scales as mms
+from hertzmap.study.products.results import var_attrs
 
 #: MMS curves are computed on |omega - 2| <= MMS_HALF_WIDTH (the expansion is about omega = 2).
 MMS_HALF_WIDTH = 0.25

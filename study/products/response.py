@@ -7,9 +7,9 @@ from typing import Iterable
 import numpy as np
 import xarray as xr
 
-from kernels import simulate
-from study.products.classes import orbit_classes, valid_orbits
-from study.products.results import (var_attrs, coord_attrs, source_attrs, exponent_of,
+from hertzmap.kernels import simulate
+from hertzmap.study.products.classes import orbit_classes, valid_orbits
+from hertzmap.study.products.results import (var_attrs, coord_attrs, source_attrs, exponent_of,
                                     open_store)
 
 def _add_frequency_hz(out: xr.Dataset, rig) -> xr.Dataset:

@@ -13,10 +13,10 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from kernels.model import contact_loss_level
-from study.analytic.rig import Rig
-from study.schema import study_from_attrs
-from study.spec import StudyError
+from hertzmap.kernels.model import contact_loss_level
+from hertzmap.study.analytic.rig import Rig
+from hertzmap.study.schema import study_from_attrs
+from hertzmap.study.spec import StudyError
 
 @contextlib.contextmanager
 def quiet():

@@ -20,10 +20,10 @@ import json
 import numpy as np
 import xarray as xr
 
-from kernels.continuation import (BRANCH_STATUS, CODIM2_KINDS, VERTEX_END, VERTEX_EXTREMUM,
+from hertzmap.kernels.continuation import (BRANCH_STATUS, CODIM2_KINDS, VERTEX_END, VERTEX_EXTREMUM,
                                   VERTEX_FLAGS)
-from study.products.results import var_attrs
-from study.schema import BIFURCATION_KINDS
+from hertzmap.study.products.results import var_attrs
+from hertzmap.study.schema import BIFURCATION_KINDS
 
 #: Plane codes (study.solve.curves.PLANES order).
 PLANE_CODES = {("omega", "sigma"): 1, ("omega", "zeta"): 2, ("sigma", "zeta"): 3}

@@ -28,15 +28,15 @@ import time
 
 import numpy as np
 
-from kernels import status as st
-from kernels.model import MODELS, contact_loss_level
-from study.schema import (ATTRACTOR_VARIABLES, BIFURCATION_KINDS, BIFURCATION_SLOTS,
+from hertzmap.kernels import status as st
+from hertzmap.kernels.model import MODELS, contact_loss_level
+from hertzmap.study.schema import (ATTRACTOR_VARIABLES, BIFURCATION_KINDS, BIFURCATION_SLOTS,
                           BIFURCATION_VARIABLES, CROSSING_SLOTS, CROSSING_VARIABLES,
                           ORBIT_VARIABLES, empty_arrays)
-from study.solve.census import record_attractors
-from study.solve.curves import line_crossings
-from study.solve.discovery import discover_line
-from study.solve.line import LINEAR_SEED_STRIDE, MMS_SEED_STRIDE, LineSearch
+from hertzmap.study.solve.census import record_attractors
+from hertzmap.study.solve.curves import line_crossings
+from hertzmap.study.solve.discovery import discover_line
+from hertzmap.study.solve.line import LINEAR_SEED_STRIDE, MMS_SEED_STRIDE, LineSearch
 
 
 def _record(arrays, points, j, k, slots, sols):
@@ -94,9 +94,9 @@ def entry_kernels(*, attractors="never", turn_folds=True, discover=False, locate
     worker's warm-up compiles these (kernels._jit.compile_kernels), so that with an empty
     cache two workers share them instead of meeting in their first tasks, where one waits for
     the other's compile."""
-    from kernels.attractors import attractor_batch_into, lyapunov_into
-    from kernels.continuation import period_map_into
-    from kernels.shooting import shoot_batch_into
+    from hertzmap.kernels.attractors import attractor_batch_into, lyapunov_into
+    from hertzmap.kernels.continuation import period_map_into
+    from hertzmap.kernels.shooting import shoot_batch_into
 
     out = [shoot_batch_into]
     if turn_folds or discover or locate:

@@ -33,15 +33,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from kernels import status as st
-from kernels.attractors import (A, LYAPUNOV_FIELDS, N_ATTRACTOR_FIELDS, N_LYAPUNOV_FIELDS,
+from hertzmap.kernels import status as st
+from hertzmap.kernels.attractors import (A, LYAPUNOV_FIELDS, N_ATTRACTOR_FIELDS, N_LYAPUNOV_FIELDS,
                                 attractor_batch_into, lyapunov_into)
-from kernels.model import MODELS
-from kernels.shooting import N_FIELDS
-from study.orbits import same_orbit
-from study.schema import ATTRACTOR_KINDS, ATTRACTOR_SLOTS, STROBE_POINTS
-from study.solve.point import shoot_seeds, solutions_from_rows
-from study.solve.seeds import initial_states
+from hertzmap.kernels.model import MODELS
+from hertzmap.kernels.shooting import N_FIELDS
+from hertzmap.study.orbits import same_orbit
+from hertzmap.study.schema import ATTRACTOR_KINDS, ATTRACTOR_SLOTS, STROBE_POINTS
+from hertzmap.study.solve.point import shoot_seeds, solutions_from_rows
+from hertzmap.study.solve.seeds import initial_states
 
 #: The transients' integrator tolerance: looser than the shooting's (a transient is refined by
 #: shooting at the study's rtol once it settles); the exponent and measures of a chaotic window

@@ -53,12 +53,12 @@ from dataclasses import asdict, dataclass
 import numpy as np
 import xarray as xr
 
-from kernels import continuation as cont
-from kernels import status as st
-from study.orbits import (CONTINUITY_SHARE, continuity_distance, flip_function, fold_function,
+from hertzmap.kernels import continuation as cont
+from hertzmap.kernels import status as st
+from hertzmap.study.orbits import (CONTINUITY_SHARE, continuity_distance, flip_function, fold_function,
                           match_neighbours)
-from study.schema import BIFURCATION_KINDS
-from study.spec import AXES
+from hertzmap.study.schema import BIFURCATION_KINDS
+from hertzmap.study.spec import AXES
 
 #: The planes of two parameters a curve can be traced in (code 1, 2, 3 in the stored product).
 PLANES = (("omega", "sigma"), ("omega", "zeta"), ("sigma", "zeta"))

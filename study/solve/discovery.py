@@ -29,13 +29,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from kernels import simulate
-from kernels import continuation as cont
-from kernels import status as st
-from study.orbits import ORBIT_CLASSES, class_code
-from study.solve.line import grid_crossings
-from study.solve.point import is_known, merge_new_orbits, shoot_seeds_minimal, solve_point
-from study.solve.seeds import initial_states, mms_seeds
+from hertzmap.kernels import simulate
+from hertzmap.kernels import continuation as cont
+from hertzmap.kernels import status as st
+from hertzmap.study.orbits import ORBIT_CLASSES, class_code
+from hertzmap.study.solve.line import grid_crossings
+from hertzmap.study.solve.point import is_known, merge_new_orbits, shoot_seeds_minimal, solve_point
+from hertzmap.study.solve.seeds import initial_states, mms_seeds
 
 def transient_periods(omega, zeta, min_periods=40, max_periods=400):
     """An even number of forcing periods lasting about 3 / zeta (transients decay like

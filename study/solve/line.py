@@ -26,13 +26,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from kernels import continuation as cont
-from kernels import status as st
-from study.orbits import (CONTINUITY_SHARE, continuity_distance, fold_function,
+from hertzmap.kernels import continuation as cont
+from hertzmap.kernels import status as st
+from hertzmap.study.orbits import (CONTINUITY_SHARE, continuity_distance, fold_function,
                           match_neighbours, same_orbit)
-from study.solve.census import census, settle_kinds
-from study.solve.point import merge_new_orbits, shoot_seeds_minimal, solve_point
-from study.solve.seeds import mms_seeds
+from hertzmap.study.solve.census import census, settle_kinds
+from hertzmap.study.solve.point import merge_new_orbits, shoot_seeds_minimal, solve_point
+from hertzmap.study.solve.seeds import mms_seeds
 
 #: The exploratory seeds: the linear 1T response (where a 1T orbit is continued into the
 #: point; always where none is) every LINEAR_SEED_STRIDE-th point of the up sweep, the

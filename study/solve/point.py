@@ -11,12 +11,12 @@ import math
 
 import numpy as np
 
-from kernels import status as st
-from kernels.api import DEFAULT_MAX_ITER, DEFAULT_MAX_STEPS
-from kernels.model import MODELS
-from kernels.shooting import F, N_FIELDS, shoot_batch_into
-from study.orbits import same_orbit
-from study.solve.seeds import continuation_seed, flip_seeds, linear_response_seed
+from hertzmap.kernels import status as st
+from hertzmap.kernels.api import DEFAULT_MAX_ITER, DEFAULT_MAX_STEPS
+from hertzmap.kernels.model import MODELS
+from hertzmap.kernels.shooting import F, N_FIELDS, shoot_batch_into
+from hertzmap.study.orbits import same_orbit
+from hertzmap.study.solve.seeds import continuation_seed, flip_seeds, linear_response_seed
 
 MAX_ITER_1T = 40
 MAX_ITER_2T = 15          # a 2T seed that has not converged in 15 Newton steps is a bad seed

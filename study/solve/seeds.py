@@ -15,7 +15,7 @@ import warnings
 
 import numpy as np
 
-from kernels import status as st
+from hertzmap.kernels import status as st
 
 #: Initial states of transients are spread over this box of (q, q'), which holds the orbits of
 #: the paper's maps at moderate sigma (a state outside it decays into it within a few periods).
@@ -64,7 +64,7 @@ def mms_seeds(omega, sigma, zeta):
     # Far from omega = 2 the multiple-scales response is no theory, but it is a cheap seed that
     # lands on unstable halves of 2T branches the sweeps miss (measured on sigma 0.2/0.5/0.8
     # lines: restricting it to |omega - 2| < 0.3 lost 17 unstable orbits of 1330).
-    from study.analytic.multiple_scales import mms_2t_seed
+    from hertzmap.study.analytic.multiple_scales import mms_2t_seed
 
     omega = np.atleast_1d(np.asarray(omega, float))
     seeds = [[] for _ in range(omega.size)]

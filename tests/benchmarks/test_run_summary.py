@@ -6,8 +6,8 @@ from __future__ import annotations
 import io
 
 from benchmarks.run_summary import run_summary
-from scheduler.curve_tasks import print_curve_summary
-from scheduler.report import print_summary
+from hertzmap.scheduler.curve_tasks import print_curve_summary
+from hertzmap.scheduler.report import print_summary
 
 RUN = {"tasks_run": 77, "points": 12397, "wall": 12.34, "workers": 2,
        "points_per_second": 1004.6, "setup": 16.04, "orbits": 33831, "orbits_per_second": 2741.6,

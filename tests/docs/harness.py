@@ -124,7 +124,7 @@ def dump_toml(doc: dict) -> str:
 
 def small_study(path: Path) -> str:
     """The study file ``path`` with its grid cut to :data:`SMALL` (its name kept)."""
-    from study.spec import load_study
+    from hertzmap.study.spec import load_study
 
     cut = SMALL[path.stem]
     doc = tomllib.loads(path.read_text())
@@ -214,7 +214,7 @@ class Workspace:
             import dask
             from distributed import LocalCluster
 
-            from scheduler.cluster import CLUSTER_CONFIG
+            from hertzmap.scheduler.cluster import CLUSTER_CONFIG
             with dask.config.set(CLUSTER_CONFIG):
                 self._cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                              dashboard_address=None,
@@ -223,13 +223,13 @@ class Workspace:
 
     def close(self) -> None:
         if self._cluster is not None:
-            from scheduler.cluster import close_quietly
+            from hertzmap.scheduler.cluster import close_quietly
             close_quietly(None, self._cluster)
             self._cluster = None
 
     def _hertzmap_in_process(self, argv: list[str], text: str) -> Result:
-        import scheduler.run as run_module
-        from scheduler.cli import main
+        import hertzmap.scheduler.run as run_module
+        from hertzmap.scheduler.cli import main
 
         own = run_module.make_client
 
@@ -360,7 +360,7 @@ def _dry_run_of(text: str) -> str:
 
 def _check_hertzmap_args(cmd: Command, args: list[str]) -> str | None:
     """argparse accepts the command (options checked by name when it has placeholders)."""
-    from scheduler.cli import SUBCOMMANDS, build_parser
+    from hertzmap.scheduler.cli import SUBCOMMANDS, build_parser
 
     if not args:
         raise DocError(f"{cmd.where()}: `{cmd.text}`: no subcommand")
@@ -616,7 +616,7 @@ def check_toml(block: Block, *workspaces: Workspace) -> str:
     except tomllib.TOMLDecodeError as exc:
         raise DocError(f"{block.where()}: {exc}") from None
     if "grid" in doc:
-        from study.spec import StudyError, parse_study
+        from hertzmap.study.spec import StudyError, parse_study
         try:
             parse_study(block.text, default_name="example")
         except StudyError as exc:

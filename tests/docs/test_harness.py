@@ -73,7 +73,7 @@ BROKEN = {
     "a long command with a bad option":
         "<!-- doc-test: long -->\n\n    hertzmap run studies/fine_map.toml --wrokers 2\n",
     "a script that does not exist": "    .venv/bin/python benchmarks/nosuch.py\n",
-    "a module without a __main__": "    .venv/bin/python -m study.solve.discovery --sigma 0.2\n",
+    "a module without a __main__": "    .venv/bin/python -m hertzmap.study.solve.discovery --sigma 0.2\n",
     "a script option it does not take": "    .venv/bin/python benchmarks/paper_checks.py --fast\n",
     "a test file that moved": "    .venv/bin/python -m pytest tests/test_kernels.py\n",
     "an extra that does not exist": "    pip install 'hertzmap[gpu]'\n",

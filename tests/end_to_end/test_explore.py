@@ -43,13 +43,13 @@ def _browser_missing() -> str:
     if importlib.util.find_spec("selenium") is None:
         missing.append("selenium (pip install selenium)")
     if not HAVE_BOKEH:
-        missing.append("bokeh (pip install 'hertzmap[explore]')")
+        missing.append("bokeh (a dependency of hertzmap: bash scripts/install.sh)")
     return ", ".join(missing)
 
 
 MISSING = _browser_missing()
 needs_browser = pytest.mark.skipif(bool(MISSING), reason=f"browser test not run: missing {MISSING}")
-needs_bokeh = pytest.mark.skipif(not HAVE_BOKEH, reason="needs bokeh (pip install 'hertzmap[explore]')")
+needs_bokeh = pytest.mark.skipif(not HAVE_BOKEH, reason="needs bokeh (a dependency of hertzmap: bash scripts/install.sh)")
 
 # A small map around the flip near omega = 2 (paper Fig. 6-9), in the paper's rig units:
 # 11 x 16 = 176 points, a few seconds.
@@ -248,10 +248,10 @@ def _nearest(values, x):
 def test_click_gives_the_orbits_and_a_refine_recomputes_the_window(map_store, browser, tmp_path):
     from selenium.webdriver.common.keys import Keys
 
-    from kernels import simulate
-    from scheduler.store import Store
-    from study import products as P
-    from study.spec import load_study
+    from hertzmap.kernels import simulate
+    from hertzmap.scheduler.store import Store
+    from hertzmap.study import products as P
+    from hertzmap.study.spec import load_study
 
     shots = _shots(tmp_path)
     ds = P.open_store(map_store)
@@ -365,7 +365,7 @@ def test_click_gives_the_orbits_and_a_refine_recomputes_the_window(map_store, br
 
 @needs_browser
 def test_a_store_being_written_shows_done_over_total_and_follows(map_store, browser, tmp_path):
-    from scheduler.store import Store, lock_path
+    from hertzmap.scheduler.store import Store, lock_path
 
     store = tmp_path / "being_written.zarr"
     shutil.copytree(map_store, store)

@@ -27,7 +27,7 @@ import xarray as xr
 
 from tests.end_to_end.slurm_cluster import ACCOUNT, SlurmUnavailable, start_slurm
 from tests.helpers import REPO, done_count, hertzmap_cmd, subprocess_env, wait_until
-from scheduler.cli import main
+from hertzmap.scheduler.cli import main
 
 pytestmark = pytest.mark.slow
 
@@ -48,8 +48,8 @@ TASK_SECONDS = "0.25"
 
 def _task_count(text: str, task_seconds: float) -> int:
     """How many tasks hertzmap plans for a study (scheduler.plan, as the run does)."""
-    from scheduler.plan import choose_chunks, make_plan
-    from study.spec import parse_study
+    from hertzmap.scheduler.plan import choose_chunks, make_plan
+    from hertzmap.study.spec import parse_study
 
     study = parse_study(text, default_name="x")
     return len(make_plan(study, choose_chunks(study, task_seconds)).tasks)
@@ -198,7 +198,7 @@ def test_study_through_slurm_jobs_is_identical_to_local(slurm, study_path, refer
     # what the jobs got from hertzmap (their script as Slurm stored it): the environment's
     # python, the trimmed Dask config, the client's numba cache, nothing from the cwd
     script = slurm.command("scontrol", "write", "batch_script", jobs[0], "-")
-    import kernels
+    from hertzmap import kernels
     assert f"{sys.executable} -m distributed.cli.dask_worker" in script
     assert "export DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED=False" in script
     assert f"export NUMBA_CACHE_DIR={Path(kernels.CACHE_DIR).parent}" in script
@@ -371,7 +371,7 @@ def test_refused_option_leaves_an_existing_store_untouched(slurm, study_path, re
                                                           tmp_path, monkeypatch, capsys):
     """A partial store (one task not done) and a rerun with a partition that does not
     exist: exit 2, the store byte for byte as it was."""
-    from scheduler.store import Store
+    from hertzmap.scheduler.store import Store
     monkeypatch.setenv("SLURM_CONF", str(slurm.conf))
     store = tmp_path / "partial.zarr"
     shutil.copytree(reference, store)

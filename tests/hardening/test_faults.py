@@ -17,12 +17,12 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from scheduler.cli import main
-from scheduler.cluster import ClusterSpec
-from scheduler.plan import make_plan
-from scheduler.run import RunOptions, run_study
-from scheduler.store import Store, lock_path
-from study.spec import parse_study
+from hertzmap.scheduler.cli import main
+from hertzmap.scheduler.cluster import ClusterSpec
+from hertzmap.scheduler.plan import make_plan
+from hertzmap.scheduler.run import RunOptions, run_study
+from hertzmap.scheduler.store import Store, lock_path
+from hertzmap.study.spec import parse_study
 from tests.helpers import (PLACEHOLDER, done_count, free_port, hertzmap_cmd, subprocess_env, wait_until)
 
 
@@ -183,21 +183,28 @@ def test_unreachable_scheduler_creates_nothing(study_path, tmp_path):
 # -- concurrency ---------------------------------------------------------------------------------
 
 def test_second_client_on_the_same_store_is_refused(study_path, reference, tmp_path):
+    """The first client holds its lock with one task done and the rest held at a gate (an
+    event, not a delay: on a loaded machine a delay let it finish before the second started);
+    the second is refused, then the gate opens and the first completes."""
     store = tmp_path / "two.zarr"
-    env = subprocess_env(HERTZMAP_PLACEHOLDER_DELAY=DELAY)
+    gate = tmp_path / "gate"
     cmd = hertzmap_cmd(*base_args(study_path, store), "--workers", "1")
-    first = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    first = subprocess.Popen(cmd, env=subprocess_env(HERTZMAP_PLACEHOLDER_HOLD=str(gate)),
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         wait_until(lambda: done_count(store) >= 1 or first.poll() is not None, 120, "a first task")
         assert first.poll() is None and lock_path(store).exists()
         before = done_count(store)
-        second = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=120)
+        second = subprocess.run(cmd, env=subprocess_env(), capture_output=True, text=True,
+                                timeout=120)
         assert second.returncode == 2, second.stderr
         assert "in use by another hertzmap client" in second.stderr
         assert f"pid {first.pid}" in second.stderr
-        assert done_count(store) >= before
+        assert done_count(store) == before
+        gate.touch()
         out, err = first.communicate(timeout=120)
     finally:
+        gate.touch()
         _stop([first])
     assert first.returncode == 0, err
     xr.testing.assert_identical(data(store), data(reference))

@@ -18,8 +18,8 @@ import tempfile
 from hypothesis import HealthCheck, given, settings, strategies as hs
 import pytest
 
-from scheduler.cli import main
-from study.spec import MAX_GRID_POINTS
+from hertzmap.scheduler.cli import main
+from hertzmap.study.spec import MAX_GRID_POINTS
 from tests.helpers import PLACEHOLDER, hertzmap_cmd, subprocess_env
 
 
@@ -462,7 +462,7 @@ def test_store_paths_that_are_not_stores_are_refused(tmp_path):
 
 def test_store_too_large_for_the_disk_is_refused(tmp_path, monkeypatch):
     import collections
-    import scheduler.resources as run
+    import hertzmap.scheduler.resources as run
 
     p = _big_study(tmp_path)
     Usage = collections.namedtuple("Usage", "total used free")
@@ -480,7 +480,7 @@ def test_store_too_large_for_the_disk_is_refused(tmp_path, monkeypatch):
 
 
 def test_study_too_large_for_the_memory_is_refused(tmp_path, monkeypatch):
-    import scheduler.resources as run
+    import hertzmap.scheduler.resources as run
 
     p = _big_study(tmp_path, slots=1)
     monkeypatch.setattr(run, "_available_memory", lambda: 10**6)

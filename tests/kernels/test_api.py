@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from kernels import shoot, shoot_batch, status
+from hertzmap.kernels import shoot, shoot_batch, status
 
 
 def test_batch_equals_single_calls():
@@ -53,7 +53,7 @@ def test_harmonics_off_changes_nothing_else(omega, sigma, zeta, m, guess):
 def test_shoot_is_the_batch_kernel_field_for_field(omega, sigma, zeta, m, guess, exponent):
     """kernels.shoot (a read-only view of the kernel's row) gives, bit for bit, what
     shoot_batch gives for the same solve, in every field and every Orbit attribute."""
-    from kernels.shooting import FIELDS
+    from hertzmap.kernels.shooting import FIELDS
     o = shoot(omega, sigma, zeta, m, guess=guess, rtol=1e-9, exponent=exponent)
     b = shoot_batch(omega, sigma, zeta, m, guess[0], guess[1], rtol=1e-9, exponent=exponent)
     assert o.converged

@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 
 from benchmarks import oracle
-from kernels import attractor, attractor_batch, lyapunov, shoot, status
-from kernels.attractors import (M_MAX, MAX_REFINEMENTS, RING, detect_period,
+from hertzmap.kernels import attractor, attractor_batch, lyapunov, shoot, status
+from hertzmap.kernels.attractors import (M_MAX, MAX_REFINEMENTS, RING, detect_period,
                                 detect_period_in)
 
 ZETA = 0.01
@@ -184,8 +184,8 @@ def orbit_2t():
 
 def test_2t_flip_where_the_scipy_monodromy_says(orbit_2t):
     """The 2T orbit's test function 1 + tr M + det M, located by bisection on the kernels'
-    monodromy, changes sign where the oracle's (finite differences of its own period map, at
-    its own fixed point) does: its signs 1e-4 on either side of the located flip."""
+    monodromy, changes sign where the oracle's (its own variational equations at its own fixed
+    point) does: its signs 1e-4 on either side of the located flip."""
     x = orbit_2t
     lo, hi = 1.9065, 1.9075
     x_hi = shoot(hi, SIGMA_FLIP, ZETA, 2, guess=x, rtol=1e-12)
@@ -204,8 +204,9 @@ def test_2t_flip_where_the_scipy_monodromy_says(orbit_2t):
     for d, sign in ((+1e-4, +1.0), (-1e-4, -1.0)):
         w = flip + d
         o = shoot(w, SIGMA_FLIP, ZETA, 2, guess=guess, rtol=1e-12)
-        x_ref, ok = oracle.fixed_point(o.x0 + 1e-4, w, SIGMA_FLIP, ZETA, 2)
-        assert ok
+        # the oracle's own orbit: Newton (hybr) with its exact Jacobian from 1e-4 away, checked
+        # by its residual (scipy's finite-difference hybr stalled here short of its xtol)
+        x_ref, _, _ = oracle.shoot(o.x0 + 1e-4, w, SIGMA_FLIP, ZETA, 2, rtol=1e-12)
         # the oracle's monodromy: its own variational equations integrated by scipy at its own
         # fixed point (finite differences of its period map carry errors up to ~3e-4 here, on
         # an orbit that spends 41 % of its period in flight)
@@ -227,8 +228,8 @@ def test_4t_attractor_beyond_the_flip():
     assert a.orbit.stable and a.orbit.minimal_period == 4
     o2 = shoot(1.90, SIGMA_FLIP, ZETA, 2, guess=a.orbit.x0, rtol=1e-12)
     assert o2.converged and o2.minimal_period == 2
-    M_fd = oracle.monodromy_fd(o2.x0, 1.90, SIGMA_FLIP, ZETA, 2, delta=1e-6)
-    assert np.linalg.eigvals(M_fd).real.min() < -1.0
+    _, M_ref, _ = oracle.shoot(o2.x0 + 1e-4, 1.90, SIGMA_FLIP, ZETA, 2, rtol=1e-12)
+    assert np.linalg.eigvals(M_ref).real.min() < -1.0
 
 
 def test_stable_orbit_exponent_is_log_mu_over_period(orbit_2t):
@@ -266,8 +267,7 @@ def test_long_chaotic_transient_is_unsettled_not_chaotic():
     assert 1000 < long.periods_run < 20_200
     assert long.orbit.stable and long.orbit.minimal_period == 2
     assert long.flight_fraction > 0.3 and long.min_q < -9
-    x_ref, ok = oracle.fixed_point(long.orbit.x0 + 1e-3, 1.0, 2.0, ZETA, 2)
-    assert ok
+    x_ref, _, _ = oracle.shoot(long.orbit.x0 + 1e-3, 1.0, 2.0, ZETA, 2, rtol=1e-12)
     np.testing.assert_allclose(long.orbit.x0, x_ref, rtol=0, atol=1e-8)
 
 

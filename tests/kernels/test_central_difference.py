@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from benchmarks import oracle
-from kernels.central_difference import cd_map, cd_map3, cd_shoot, cd_shoot_tuned
+from hertzmap.kernels.central_difference import cd_map, cd_map3, cd_shoot, cd_shoot_tuned
 
 
 # (omega, sigma, zeta, m, start point near the orbit, n): in contact; 60 % flight; n = 1 impacts

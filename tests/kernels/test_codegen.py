@@ -7,12 +7,12 @@ import pathlib
 from scipy.integrate._ivp import dop853_coefficients as c
 import numpy as np
 
-from kernels import _codegen
+from hertzmap.kernels import _codegen
 
 
 def test_generated_module_is_up_to_date():
     committed = pathlib.Path(_codegen.__file__).with_name("_dop853.py").read_text()
-    assert committed == _codegen.source(), "run: python -m kernels._codegen"
+    assert committed == _codegen.source(), "run: python -m hertzmap.kernels._codegen"
 
 
 def test_tableau_is_consistent():
@@ -23,8 +23,8 @@ def test_tableau_is_consistent():
 
 def test_one_step_is_eighth_order():
     """Local error of one step on the linear in-contact problem scales as h^9."""
-    from kernels._dop853 import step_state
-    from kernels.model import TAYLOR
+    from hertzmap.kernels._dop853 import step_state
+    from hertzmap.kernels.model import TAYLOR
     # q'' + 2 zeta q' + q = 1 + sigma cos(w t) with the Taylor model linearised? use the exact
     # solution of the free damped oscillator: sigma = 0, F(q) = 1 + q + O(q^2) is not linear,
     # so compare against a step halving estimate (Richardson): e(h) / e(h/2) ~ 2^9

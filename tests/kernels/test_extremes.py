@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from benchmarks.extreme_cases import CASES, ROUTES, case_args, solve_case
-from kernels import status
+from hertzmap.kernels import status
 
 
 TIME_BOUND = 20.0     # seconds per call, generous for a busy shared machine

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from benchmarks import oracle
-from kernels import shoot, simulate, status
+from hertzmap.kernels import shoot, simulate, status
 from tests.helpers import assert_liouville
 
 
@@ -64,7 +64,7 @@ def test_crossing_guess_is_the_hermite_interpolants_root():
     # Oracle: numpy's polynomial fit through the same end values and derivatives, and its roots.
     from hypothesis import given, settings, strategies as hs
 
-    from kernels.integrate import _hermite_root
+    from hertzmap.kernels.integrate import _hermite_root
 
     val = hs.floats(0.01, 10.0)
     der = hs.floats(-20.0, 20.0)
@@ -100,7 +100,7 @@ def test_spans_ending_on_the_way_down_to_contact_loss(dim):
     in x = -sqrt(q + n) with t - t_ref in place of q), just before it and just after: the state
     at the end agrees with scipy, and with the variational matrix det Phi = exp(-2 zeta t).
     (A span whose last t-step started the approach in x once returned t - t_ref as q.)"""
-    from kernels.integrate import N_HARMONICS, N_STATS, integrate
+    from hertzmap.kernels.integrate import N_HARMONICS, N_STATS, integrate
 
     omega, sigma, zeta = 0.8, 1.5, 0.01
     x0 = shoot(omega, sigma, zeta, 1, guess=(-7.7, 0.17), rtol=1e-12).x0

@@ -37,8 +37,10 @@ def _run(code: str, cache, **env) -> dict:
 
 def test_importing_the_kernels_and_the_study_layer_compiles_nothing(tmp_path):
     out = _run("""
-        import kernels, kernels.attractors, kernels.continuation, kernels.central_difference
-        import study.schema, study.solve.block, study.products
+        import hertzmap.kernels.attractors, hertzmap.kernels.continuation
+        import hertzmap.kernels.central_difference
+        import hertzmap.study.schema, hertzmap.study.solve.block, hertzmap.study.products
+        from hertzmap import kernels
         import os
         print(json.dumps({"compiled": compiled, "files": sorted(
             f for _, _, fs in os.walk(kernels.CACHE_DIR) for f in fs)}))
@@ -52,19 +54,19 @@ def test_a_first_orbit_compiles_the_shooting_path_once(tmp_path):
     """No attractor, continuation or baseline kernel, and one specialisation of everything
     compiled (a literal argument used to make more: four copies of the integrator)."""
     out = _run("""
-        import kernels
-        from kernels._jit import KERNELS
+        from hertzmap import kernels
+        from hertzmap.kernels._jit import KERNELS
         o = kernels.shoot(1.5, 0.2, 0.01, 1, guess=(-0.16, 0.006))
-        mine = [k for k in compiled if k.startswith("kernels.")]
+        mine = [k for k in compiled if k.startswith("hertzmap.kernels.")]
         print(json.dumps({"converged": bool(o.converged), "compiled": mine,
                           "signatures": {d.py_func.__qualname__: len(d.signatures)
                                          for d in KERNELS if d.signatures}}))
     """, tmp_path, HERTZMAP_COMPILE_HELPERS="0")
     assert out["converged"]
     modules = {k.rsplit(".", 1)[0] for k in out["compiled"]}
-    assert modules <= {"kernels.model", "kernels.flight", "kernels._dop853",
-                       "kernels.integrate", "kernels.shooting"}, modules
-    assert "kernels.integrate.integrate" in out["compiled"]
+    assert modules <= {"hertzmap.kernels.model", "hertzmap.kernels.flight", "hertzmap.kernels._dop853",
+                       "hertzmap.kernels.integrate", "hertzmap.kernels.shooting"}, modules
+    assert "hertzmap.kernels.integrate.integrate" in out["compiled"]
     assert len(out["compiled"]) == len(set(out["compiled"])), "a kernel compiled twice"
     assert set(out["signatures"].values()) == {1}
 
@@ -75,8 +77,8 @@ def test_a_second_process_waits_for_the_compile_and_loads_it(tmp_path):
     must have waited: it loads the kernel from the cache instead of compiling it."""
     code = """
         import json, sys
-        import kernels
-        from kernels.model import cos_shifted
+        from hertzmap import kernels
+        from hertzmap.kernels.model import cos_shifted
         print("asking", flush=True)
         cos_shifted.compile_fixed()
         print(json.dumps({"hits": sum(cos_shifted.stats.cache_hits.values()),
@@ -87,9 +89,9 @@ def test_a_second_process_waits_for_the_compile_and_loads_it(tmp_path):
     parent = subprocess.Popen(
         [sys.executable, "-c", script + textwrap.dedent(f"""
             import subprocess, sys, time
-            import kernels
-            from kernels._jit import _compile_lock
-            from kernels.model import cos_shifted
+            from hertzmap import kernels
+            from hertzmap.kernels._jit import _compile_lock
+            from hertzmap.kernels.model import cos_shifted
             with _compile_lock(cos_shifted):
                 child = subprocess.Popen([sys.executable, "-c", {textwrap.dedent(code)!r}],
                                          stdout=subprocess.PIPE, text=True)
@@ -104,57 +106,14 @@ def test_a_second_process_waits_for_the_compile_and_loads_it(tmp_path):
     assert child == {"hits": 1, "misses": 0}
 
 
-#: in a child process: one orbit by the batch entry point (the first kernel this process
-#: touches), the symbol of the integrator, and whether shoot_into's code holds its own copy
-BATCH_ORBIT = """
-    import numpy as np
-    import kernels
-    from kernels.integrate import integrate
-    from kernels.shooting import N_FIELDS, shoot_batch_into, shoot_into
-    one = lambda x: np.array([x])
-    out = np.empty((1, N_FIELDS))
-    shoot_batch_into(one(1.5), one(0.2), one(0.01), np.array([1]), one(-0.16), one(0.006),
-                     1.5, 0, 1e-10, 1e-10, 30, 100000, True, out)
-    name = integrate.overloads[integrate.signatures[0]].fndesc.mangled_name
-    module = shoot_into.overloads[shoot_into.signatures[0]].library._final_module
-    try:
-        whole = not module.get_function(name).is_declaration
-    except NameError:       # loaded from the cache: its module is not kept
-        whole = None
-    print(json.dumps({"row": out[0].tolist(), "integrate": name, "integrate_whole": whole,
-                      "compiled": [k for k in compiled if k.startswith("kernels.")]}))
-"""
-
-
 @pytest.mark.slow
-def test_symbol_linked_kernels_are_called_by_name_across_processes(tmp_path):
-    """shoot_into calls the integrator's one compiled copy (its code declares it and holds no
-    copy); a second process that first touches the batch entry point loads everything from
-    the cache (nothing compiled: the callees are loaded before their callers) and gets the
-    integrator under the same symbol; the orbit is the one, to the last bit, that numba's own
-    whole linking gives (HERTZMAP_SYMBOL_LINK=0, its own cache folder)."""
-    env = dict(HERTZMAP_COMPILE_HELPERS="0")
-    first = _run(BATCH_ORBIT, tmp_path, **env)
-    again = _run(BATCH_ORBIT, tmp_path, **env)
-    whole = _run(BATCH_ORBIT, tmp_path, HERTZMAP_SYMBOL_LINK="0", **env)
-    assert first["integrate_whole"] is False
-    assert whole["integrate_whole"] is True
-    assert "kernels.integrate.integrate" in first["compiled"]
-    assert again["compiled"] == []
-    assert again["integrate"] == first["integrate"]
-    assert first["row"][0] == 0.0, first["row"]         # status CONVERGED
-    assert again["row"] == first["row"]
-    assert whole["row"] == first["row"]
-
-
-@pytest.mark.slow
-def test_a_plain_njit_caller_links_the_kernels_whole_and_loads_alone(tmp_path):
-    """Code numba compiles for anything but a kernel (here a cached njit function of another
-    module) holds its own copy of the symbol-linked kernels it calls, so that a new process
-    can load it from numba's cache and run it before any kernel is loaded."""
+def test_a_plain_njit_caller_of_a_kernel_is_cached_and_loads_alone(tmp_path):
+    """A user's cached njit function that calls a kernel (the fixed signature's lazy compile
+    included) compiles once, and a new process loads it from numba's cache and runs it before
+    any kernel is loaded."""
     (tmp_path / "caller.py").write_text(textwrap.dedent("""
         from numba import njit
-        from kernels.shooting import shoot_into
+        from hertzmap.kernels.shooting import shoot_into
 
         @njit(cache=True)
         def first_orbit(out):
@@ -166,11 +125,11 @@ def test_a_plain_njit_caller_links_the_kernels_whole_and_loads_alone(tmp_path):
         sys.path.insert(0, {folder!r})
         import numpy as np
         from caller import first_orbit
-        from kernels.shooting import N_FIELDS
+        from hertzmap.kernels.shooting import N_FIELDS
         out = np.empty(N_FIELDS)
         first_orbit(out)
         print(json.dumps({{"q0": out[1], "status": out[0],
-                          "compiled": [k for k in compiled if k.startswith("kernels.")],
+                          "compiled": [k for k in compiled if k.startswith("hertzmap.kernels.")],
                           "caller": [k for k in compiled if k.startswith("caller.")]}}))
     """.format(folder=str(tmp_path))
     cache = tmp_path / "cache"

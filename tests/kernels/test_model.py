@@ -10,8 +10,8 @@ from scipy.optimize import brentq
 import numpy as np
 import pytest
 
-from kernels.model import TAYLOR, TAYLOR_CONTACT_LOSS, rhs_force
-from study.analytic.paper import TAYLOR_CONTACT_LOSS_PRINTED
+from hertzmap.kernels.model import TAYLOR, TAYLOR_CONTACT_LOSS, rhs_force
+from hertzmap.study.analytic.paper import TAYLOR_CONTACT_LOSS_PRINTED
 
 
 def test_cos_shifted_against_long_double():
@@ -19,7 +19,7 @@ def test_cos_shifted_against_long_double():
     long-double cosine of the exact sum (libm on the rounded sum errs by |phi0| eps)."""
     from math import cos, sin
 
-    from kernels.model import cos_shifted
+    from hertzmap.kernels.model import cos_shifted
 
     rng = np.random.default_rng(0)
     phi = rng.uniform(-200.0, 200.0, 20000)

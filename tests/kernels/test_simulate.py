@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from benchmarks import oracle
-from kernels import shoot, simulate, status
-from kernels.api import section_times
-from kernels.integrate import N_HARMONICS, N_STATS, S_H_RECONTACT, integrate
+from hertzmap.kernels import shoot, simulate, status
+from hertzmap.kernels.api import section_times
+from hertzmap.kernels.integrate import N_HARMONICS, N_STATS, S_H_RECONTACT, integrate
 
 # omegas where ceil(periods T / T) was one too many (found by brute force over periods 1..600),
 # the three, and random ones

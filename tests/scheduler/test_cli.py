@@ -9,13 +9,13 @@ import subprocess
 import pytest
 import zarr
 
-from scheduler.cli import main
-from scheduler.store import store_status
+from hertzmap.scheduler.cli import main
+from hertzmap.scheduler.store import store_status
 from tests.helpers import (hertzmap_cmd, placeholder_run, placeholder_study, subprocess_env, write_results)
 
 
 def test_cli_plot(hand, tmp_path):
-    from scheduler.cli import main
+    from hertzmap.scheduler.cli import main
 
     store = write_results(hand, tmp_path / "c.zarr")
     out = tmp_path / "figs"

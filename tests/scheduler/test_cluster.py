@@ -7,8 +7,8 @@ import sys
 
 import pytest
 
-from scheduler.cli import main
-from scheduler.cluster import ClusterSpec
+from hertzmap.scheduler.cli import main
+from hertzmap.scheduler.cluster import ClusterSpec
 
 
 pytestmark = pytest.mark.slow
@@ -28,7 +28,7 @@ zeta = 0.02
 def test_local_cluster_runs_with_the_trimmed_dask_config():
     """make_client's LocalCluster hands CLUSTER_CONFIG to its worker processes (no 'profile'
     periodic callback, ticks every 200 ms): Dask's housekeeping costs the solvers on few cores."""
-    from scheduler.cluster import CLUSTER_CONFIG, make_client
+    from hertzmap.scheduler.cluster import CLUSTER_CONFIG, make_client
 
     client, cluster = make_client(ClusterSpec(kind="local", workers=1))
     try:
@@ -47,7 +47,7 @@ def test_config_env_lines_reproduce_the_config():
     import dask
     import dask.config
 
-    from scheduler.cluster import CLUSTER_CONFIG, config_env_lines
+    from hertzmap.scheduler.cluster import CLUSTER_CONFIG, config_env_lines
 
     env = dict(line.removeprefix("export ").split("=", 1)
                for line in config_env_lines(CLUSTER_CONFIG))
@@ -63,8 +63,8 @@ def test_jobqueue_job_script_is_made_from_options():
     pytest.importorskip("dask_jobqueue", reason="dask-jobqueue not installed")
     import dask_jobqueue
 
-    import kernels
-    from scheduler.cluster import jobqueue_options, parse_cluster_options
+    from hertzmap import kernels
+    from hertzmap.scheduler.cluster import jobqueue_options, parse_cluster_options
 
     options = parse_cluster_options([
         "queue=normal", "cores=4", "walltime=02:00:00", 'job_extra_directives=["--exclusive"]',

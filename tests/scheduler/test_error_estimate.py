@@ -24,8 +24,8 @@ def test_error_estimate_finds_orbits_that_only_continuation_reaches(client):
     # The error estimate re-solves each sampled orbit alone at a tight tolerance. Orbits that
     # the block solver reaches only by continuation along omega are missed by a point's own
     # automatic seeds; seeded with the stored start point, every sample is found again.
-    from scheduler.run import estimate_error
-    from study.solve.block import solve_block
+    from hertzmap.scheduler.run import estimate_error
+    from hertzmap.study.solve.block import solve_block
 
     s = placeholder_study('[study]\nname = "err"\n[grid]\nomega = {start = 0.5, stop = 2.5, num = 41}\n'
               'sigma = 0.5\nzeta = 0.01\n[solver]\nrtol = 1e-10\n')

@@ -4,8 +4,8 @@ from __future__ import annotations
 from hypothesis import given, settings, strategies as hs
 import numpy as np
 
-from scheduler.plan import choose_chunks, make_plan
-from study.spec import parse_study
+from hertzmap.scheduler.plan import choose_chunks, make_plan
+from hertzmap.study.spec import parse_study
 from tests.helpers import placeholder_study
 
 

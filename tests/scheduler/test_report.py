@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from scheduler.report import overhead, overhead_line
+from hertzmap.scheduler.report import overhead, overhead_line
 
 
 def _summary(workers, tasks_run, compute, wall):

@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from scheduler.cli import main
-from scheduler.cluster import ClusterSpec
-from scheduler.run import RunOptions, run_study
-from scheduler.store import Store, lock_path
-from study.spec import parse_study
+from hertzmap.scheduler.cli import main
+from hertzmap.scheduler.cluster import ClusterSpec
+from hertzmap.scheduler.run import RunOptions, run_study
+from hertzmap.scheduler.store import Store, lock_path
+from hertzmap.study.spec import parse_study
 from tests.helpers import (done_count, free_port, hertzmap_cmd, kill_client_mid_study,
                       subprocess_env, wait_until)
 
@@ -100,7 +100,7 @@ def test_local_cluster_end_to_end(reference):
     empty = status == -1
     assert np.isnan(ds.q0.values[empty]).all() and not ds.stable.values[empty].any()
     # what the store says matches what the solver returns for one line, solved here
-    from study.solve.block import solve_block
+    from hertzmap.study.solve.block import solve_block
     study = parse_study(E2E_STUDY, default_name="e2e")
     line = solve_block(study.axis("omega"), study.axis("sigma")[1:2], study.axis("zeta")[:1],
                        **study.solver_kwargs())
@@ -112,7 +112,7 @@ def test_existing_scheduler_two_workers(study_path, reference, tmp_path):
     """`dask scheduler` and two `dask worker` processes started here, the workers with the
     environment docs/running.md gives them (the trimmed Dask config); the store identical to
     the LocalCluster run's."""
-    from scheduler.cluster import CLUSTER_CONFIG, config_env_lines
+    from hertzmap.scheduler.cluster import CLUSTER_CONFIG, config_env_lines
 
     port = free_port()
     env = subprocess_env()

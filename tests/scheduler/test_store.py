@@ -11,13 +11,13 @@ import pytest
 import xarray as xr
 import zarr
 
-from scheduler.cli import main
-from scheduler.plan import choose_chunks, make_plan
-from scheduler.store import (Lock, Store, StoreError, list_products, lock_path, open_or_create,
+from hertzmap.scheduler.cli import main
+from hertzmap.scheduler.plan import choose_chunks, make_plan
+from hertzmap.scheduler.store import (Lock, Store, StoreError, list_products, lock_path, open_or_create,
                              read_product, write_product, write_products)
-from study import products as P
-from study.schema import (VARIABLES, stored_variables)
-from study.schema import PRODUCT_GROUP
+from hertzmap.study import products as P
+from hertzmap.study.schema import (VARIABLES, stored_variables)
+from hertzmap.study.schema import PRODUCT_GROUP
 from tests.helpers import (ALL_OUTPUTS_STUDY, STORE_TEST_STUDY, placeholder_run, placeholder_study,
                            write_results)
 from tests.helpers import placeholder_solve_block
@@ -175,7 +175,7 @@ def test_resume_with_other_solver_code_warns(tmp_path, client, capsys):
 
 def test_block_write_is_byte_identical_to_an_xarray_region_write(tmp_path):
     # oracle: xarray's own region write of block_dataset, the path write_block replaced
-    from study.schema import block_dataset
+    from hertzmap.study.schema import block_dataset
 
     s = placeholder_study(ALL_OUTPUTS_STUDY)
     names = stored_variables(s)

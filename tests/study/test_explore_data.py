@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from study import explore_data as E
-from study import products as P
-from study.spec import parse_study
+from hertzmap.study import explore_data as E
+from hertzmap.study import products as P
+from hertzmap.study.spec import parse_study
 from tests.helpers import blank_results
 
 REPO = Path(__file__).resolve().parents[2]
@@ -157,7 +157,7 @@ def test_orbit_history_and_harmonics_of_a_real_2T_orbit_with_contact_loss():
     """A 2T orbit with contact loss found by shooting (exact events) put in a store: the page's
     integration from its start point closes, has its min q, and its FFT harmonics are the
     shooting's force harmonics."""
-    from kernels import shoot
+    from hertzmap.kernels import shoot
 
     orbit = shoot(1.9, 0.5, 0.01, period=2, guess=(-0.09, 1.5), exponent=1.5, rtol=1e-11)
     assert orbit.converged and orbit.loses_contact and orbit.stable

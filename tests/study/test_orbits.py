@@ -6,8 +6,8 @@ from __future__ import annotations
 from hypothesis import given, strategies as hs
 import numpy as np
 
-from kernels import shoot, simulate
-from study.orbits import (CLASS_LABELS, CLASS_NAMES, ORBIT_CLASSES, SAME_ORBIT_TOL, class_code,
+from hertzmap.kernels import shoot, simulate
+from hertzmap.study.orbits import (CLASS_LABELS, CLASS_NAMES, ORBIT_CLASSES, SAME_ORBIT_TOL, class_code,
                           class_codes, first_of_duplicates, same_orbit)
 
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import matplotlib
 import pytest
 
-from study import plots
-from study import products as P
+from hertzmap.study import plots
+from hertzmap.study import products as P
 from tests.helpers import blank_results, set_orbit
 
 

@@ -8,13 +8,13 @@ import re
 import numpy as np
 import pytest
 
-from kernels import status
-from study import products as P
-from study.orbits import ORBIT_CLASSES
-from study.schema import (BIFURCATION_KINDS, BIFURCATION_SLOTS, PRODUCT_VARIABLES, VARIABLES,
+from hertzmap.kernels import status
+from hertzmap.study import products as P
+from hertzmap.study.orbits import ORBIT_CLASSES
+from hertzmap.study.schema import (BIFURCATION_KINDS, BIFURCATION_SLOTS, PRODUCT_VARIABLES, VARIABLES,
                           bytes_per_point, empty_arrays, stored_variables, study_from_attrs,
                           template)
-from study.spec import StudyError, parse_study
+from hertzmap.study.spec import StudyError, parse_study
 from tests.helpers import ALL_OUTPUTS_STUDY, REPO, STORE_TEST_STUDY, placeholder_study
 
 

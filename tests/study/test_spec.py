@@ -9,7 +9,7 @@ from hypothesis import given, settings, strategies as hs
 import numpy as np
 import pytest
 
-from study.spec import (DEFAULT_PRODUCTS, MAX_GRID_POINTS, Study, StudyError, load_study,
+from hertzmap.study.spec import (DEFAULT_PRODUCTS, MAX_GRID_POINTS, Study, StudyError, load_study,
                         parse_study)
 from tests.helpers import REPO
 
@@ -234,7 +234,7 @@ def test_shipped_studies_are_valid():
 
 
 def test_search_discover_option():
-    from study.spec import parse_study
+    from hertzmap.study.spec import parse_study
     base = '[grid]\nomega = [1.0, 1.5]\nsigma = [0.2]\nzeta = [0.01]\n'
     plain = parse_study(base, default_name="s")
     assert plain.discover is False and "discover" not in plain.solver_kwargs()

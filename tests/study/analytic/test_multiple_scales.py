@@ -15,8 +15,8 @@ from scipy.optimize import brentq
 import numpy as np
 import pytest
 
-from study.analytic import multiple_scales as ms
-from study.analytic.paper import TAYLOR_CONTACT_LOSS_PRINTED
+from hertzmap.study.analytic import multiple_scales as ms
+from hertzmap.study.analytic.paper import TAYLOR_CONTACT_LOSS_PRINTED
 
 
 ZETAS = st.floats(1e-4, 0.02)

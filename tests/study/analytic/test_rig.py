@@ -9,9 +9,9 @@ from hypothesis import strategies as st
 import numpy as np
 import pytest
 
-from study.analytic import paper as pc
-from study.analytic import rig
-from study.analytic.rig import Rig
+from hertzmap.study.analytic import paper as pc
+from hertzmap.study.analytic import rig
+from hertzmap.study.analytic.rig import Rig
 
 
 def _sig(x, digits):

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from study import products as P
-from study.analytic import multiple_scales as ms
-from study.analytic.paper import F0_PRINTED
-from study.spec import parse_study
+from hertzmap.study import products as P
+from hertzmap.study.analytic import multiple_scales as ms
+from hertzmap.study.analytic.paper import F0_PRINTED
+from hertzmap.study.spec import parse_study
 from tests.helpers import RIG_TABLE, blank_results, write_results
 
 
@@ -76,7 +76,7 @@ def test_classes_and_map_on_hand_built_cases(hand):
 def test_map_keeps_the_1t_2t_kinds_beside_a_stable_longer_orbit(hand):
     """A stable 3T orbit alone is map_class 16; beside a stable 1T orbit the map keeps the 1T
     kind (the paper's loss-of-contact map) and stable_longer marks the point."""
-    from study.products.maps import MAP_CLASS_LONGER
+    from hertzmap.study.products.maps import MAP_CLASS_LONGER
     from tests.helpers import set_orbit
 
     ds = hand.copy(deep=True)
@@ -165,8 +165,8 @@ def test_mms_products():
 def test_real_orbits_line_histories_harmonics_and_rig(tmp_path):
     """A tiny real store from the block solver: response, force harmonics and F_exp time
     histories in physical units."""
-    from study.solve.block import solve_block
-    from study.schema import block_dataset, stored_variables
+    from hertzmap.study.solve.block import solve_block
+    from hertzmap.study.schema import block_dataset, stored_variables
 
     toml = ("[grid]\nomega = [1.88, 1.97]\nsigma = 0.5\nzeta = 0.01\n[products]\n"
             "outputs = [\"orbits\", \"measures\", \"force_harmonics\"]\n" + RIG_TABLE)

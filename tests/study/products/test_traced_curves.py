@@ -7,7 +7,7 @@ import re
 import numpy as np
 import xarray as xr
 
-from study.products.traced_curves import (TRACED_VARIABLES, VERTEX_EXTREMUM,
+from hertzmap.study.products.traced_curves import (TRACED_VARIABLES, VERTEX_EXTREMUM,
                                           combine_traced_curves, isola_boundary,
                                           traced_curves_dataset)
 from tests.helpers import REPO

@@ -8,12 +8,12 @@ import time
 
 import numpy as np
 
-from kernels import status
-from kernels import status as st
-from study.solve import point
-from study.solve.block import solve_block
-from study.solve.point import MAX_ITER_1T, MAX_ITER_2T, shoot_seeds
-from study.solve.seeds import FLIP_SEED_OFFSETS, flip_seeds, linear_response_seed
+from hertzmap.kernels import status
+from hertzmap.kernels import status as st
+from hertzmap.study.solve import point
+from hertzmap.study.solve.block import solve_block
+from hertzmap.study.solve.point import MAX_ITER_1T, MAX_ITER_2T, shoot_seeds
+from hertzmap.study.solve.seeds import FLIP_SEED_OFFSETS, flip_seeds, linear_response_seed
 
 
 W, S, Z = 1.2, 0.5, 0.01
@@ -67,7 +67,7 @@ def test_flip_seed_precheck_drops_no_seed(monkeypatch):
 
 def test_block_keeps_1t_multipliers_when_a_2t_solve_lands_on_the_1t_orbit():
     """Regression: a 2T solve landing on the 1T orbit must not store the 2T monodromy."""
-    from study.solve.block import solve_block
+    from hertzmap.study.solve.block import solve_block
     omega = np.linspace(1.0, 2.4, 8)
     r = solve_block(omega, np.array([0.3]), np.array([0.01]))
     one = r["period"] == 1

@@ -7,14 +7,14 @@ import pytest
 import xarray as xr
 
 from benchmarks import oracle
-from kernels import continuation as cont
-from scheduler.curve_tasks import product_summary
-from study.products.traced_curves import (CODIM2_CODES, combine_traced_curves, isola_boundary,
+from hertzmap.kernels import continuation as cont
+from hertzmap.scheduler.curve_tasks import product_summary
+from hertzmap.study.products.traced_curves import (CODIM2_CODES, combine_traced_curves, isola_boundary,
                                           trace_from_part, traced_curves_dataset,
                                           traced_segments)
-from study.schema import BIFURCATION_KINDS, CROSSING_SLOTS
-from study.solve import curves as C
-from study.spec import StudyError, parse_study
+from hertzmap.study.schema import BIFURCATION_KINDS, CROSSING_SLOTS
+from hertzmap.study.solve import curves as C
+from hertzmap.study.spec import StudyError, parse_study
 
 Z = 0.01
 
@@ -151,7 +151,7 @@ def test_seeds_per_plane_and_order():
 def flip_trace():
     """The 1T flip curve's right arm in (omega, sigma) at zeta 0.01 from a point at sigma 0.5,
     and the located flip of the same arm at sigma 0.6 (by continuation in omega)."""
-    from study.solve.seeds import linear_response_seed
+    from hertzmap.study.solve.seeds import linear_response_seed
 
     def flip_at(sigma):
         b = cont.continue_orbit(Z, linear_response_seed(2.2, sigma, Z), omega=2.2, sigma=sigma,
@@ -293,8 +293,8 @@ def test_a_seed_that_does_not_converge_is_a_failed_trace():
 
 
 def test_a_committed_part_reads_back_as_it_was_written(flip_trace, tmp_path):
-    from scheduler.store import read_curve_parts, write_curve_part
-    from study.products.traced_curves import part_attrs
+    from hertzmap.scheduler.store import read_curve_parts, write_curve_part
+    from hertzmap.study.products.traced_curves import part_attrs
     r, *_ = flip_trace
     part = traced_curves_dataset([r], part_attrs(r, 3))
     write_curve_part(tmp_path, 7, part)

@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 from benchmarks import oracle
-from kernels import shoot
-from kernels import status as st
-from study.orbits import same_orbit
-from study.schema import ORBIT_VARIABLES, check_block
-from study.solve import discovery
-from study.solve.block import solve_block
-from study.solve.point import merge_new_orbits, shoot_seeds_minimal
+from hertzmap.kernels import shoot
+from hertzmap.kernels import status as st
+from hertzmap.study.orbits import same_orbit
+from hertzmap.study.schema import ORBIT_VARIABLES, check_block
+from hertzmap.study.solve import discovery
+from hertzmap.study.solve.block import solve_block
+from hertzmap.study.solve.point import merge_new_orbits, shoot_seeds_minimal
 
 
 Z = 0.01
@@ -66,7 +66,7 @@ def test_2t_shift_is_one_orbit():
     w, s = 1.5, 0.2
     o = shoot(w, s, Z, 2, (-3.06, -1.40))
     assert o.converged and o.minimal_period == 2
-    from kernels import simulate
+    from hertzmap.kernels import simulate
     x_shift = simulate(w, s, Z, o.x0, periods=1, samples_per_period=1)["final"]
     sols = shoot_seeds_minimal(w, s, Z, 2, [tuple(o.x0), tuple(x_shift)], dict(rtol=1e-10))
     assert np.hypot(*(sols[0]["x0"] - sols[1]["x0"])) > 0.1
