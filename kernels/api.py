@@ -316,6 +316,7 @@ class Attractor:
     lyapunov_error: float         # standard error over 8 blocks (Benettin; NaN for an orbit)
     lyapunov_halves: float        # |first half's estimate - second half's| (Benettin)
     lyapunov_periods: int         # periods averaged (0: from the orbit's multipliers)
+    lyapunov_sum_error: float     # |lambda1 + lambda2 + 2 zeta| (Liouville: the sum is -2 zeta)
     window_periods: int           # periods the measures are over
     flight_fraction: float
     max_impact_velocity: float
@@ -352,6 +353,7 @@ class Attractor:
             lyapunov_halves=r["lyapunov_halves"],
             lyapunov_periods=int(r["lyapunov_periods"]) if np.isfinite(r["lyapunov_periods"])
             else 0,
+            lyapunov_sum_error=r["lyapunov_sum_error"],
             window_periods=int(r["window_periods"]) if np.isfinite(r["window_periods"]) else 0,
             flight_fraction=r["flight_fraction"], max_impact_velocity=r["max_impact_velocity"],
             min_q=r["min_q"], max_q=r["max_q"], peak_force=r["peak_force"],

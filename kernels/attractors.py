@@ -82,6 +82,7 @@ ATTRACTOR_FIELDS = (
     "lyapunov_halves",          # |estimate of the first half - of the second half| (Benettin)
     "lyapunov_periods",         # periods averaged over (0: from the Floquet multipliers)
     "liouville_error",          # max_k |det M_k - exp(-2 zeta T)| / scale over the window
+    "lyapunov_sum_error",       # |lambda1 + lambda2 + 2 zeta| (Benettin: mean log|det M_k| / T)
     "window_periods",           # periods the measures are over
     "flight_fraction", "max_impact_velocity", "min_q", "max_q",
     "peak_force",               # F(max q) / N
@@ -96,12 +97,12 @@ ATTRACTOR_FIELDS = (
 A = {name: i for i, name in enumerate(ATTRACTOR_FIELDS)}
 N_ATTRACTOR_FIELDS = len(ATTRACTOR_FIELDS)
 (A_STATUS, A_PERIOD, A_RUN, A_SETTLED, A_CYCLE_RES, A_QEND, A_VEND, A_LYAP, A_LYAP_ERR,
- A_LYAP_HALVES, A_LYAP_PERIODS, A_LIOU, A_WINDOW, A_FLIGHT, A_IMPACT, A_MINQ, A_MAXQ, A_PEAKF,
+ A_LYAP_HALVES, A_LYAP_PERIODS, A_LIOU, A_LYAP_SUM, A_WINDOW, A_FLIGHT, A_IMPACT, A_MINQ, A_MAXQ, A_PEAKF,
  A_RMSF, A_MEANF, A_QUAD_ERR, A_STEPS, A_REJ, A_EVENTS, A_REFINE, A_ORBIT_PERIOD,
  A_STROBE_COUNT) = range(N_ATTRACTOR_FIELDS)
 
 LYAPUNOV_FIELDS = ("status", "lyapunov", "lyapunov_error", "lyapunov_halves", "periods",
-                   "liouville_error", "q_end", "v_end", "steps")
+                   "liouville_error", "q_end", "v_end", "steps", "lyapunov_sum_error")
 N_LYAPUNOV_FIELDS = len(LYAPUNOV_FIELDS)
 
 
@@ -186,10 +187,12 @@ def _start_tangent(y6, q, v):
     y6[5] = 1.0
 
 
-@kernel("UniTuple(float64, 2)(float64[::1], float64[::1], float64, float64)")
+@kernel("UniTuple(float64, 3)(float64[::1], float64[::1], float64, float64)")
 def _tangent_step(y6, w, zeta, T):
     """w <- M w / |M w| with M = Phi_T's Jacobian in y6[2:6]; returns (log |M w|, Liouville
-    error of M: |det M - exp(-2 zeta T)| relative to what a 2x2 determinant resolves)."""
+    error of M: |det M - exp(-2 zeta T)| relative to what a 2x2 determinant resolves,
+    log |det M|: the growth of an area, whose mean per unit tau is the sum of both Lyapunov
+    exponents, -2 zeta exactly (Liouville's formula; Benettin with two vectors in the plane))."""
     m11, m12, m21, m22 = y6[2], y6[3], y6[4], y6[5]
     a = m11 * w[0] + m12 * w[1]
     b = m21 * w[0] + m22 * w[1]
@@ -198,7 +201,8 @@ def _tangent_step(y6, w, zeta, T):
     w[1] = b / g
     liou = exp(-2.0 * zeta * T)
     det = m11 * m22 - m12 * m21
-    return log(g), abs(det - liou) / max(liou, abs(m11 * m22) + abs(m12 * m21), 1e-300)
+    return (log(g), abs(det - liou) / max(liou, abs(m11 * m22) + abs(m12 * m21), 1e-300),
+            log(abs(det)))
 
 
 @kernel("void(float64[::1], int64, float64, float64, float64, float64[::1])")
@@ -251,6 +255,7 @@ def lyapunov_into(omega, sigma, zeta, q0, v0, n, model, periods, discard, rtol, 
     q, v = q0, v0
     h = min(0.1, T / 16.0)
     total = 0.0
+    area = 0.0
     liou_worst = 0.0
     code = st.CONVERGED
     done = 0
@@ -263,7 +268,7 @@ def lyapunov_into(omega, sigma, zeta, q0, v0, n, model, periods, discard, rtol, 
                           no_eval, out_none, stats, harm, f, y_new, f_new, K, P)
         if code != st.CONVERGED:
             break
-        g, e = _tangent_step(y6, w, zeta, T)
+        g, e, log_area = _tangent_step(y6, w, zeta, T)
         if not np.isfinite(g):
             code = st.DIVERGED
             break
@@ -271,6 +276,7 @@ def lyapunov_into(omega, sigma, zeta, q0, v0, n, model, periods, discard, rtol, 
         if k >= discard:
             j = k - discard
             total += g
+            area += log_area
             done += 1
             b = j // per_block
             if b < N_BLOCKS:
@@ -290,6 +296,7 @@ def lyapunov_into(omega, sigma, zeta, q0, v0, n, model, periods, discard, rtol, 
         out[3] = tmp[2]
         out[4] = done
         out[5] = liou_worst
+        out[9] = abs(area / (done * T) + 2.0 * zeta)
 
 
 # ---- measures over a window --------------------------------------------------------------
@@ -425,6 +432,7 @@ def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, reco
     lyap_periods = record_periods - lyapunov_discard
     per_block = max(1, lyap_periods // N_BLOCKS)
     lyap_total = 0.0
+    lyap_area = 0.0
     lyap_done = 0
     liou_worst = 0.0
 
@@ -466,13 +474,14 @@ def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, reco
         if recording:
             _window_add(acc, stats, out_samp, T)
             if lyapunov:
-                g, e = _tangent_step(y6, w, zeta, T)
+                g, e, log_area = _tangent_step(y6, w, zeta, T)
                 if not np.isfinite(g):
                     code = st.DIVERGED
                     break
                 j = k - 1 - transient_periods - lyapunov_discard
                 if j >= 0:
                     lyap_total += g
+                    lyap_area += log_area
                     lyap_done += 1
                     b = j // per_block
                     if b < N_BLOCKS:
@@ -542,6 +551,9 @@ def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, reco
         rho = max(hypot(orbit[I_M1R], orbit[I_M1I]), hypot(orbit[I_M2R], orbit[I_M2I]))
         row[A_LYAP] = log(rho) / (m * T)
         row[A_LYAP_PERIODS] = 0.0
+        # both exponents from the multipliers: their sum log|mu1 mu2| / (m T) is -2 zeta
+        mu_product = hypot(orbit[I_M1R], orbit[I_M1I]) * hypot(orbit[I_M2R], orbit[I_M2I])
+        row[A_LYAP_SUM] = abs(log(mu_product) / (m * T) + 2.0 * zeta)
         # measures over one period of the orbit, by the same integration as a record window
         y[0] = orbit[I_Q0]
         y[1] = orbit[I_V0]
@@ -579,6 +591,7 @@ def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, reco
         row[A_LYAP_HALVES] = tmp[2]
         row[A_LYAP_PERIODS] = lyap_done
         row[A_LIOU] = liou_worst
+        row[A_LYAP_SUM] = abs(lyap_area / (lyap_done * T) + 2.0 * zeta)
     if last_m > 0:
         row[A_PERIOD] = last_m
         row[A_CYCLE_RES] = last_res

@@ -477,8 +477,10 @@ def make_client(spec: ClusterSpec, report=None):
     if spec.kind == "local":
         # (the nannies hand the config to the worker processes they start)
         with dask.config.set(CLUSTER_CONFIG):
+            # on the loopback only (the scheduler, the workers and the dashboard): nothing of
+            # an embedded cluster is reachable from another machine
             cluster = LocalCluster(n_workers=spec.workers or default_workers(),
-                                   threads_per_worker=1, processes=True,
+                                   threads_per_worker=1, processes=True, host="127.0.0.1",
                                    dashboard_address=_dashboard_address(),
                                    # tasks that fail reach the client as exceptions and are
                                    # reported there; the workers' own logs (heartbeats cut at

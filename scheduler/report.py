@@ -46,6 +46,35 @@ def overhead_line(s: dict[str, Any]) -> str:
     return head
 
 
+def worst_certificates(tally: dict[str, Any], arrays: dict) -> None:
+    """Keep in ``tally`` the worst of each orbit certificate of a finished block: the Liouville
+    residual over its converged orbits, the Lyapunov sum error over its census attractors."""
+    import numpy as np
+
+    if "liouville_residual" in arrays:
+        r = arrays["liouville_residual"][arrays["status"] == 0]
+        if r.size:
+            tally["liouville"] = float(np.nanmax([tally["liouville"], r.max()]))
+    if "lyapunov_sum_error" in arrays:
+        e = arrays["lyapunov_sum_error"][arrays["attractor_kind"] > 0]
+        e = e[np.isfinite(e)]
+        tally["attractors"] += int(e.size)
+        if e.size:
+            tally["lyapunov_sum"] = float(np.nanmax([tally["lyapunov_sum"], e.max()]))
+
+
+def certificates_line(s: dict[str, Any]) -> str | None:
+    """The worst certificate of this run's orbits and attractors (docs/dataset.md)."""
+    parts = []
+    if math.isfinite(s.get("liouville_worst", math.nan)):
+        parts.append(f"Liouville residual <= {s['liouville_worst']:.1e} over the {s['orbits']} "
+                     f"orbits (relative, |det M - exp(-2 zeta P)|)")
+    if math.isfinite(s.get("lyapunov_sum_worst", math.nan)):
+        parts.append(f"|lambda1 + lambda2 + 2 zeta| <= {s['lyapunov_sum_worst']:.1e} over the "
+                     f"{s['attractors']} census attractors")
+    return "certificates: " + "; ".join(parts) if parts else None
+
+
 def print_summary(s: dict[str, Any], out: TextIO) -> None:
     lines = [
         f"done: {s['tasks_run']} tasks, {s['points']} points in {s['wall']:.2f} s wall on "
@@ -55,6 +84,9 @@ def print_summary(s: dict[str, Any], out: TextIO) -> None:
         f"{s['points_with_orbit']} points with at least one orbit",
         overhead_line(s),
     ]
+    certificates = certificates_line(s)
+    if certificates:
+        lines.append(certificates)
     if s.get("time_limited"):
         lines.append(f"time limit: {s['time_limited']} grid points not solved within "
                      f"--task-timeout (status time_limit); rerun with --overwrite and a larger "

@@ -28,7 +28,7 @@ from hertzmap.scheduler.errors import RunError
 from hertzmap.scheduler.interrupt import DeferInterrupt
 from hertzmap.scheduler.plan import DEFAULT_TASK_SECONDS, DEFAULT_TASK_TIMEOUT, choose_chunks, make_plan
 from hertzmap.scheduler.progress import Progress
-from hertzmap.scheduler.report import overhead, print_summary
+from hertzmap.scheduler.report import overhead, print_summary, worst_certificates
 from hertzmap.scheduler.resources import check_resources
 from hertzmap.scheduler.store import Lock, Store, StoreError, open_or_create
 from hertzmap.scheduler.worker import DEFAULT_SOLVER, Warmup, run_task
@@ -313,7 +313,8 @@ class StudyRun:
         keys = [t.key(self.study.hash) for t in todo]
         progress = Progress(self.err, len(self.plan.tasks), sum(t.size for t in todo), n_done)
         sampler = Sampler(self.study, opts.error_sample)
-        tally = {"compute": 0.0, "conv": 0, "fail": 0, "cut": 0, "with": 0, "points": 0}
+        tally = {"compute": 0.0, "conv": 0, "fail": 0, "cut": 0, "with": 0, "points": 0,
+                 "liouville": math.nan, "lyapunov_sum": math.nan, "attractors": 0}
         pids: set[int] = set()
         t0 = time.perf_counter()
         self.futures.extend(client.map(run_task, self.task_specs(todo, kwargs), key=keys,
@@ -342,6 +343,7 @@ class StudyRun:
             tally["fail"] += int(((st > 0) & (st != TIME_LIMIT)).sum())
             tally["cut"] += int((st == TIME_LIMIT).sum())
             tally["with"] += int((st == 0).any(axis=-1).sum())
+            worst_certificates(tally, arrays)
             tally["points"] += task.size
             sampler.add(task, arrays)
             summary["tasks_run"] += 1
@@ -364,6 +366,8 @@ class StudyRun:
             converged_fraction=n_conv / (n_conv + n_fail) if n_conv + n_fail else math.nan,
             orbits_per_second=n_conv / wall if wall > 0 else math.nan,
             worker_processes_seen=len(pids),
+            liouville_worst=tally["liouville"], lyapunov_sum_worst=tally["lyapunov_sum"],
+            attractors=tally["attractors"],
         )
         total = len(self.plan.tasks)
         with self.interrupt.critical():

@@ -158,6 +158,11 @@ VARIABLES: dict[str, VarSpec] = {v.name: v for v in [
             extra=(("multiplier", 2),)),
     VarSpec("stable", "bool", False, "orbit is stable", "1",
             "True when both Floquet multipliers lie inside the unit circle"),
+    VarSpec("liouville_residual", "float64", math.nan, "Liouville residual of the monodromy", "1",
+            "|det M - exp(-2 zeta P)| / max(exp(-2 zeta P), |m11 m22| + |m12 m21|): how far the "
+            "product of the Floquet multipliers is from Liouville's exact value for an orbit of "
+            "period P, relative to what a 2x2 determinant resolves; a certificate of the "
+            "monodromy independent of the solve (integration error ~ rtol)"),
     # -- measures ----------------------------------------------------------------------------
     VarSpec("min_q", "float64", math.nan, "minimum displacement over the orbit", "1",
             "minimum of q over one period of the orbit"),
@@ -282,6 +287,12 @@ VARIABLES: dict[str, VarSpec] = {v.name: v for v in [
             "one standard error of the exponent over 8 blocks of the record window (NaN for a "
             "periodic attractor, whose exponent is exact to the solver's accuracy)",
             extra=(("attractor", ATTRACTOR_SLOTS),), layout="point"),
+    VarSpec("lyapunov_sum_error", "float64", math.nan, "error of the Lyapunov exponents' sum", "1",
+            "|lambda1 + lambda2 + 2 zeta| per unit tau: the sum of both exponents is -2 zeta "
+            "exactly (Liouville's formula), here taken over the same window as the exponent "
+            "(mean log|det M_k| / T, Benettin) or from the orbit's multipliers (periodic); a "
+            "certificate of the variational integration behind the exponent",
+            extra=(("attractor", ATTRACTOR_SLOTS),), layout="point"),
     VarSpec("attractor_flight_fraction", "float64", math.nan, "flight fraction on the attractor", "1",
             "fraction of the time out of contact over the attractor's window",
             extra=(("attractor", ATTRACTOR_SLOTS),), layout="point"),
@@ -336,7 +347,8 @@ def empty_arrays(shape: tuple[int, int, int], max_solutions: int,
 
 
 PRODUCT_VARIABLES: dict[str, tuple[str, ...]] = {
-    "orbits": ("period", "status", "q0", "v0", "multipliers", "stable", "orbits_found"),
+    "orbits": ("period", "status", "q0", "v0", "multipliers", "stable", "liouville_residual",
+               "orbits_found"),
     "measures": ("min_q", "max_q", "ptp", "loses_contact", "flight_fraction", "max_impact_velocity"),
     "force_harmonics": ("force_harmonics",),
     "diagnostics": ("newton_iterations", "residual"),

@@ -258,6 +258,7 @@ def record_attractors(arrays: dict, i: int, j: int, k: int, omega: float,
             arrays["lyapunov_exponent"][cell] = row[A["lyapunov"]]
             arrays["lyapunov_error"][cell] = row[A["lyapunov_error"]]
         if row is not None:
+            arrays["lyapunov_sum_error"][cell] = row[A["lyapunov_sum_error"]]
             arrays["attractor_flight_fraction"][cell] = row[A["flight_fraction"]]
             arrays["attractor_max_impact_velocity"][cell] = row[A["max_impact_velocity"]]
             arrays["attractor_min_q"][cell] = row[A["min_q"]]

@@ -77,6 +77,7 @@ def solutions_from_rows(rows: np.ndarray, period: int) -> list[dict]:
             "status": int(row[F["status"]]),
             "x0": x0, "multipliers": mu, "monodromy": M,
             "stable": row[F["stable"]] == 1.0,
+            "liouville_residual": row[F["liouville_error"]],
             "min_q": row[F["min_q"]], "max_q": row[F["max_q"]], "ptp": row[F["ptp"]],
             "loses_contact": row[F["loses_contact"]] == 1.0,
             "flight_fraction": row[F["flight_fraction"]],

@@ -146,7 +146,10 @@ def slurm_options(slurm, logs: Path, *extra: str) -> list[str]:
     jobs get none of the client's environment (--export=NONE): what they need comes from
     hertzmap's job script."""
     opts = [f"queue={slurm.partition}", f"account={ACCOUNT}", "walltime=00:10:00", "memory=2GB",
-            f"log_directory={logs}", 'job_extra_directives=["--export=NONE"]', *extra]
+            f"log_directory={logs}", 'job_extra_directives=["--export=NONE"]',
+            # the scheduler, its dashboard and the workers on the loopback only
+            'scheduler_options={host = "127.0.0.1", dashboard_address = "127.0.0.1:0"}',
+            'worker_extra_args=["--host", "127.0.0.1"]', *extra]
     return [arg for o in opts for arg in ("--cluster-option", o)]
 
 

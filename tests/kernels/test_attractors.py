@@ -89,6 +89,8 @@ def test_chaotic_exponent_matches_scipy_benettin():
     assert a.lyapunov > 10 * a.lyapunov_error > 0
     assert a.lyapunov_halves < 5 * a.lyapunov_error * np.sqrt(8)
     assert a["liouville_error"] < 1e-6      # det M_k = exp(-2 zeta T) every period
+    # both exponents' sum over the window: -2 zeta exactly (Liouville), here to the integration
+    assert 0 <= a.lyapunov_sum_error < 1e-8 * ZETA, a.lyapunov_sum_error
     b = attractor(omega, sigma, ZETA, (-3.0, 0.0), transient_periods=500, record_periods=20_000)
     assert abs(a.lyapunov - b.lyapunov) <= 3 * np.hypot(a.lyapunov_error, b.lyapunov_error)
     lam, err, _ = oracle.lyapunov_benettin((0.0, 0.0), omega, sigma, ZETA, 800, discard=50,

@@ -139,3 +139,42 @@ def test_a_plain_njit_caller_of_a_kernel_is_cached_and_loads_alone(tmp_path):
     assert first["caller"] == ["caller.first_orbit"]
     assert again["caller"] == [] and again["compiled"] == []
     assert again["q0"] == first["q0"]
+
+
+def test_the_installed_numba_is_one_the_lazy_signature_was_checked_on():
+    """The lazy fixed signature reads private members of numba's dispatcher: it is on only for
+    the versions in CHECKED_NUMBA, and the lock installs one of them. When the lock moves numba
+    forward this fails: run the whole suite with the new version, then add it there."""
+    import numba
+
+    from hertzmap.kernels._jit import CHECKED_NUMBA, LAZY_SIGNATURES
+    assert numba.__version__ in CHECKED_NUMBA
+    assert LAZY_SIGNATURES
+
+
+def test_on_another_numba_version_kernels_are_plain_njit_with_the_same_results(tmp_path):
+    """With a numba version not in CHECKED_NUMBA, no dispatcher method is replaced and a kernel
+    called from Python and from a jitted caller gives, to the bit, what the lazy signature
+    gives."""
+    code = """
+        import numba
+        if {fake!r}:
+            numba.__version__ = "0.0.0"
+        from numba import njit
+        from hertzmap.kernels import _jit
+        from hertzmap.kernels.model import cos_shifted
+        @njit
+        def caller(x):
+            return cos_shifted(0.6, 0.8, 0.6435011087932844, x)
+        print(json.dumps({{"lazy": _jit.LAZY_SIGNATURES,
+                          "replaced": sorted(k for k in ("_compile_for_args", "get_call_template",
+                                                         "get_overload") if k in vars(cos_shifted)),
+                          "values": [cos_shifted(0.6, 0.8, 0.6435011087932844, t).hex()
+                                     for t in (0.3, -0.9, 1.7)] + [caller(0.25).hex()]}}))
+    """
+    lazy = _run(code.format(fake=False), tmp_path / "lazy", HERTZMAP_COMPILE_HELPERS="0")
+    plain = _run(code.format(fake=True), tmp_path / "plain", HERTZMAP_COMPILE_HELPERS="0")
+    assert lazy["lazy"] and lazy["replaced"] == ["_compile_for_args", "get_call_template",
+                                                 "get_overload"]
+    assert not plain["lazy"] and plain["replaced"] == []
+    assert plain["values"] == lazy["values"]

@@ -110,3 +110,21 @@ def test_generous_budget_changes_nothing():
     b = solve_block(omega, np.array([0.5]), np.array([0.01]), time_budget=600.0)
     for name in a:
         np.testing.assert_array_equal(a[name], b[name])
+
+
+def test_every_stored_orbit_carries_its_liouville_residual():
+    """The certificate stored beside each orbit: checked here from the stored multipliers alone
+    (their product against exp(-2 zeta P)), with no kernel value as the expected one."""
+    omega = np.array([0.8, 1.5, 1.9, 2.3])
+    sigma = np.array([0.2, 0.5])
+    zeta = np.array([0.01, 0.05])
+    out = solve_block(omega, sigma, zeta, periods=(1, 2))
+    ok = out["status"] == st.CONVERGED
+    assert ok.sum() >= 16
+    r = out["liouville_residual"]
+    assert np.all(np.isnan(r[out["status"] == st.EMPTY]))
+    assert np.all(r[ok] < 1e-8), r[ok].max()
+    w, _, z, _ = np.meshgrid(omega, sigma, zeta, np.arange(r.shape[-1]), indexing="ij")
+    expected = np.exp(-2 * z * out["period"] * 2 * pi / w)
+    product = np.abs(out["multipliers"][..., 0] * out["multipliers"][..., 1])
+    assert np.all(np.abs(product[ok] - expected[ok]) <= 1e-7 * expected[ok])
