@@ -17,6 +17,8 @@ import sys
 from pathlib import Path
 from typing import Callable
 
+from hertzmap.scheduler.defaults import DEFAULT_TASK_SECONDS, DEFAULT_TASK_TIMEOUT, ERROR_SAMPLE
+
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 SUBCOMMANDS: dict[str, tuple[Callable[[argparse.ArgumentParser], None],
@@ -62,13 +64,15 @@ def _run_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--overwrite", action="store_true",
                    help="replace a store that holds another study")
     p.add_argument("--task-seconds", type=float, default=None, metavar="S",
-                   help="target duration of one task when creating a store (default 1.0)")
+                   help="target duration of one task when creating a store (default "
+                   f"{DEFAULT_TASK_SECONDS:g})")
     p.add_argument("--task-timeout", type=float, default=None, metavar="S",
-                   help="wall-clock budget of one task (default 600): grid points a task has "
+                   help=f"wall-clock budget of one task (default {DEFAULT_TASK_TIMEOUT:g}): grid "
+                   "points a task has "
                    "not reached by then are stored with status time_limit and the study goes on")
     p.add_argument("--error-sample", type=int, default=None, metavar="N",
                    help="converged orbits re-solved at rtol/1000 for the error estimate "
-                   "(default 8; 0 to skip)")
+                   f"(default {ERROR_SAMPLE}; 0 to skip)")
     # developer hook: another block solver with the same contract (module:function)
     p.add_argument("--solver", default=None, help=argparse.SUPPRESS)
     # developer hook: another curve tracer with trace_seed's contract (module:function)
@@ -97,7 +101,6 @@ def cmd_run(args: argparse.Namespace) -> int:
     from hertzmap.scheduler.cluster import ClusterSpec, parse_cluster_options
     from hertzmap.scheduler.dry_run import describe
     from hertzmap.scheduler.errors import ClusterError, RefusedError
-    from hertzmap.scheduler.plan import DEFAULT_TASK_SECONDS, DEFAULT_TASK_TIMEOUT
     from hertzmap.scheduler.run import RunOptions, default_store_path, run_study
     from hertzmap.scheduler.worker import DEFAULT_SOLVER
 
@@ -129,7 +132,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         solver=args.solver or DEFAULT_SOLVER,
         task_seconds=args.task_seconds or DEFAULT_TASK_SECONDS,
         task_timeout=args.task_timeout or DEFAULT_TASK_TIMEOUT,
-        error_sample=8 if args.error_sample is None else args.error_sample,
+        error_sample=ERROR_SAMPLE if args.error_sample is None else args.error_sample,
         command=run_command_line(args),
     )
     if args.curve_tracer:

@@ -14,7 +14,6 @@ from hertzmap.scheduler.worker import DEFAULT_SOLVER, solve_points
 from hertzmap.study.spec import Study
 
 #: Grid points re-solved by the error estimate.
-ERROR_SAMPLE = 8
 #: The error estimate re-solves at rtol * ERROR_RTOL_FACTOR (not below the solver's floor).
 ERROR_RTOL_FACTOR = 1e-3
 RTOL_FLOOR = 1e-13

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hertzmap.scheduler.defaults import DEFAULT_TASK_SECONDS
 from hertzmap.study.schema import chunk_counts, chunk_slices
 from hertzmap.study.solve.line import PROBE_POINTS
 from hertzmap.study.spec import Study
@@ -26,13 +27,6 @@ SECONDS_PER_POINT = {1: 1.4e-4, 2: 6.4e-4}  # study.solve.block, default window 
 #: extra per point with [search] discover = true (transients + continuation, ~1.5 s per
 #: 161-point line, docs/discovery.md)
 SECONDS_PER_POINT_DISCOVER = 1e-2
-#: Target duration of one task (seconds, as estimated by seconds_per_point). Dask costs a few
-#: ms per task, but the client also writes every finished chunk, one file per variable (~36),
-#: and on a small machine shares the cores with the workers: the default study in 77 tasks of
-#: one sigma line (~0.3 s each) cost the client 8.6-9.8 s of CPU against 5.6-6.2 s in 26 tasks
-#: of three, and its grid 1.09-1.14x the wall (benchmarks/task_size.py).
-DEFAULT_TASK_SECONDS = 2.0
-DEFAULT_TASK_TIMEOUT = 600.0   # wall-clock budget of one task (s): see solve_block's time_budget
 #: Longest omega block in one chunk.
 MAX_OMEGA_CHUNK = 4096
 #: Try to have at least this many tasks (better balance, finer progress and resume).

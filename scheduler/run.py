@@ -23,10 +23,11 @@ from hertzmap.scheduler.cluster import (JOBQUEUE, ClusterSpec, WorkerJobsEnded, 
                                make_client, wait_for_first_worker, worker_count)
 from hertzmap.scheduler.curve_tasks import DEFAULT_TRACER, CurveRun
 from hertzmap.scheduler.dry_run import plan_for
-from hertzmap.scheduler.error_estimate import ERROR_SAMPLE, Sampler, estimate_error, record_error_estimate
+from hertzmap.scheduler.defaults import DEFAULT_TASK_SECONDS, DEFAULT_TASK_TIMEOUT, ERROR_SAMPLE
+from hertzmap.scheduler.error_estimate import Sampler, estimate_error, record_error_estimate
 from hertzmap.scheduler.errors import RunError
 from hertzmap.scheduler.interrupt import DeferInterrupt
-from hertzmap.scheduler.plan import DEFAULT_TASK_SECONDS, DEFAULT_TASK_TIMEOUT, choose_chunks, make_plan
+from hertzmap.scheduler.plan import choose_chunks, make_plan
 from hertzmap.scheduler.progress import Progress
 from hertzmap.scheduler.report import overhead, print_summary, worst_certificates
 from hertzmap.scheduler.resources import check_resources

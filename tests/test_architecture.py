@@ -191,3 +191,19 @@ def test_numbers_of_one_concept_are_not_written_twice():
             assert "1.3484" not in text and "3.0 * sqrt(6" not in text, m
         if m != "study.analytic.paper":
             assert not re.search(r"1\.348(?!\d)", text), m
+
+
+def test_every_module_is_named_in_the_architecture_doc():
+    """docs/architecture.md is the map of the house: each module of the three packages (and
+    each subpackage) is named there, in backticks, by its file name."""
+    doc = (REPO / "docs" / "architecture.md").read_text()
+    unnamed = []
+    for m, path in MODULES.items():
+        if m.split(".")[0] not in ("kernels", "study", "scheduler"):
+            continue
+        name = f"`{path.parent.name}/`" if path.name == "__init__.py" else f"`{path.name}`"
+        if path.name == "__init__.py" and "." not in m:
+            continue                      # the package itself: its section's heading
+        if name not in doc and not re.search(rf"`{re.escape(path.stem)}\.py`", doc):
+            unnamed.append(str(path.relative_to(REPO)))
+    assert not unnamed, f"modules docs/architecture.md does not name: {unnamed}"

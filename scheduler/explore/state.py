@@ -17,7 +17,8 @@ import numpy as np
 import xarray as xr
 
 from hertzmap.scheduler.cluster import ClusterError, ClusterSpec, make_client
-from hertzmap.scheduler.plan import DEFAULT_TASK_SECONDS, choose_chunks, make_plan
+from hertzmap.scheduler.defaults import DEFAULT_TASK_SECONDS
+from hertzmap.scheduler.plan import choose_chunks, make_plan
 from hertzmap.scheduler.errors import RunError, StoreError
 from hertzmap.scheduler.run import RunOptions, run_study
 from hertzmap.scheduler.store import lock_path, read_attrs, read_done_flags
