@@ -293,6 +293,10 @@ def check_command(cmd: Command, small: Workspace, real: Workspace) -> str:
         sub = _check_hertzmap_args(cmd, argv[1:])
         if sub is None:                          # a mention: `hertzmap run`
             return "parsed"
+        if sub == "run" and len(argv) > 2 and argv[2] in SMALL:
+            # a shipped scene by its name: in the workspaces, the scene's copy there
+            argv = [*argv[:2], f"studies/{argv[2]}.toml", *argv[3:]]
+            text = shlex.join(argv)
         if sub == "run" and not has_placeholder(text):
             study = next((a for a in argv[2:] if a.endswith(".toml")), None)
             if study and (real.root / study).exists():
@@ -470,8 +474,9 @@ def _check_paths(cmd: Command, args: list[str]) -> None:
 
 
 def _check_pip(cmd: Command, argv: list[str]) -> None:
-    """pip install 'hertzmap[extra]': the extra exists; a plain package is one the docs can
-    promise (importable in the test environment, which installs every extra)."""
+    """pip install 'hertzmap[extra]': the extra exists; ``pip install .``: the checkout is a
+    project; a plain package is one the docs can promise (importable in the test environment,
+    which installs every extra)."""
     import importlib.util
     pyproject = tomllib.loads((REPO / "pyproject.toml").read_text())
     extras = pyproject["project"]["optional-dependencies"]
@@ -479,7 +484,10 @@ def _check_pip(cmd: Command, argv: list[str]) -> None:
         if a.startswith("-"):
             continue
         m = re.fullmatch(r"hertzmap\[([\w,-]+)\]", a)
-        if m:
+        if a == "." or a.startswith(("./", "/")):
+            if not (REPO / a / "pyproject.toml").is_file():
+                raise DocError(f"{cmd.where()}: `{cmd.text}`: {a} is not a project to install")
+        elif m:
             bad = [e for e in m.group(1).split(",") if e not in extras]
             if bad:
                 raise DocError(f"{cmd.where()}: `{cmd.text}`: no extra {bad} in pyproject.toml")
