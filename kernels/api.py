@@ -220,7 +220,7 @@ def section_times(T: float, t_end: float, samples_per_period: int = 1) -> np.nda
 
     K is t_end / (T / samples_per_period) rounded to the nearest integer when it is one to
     within 1e-9 (relative): t_end = periods T carries a rounding error of either sign, and
-    ceil() of a quotient one ulp above an integer added a sample off the section (issue 21).
+    ceil() of a quotient one ulp above an integer added a sample off the section.
     Otherwise K is the quotient's floor. Each time is computed as (k T) / samples_per_period
     from k, never accumulated, so that with samples_per_period = 1 every sample is on the
     stroboscopic section tau = 0 mod T to the rounding of one product.
@@ -280,7 +280,7 @@ def simulate(omega: float, sigma: float, zeta: float, x0=(0.0, 0.0), *, t_end: f
             "final": y.copy()}
 
 
-# ---- attractors (issue 21) ------------------------------------------------------------------
+# ---- attractors ------------------------------------------------------------------------------
 
 DEFAULT_ATTRACTOR_RTOL = 1e-8
 

@@ -1,5 +1,5 @@
 """What the contact does in the long run from a given initial state: the attractor of paper
-Eq. 7 reached by a transient, found on the stroboscopic map (issue 21, the attractor census).
+Eq. 7 reached by a transient, found on the stroboscopic map (the attractor census).
 
 Stroboscopic transient. The forcing of Eq. 7 is T-periodic (T = 2 pi / omega, tau = Omega t),
 so the stroboscopic map x_{k+1} = Phi_T(x_k) is one integration over [0, T]: each period is

@@ -699,7 +699,7 @@ def curve_extremum(branch: Branch, coord="sigma", kind="min"):
 
 
 # =============================================================================================
-# Curves in any two of (omega, sigma, zeta): fold, flip and grazing curves (issue 19)
+# Curves in any two of (omega, sigma, zeta): fold, flip and grazing curves
 # =============================================================================================
 #
 # Unknowns u = (q, q', a, b), (a, b) two of (omega, sigma, zeta), the third fixed; equations

@@ -23,7 +23,7 @@ from hertzmap.study.spec import Study
 #: search). Calibrated on the block solver (see docs/running.md); used only to size tasks
 #: and for --dry-run estimates.
 SECONDS_PER_POINT = {1: 1.4e-4, 2: 6.4e-4}  # study.solve.block, default window (zeta 0.01, 5 sigma
-#: lines): 0.134 ms per point for 1T, 0.772 ms for 1T + 2T; measured 2026-11-23 on 2 cores
+#: lines): 0.134 ms per point for 1T, 0.772 ms for 1T + 2T on 2 cores (benchmarks/grid_cost.py)
 #: extra per point with [search] discover = true (transients + continuation, ~1.5 s per
 #: 161-point line, docs/discovery.md)
 SECONDS_PER_POINT_DISCOVER = 1e-2

@@ -467,7 +467,7 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
     if "attractors" in outputs and attractors == "never":
         raise StudyError("products.outputs", '"attractors" needs search.attractors other than '
                          '"never"')
-    # -- traced curves (issue 19): seeded by the grid's sign changes, in planes of two swept
+    # -- traced curves: seeded by the grid's sign changes, in planes of two swept
     #    axes
     if "curves" in outputs:
         swept = [ax for ax in AXES if len(axes[ax]) >= 2]

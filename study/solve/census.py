@@ -1,5 +1,5 @@
 """The attractor census of a grid point: what the contact does in the long run, from a set of
-initial states (issue 21).
+initial states.
 
 From each initial state (study.solve.seeds.initial_states) a transient runs on the stroboscopic
 map (kernels.attractors): it settles on a stable periodic orbit of period m <= 16 (refined by

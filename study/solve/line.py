@@ -398,10 +398,9 @@ def arc_path(system, x0, omega, sigma, period, direction, w_lo, w_hi, *, ds, dp_
     which grows with the period. On a stable 16T orbit met by the census (studies/fine_map.toml,
     sigma 0.939, omega 1.167) the corrector converged only linearly, the steps shrank and the
     path spent its whole point budget (2,400 points each way; tests/study/solve/test_line.py
-    follows that path). That line's search took 7.1 s, 0.6 s with the switch (and the trace's
-    stop on a lower period): ``benchmarks/search_ab.py --vs 2ec7ef9 --study
-    studies/fine_map.toml --every 250 --offset 233``. Paths that never stall keep the forward
-    difference.
+    follows that path); with the switch the line's search takes a twelfth of the time
+    (``benchmarks/search_ab.py --vs REV --study studies/fine_map.toml --every 250 --offset
+    233`` against a revision without it). Paths that never stall keep the forward difference.
 
     The steps grow (by 1.5 after a corrector of at most 2 iterations) to 4 ds times
     max(1, |x|): in arc length the state dominates, and the long-flight orbits the census
