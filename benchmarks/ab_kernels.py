@@ -48,8 +48,9 @@ def extract(rev: str, into: Path) -> str:
             continue
         src = subprocess.run(["git", "-C", str(ROOT), "show", f"{rev}:kernels/{name}"],
                              capture_output=True, text=True, check=True).stdout
-        src = re.sub(r"\bfrom kernels\b", "from kernels_ab", src)
-        src = re.sub(r"\bimport kernels\b", "import kernels_ab", src)
+        # the installed name (hertzmap.kernels) and the repo-relative one of older revisions
+        src = re.sub(r"\bfrom (hertzmap\.)?kernels\b", "from kernels_ab", src)
+        src = re.sub(r"\bimport (hertzmap\.)?kernels\b", "import kernels_ab", src)
         (pkg / name).write_text(src)
     sys.path.insert(0, str(into))
     return "kernels_ab"
