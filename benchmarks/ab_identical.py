@@ -11,7 +11,7 @@ three perturbed guesses each (seeded) at rtol 1e-6, 1e-8 and 1e-10: start point,
 flight fraction, steps and multipliers must be equal to the last bit. ``--save-block``: solve
 a 1,200-point grid block (400 omega x sigma 0.3, 0.6, 0.9, zeta 0.01, 1T and 2T seeds) with
 this tree's ``study.block.solve_block`` and save every variable; run it in a worktree of the
-other commit too (PYTHONPATH and NUMBA_CACHE_DIR as in benchmarks/block_time.py), then
+other commit too (PYTHONPATH and NUMBA_CACHE_DIR as in benchmarks/archive/block_time.py), then
 ``--compare`` the two files.
 """
 from __future__ import annotations

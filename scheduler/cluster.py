@@ -102,11 +102,11 @@ class ClusterSpec:
 # Dask's housekeeping, trimmed for processes that share a few cores with the solvers:
 # * the statistical profiler samples every worker's stack every 10 ms from a thread of its own,
 #   taking the GIL from the block solver's Python parts: both workers busy, the same block ran
-#   1.04-1.06x slower with it (median of 40-block ABBA runs; benchmarks/dask_profiler_ab.py). It
+#   1.04-1.06x slower with it (median of 40-block ABBA runs; benchmarks/archive/dask_profiler_ab.py). It
 #   only feeds the dashboard's profile page: off.
 # * every event loop ticks every 20 ms (to warn when it is blocked), the system monitor samples
 #   every 0.5 s and the memory monitor every 0.1 s. An idle 2-worker LocalCluster burnt 12.1-14.4 %
-#   of a core with Dask's defaults, 2.3-2.6 % with this config (benchmarks/dask_idle_cpu.py; the
+#   of a core with Dask's defaults, 2.3-2.6 % with this config (benchmarks/archive/dask_idle_cpu.py; the
 #   profiler and the ticks are most of it): CPU the solvers do not get on a 2-core machine.
 # The embedded cluster (scheduler, client, nannies, workers) runs with these; jobqueue workers
 # get them through their job script's environment.

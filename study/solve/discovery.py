@@ -20,7 +20,7 @@ A line is a set of omega values at fixed (sigma, zeta). Discovery runs in three 
 
 Distinct solutions are kept once (the identity rule of study.orbits: invariants min q, max q,
 trace M, which do not change under the T-shift of a 2T orbit). Each is classified as in paper
-Fig. 6 (study.orbits classes). ``benchmarks/discover_line.py`` prints what a line holds.
+Fig. 6 (study.orbits classes). ``benchmarks/archive/discover_line.py`` prints what a line holds.
 """
 from __future__ import annotations
 

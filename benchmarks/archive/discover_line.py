@@ -1,7 +1,7 @@
 """What one omega line holds: every periodic response found by discovery (transients,
 continuation, branch switching) per class, and the located fold, flip and grazing points.
 
-    .venv/bin/python benchmarks/discover_line.py --sigma 0.2 --zeta 0.01 --omega 1.0 2.0 41
+    .venv/bin/python benchmarks/archive/discover_line.py --sigma 0.2 --zeta 0.01 --omega 1.0 2.0 41
 """
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from hertzmap.study.solve.discovery import discover_line
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="benchmarks/discover_line.py",
+    ap = argparse.ArgumentParser(prog="benchmarks/archive/discover_line.py",
                                  description=__doc__.split("\n")[0])
     ap.add_argument("--sigma", type=float, required=True)
     ap.add_argument("--zeta", type=float, default=0.01)

@@ -1,6 +1,6 @@
 """Stroboscopic transients (kernels.attractors) against the integrator's adaptive step floor.
 
-    .venv/bin/python benchmarks/transient_floor.py          (about 30 s after compilation)
+    .venv/bin/python benchmarks/archive/transient_floor.py          (about 30 s after compilation)
 
 The floor is study.benchmark's compiled loop of bare DOP853 steps, each step size waiting for
 the last error norm ("adaptive"): the cost of a step with nothing around it. It is measured for
@@ -24,7 +24,7 @@ import time
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, ".."))
+sys.path.insert(0, os.path.join(HERE, "..", ".."))
 
 from hertzmap.kernels._dop853 import step_state  # noqa: E402
 from hertzmap.kernels.attractors import (A, N_ATTRACTOR_FIELDS, N_LYAPUNOV_FIELDS,  # noqa: E402

@@ -1,7 +1,7 @@
 """CPU that an idle embedded Dask cluster burns: Dask's defaults against scheduler.cluster's
 trimmed config (no stack profiler, 200 ms event-loop ticks, slower system and memory monitors).
 
-    .venv/bin/python benchmarks/dask_idle_cpu.py [--seconds 15] [--rounds 2] [--each]
+    .venv/bin/python benchmarks/archive/dask_idle_cpu.py [--seconds 15] [--rounds 2] [--each]
                                                           (about a minute; --each: 3 minutes)
 
 A LocalCluster of 2 single-threaded worker processes (as `hertzmap run` starts on 2 cores) sits
@@ -18,7 +18,7 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 
 def tree_cpu_seconds(pid: int) -> float:

@@ -1,6 +1,6 @@
 """Time of one grid block of the fine map (studies/fine_map.toml), the unit of work of a task.
 
-    .venv/bin/python benchmarks/block_time.py [--lines 100:103] [--rounds 4]
+    .venv/bin/python benchmarks/archive/block_time.py [--lines 100:103] [--rounds 4]
 
 Solves the fine map's 400 omega points on the sigma lines given (a slice of its 250; zeta 0.01,
 1T and 2T seeds, rtol 1e-10) with ``study.block.solve_block``, after a small warm-up solve, and
@@ -9,7 +9,7 @@ alternately in this tree and in a worktree of the other commit with its own NUMB
 
     git worktree add /tmp/old REV
     (cd /tmp/old && PYTHONPATH=/tmp/old NUMBA_CACHE_DIR=/tmp/old-cache \\
-        /path/to/.venv/bin/python benchmarks/block_time.py)
+        /path/to/.venv/bin/python benchmarks/archive/block_time.py)
 """
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from hertzmap.study.solve.block import solve_block  # noqa: E402
 

@@ -1,6 +1,6 @@
 """Would a Taylor-series integrator beat DOP853 here? One period map of orbits in contact.
 
-    .venv/bin/python benchmarks/taylor_in_contact.py          (about 1 minute, compiles first)
+    .venv/bin/python benchmarks/archive/taylor_in_contact.py          (about 1 minute, compiles first)
 
 Taylor-series methods are the other high-order family for small ODE systems at tight
 tolerances: the series of q and of the variational matrix come from recurrences (the power
@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 import hertzmap.kernels.integrate as integ  # noqa: E402
 from hertzmap.kernels import shoot  # noqa: E402

@@ -1,7 +1,7 @@
 """What a DOP853 step costs in a loop, and why: inlined or called, one chain or two, fixed or
 adaptive step size.
 
-    .venv/bin/python benchmarks/step_overlap.py          (about 30 s, compiles first)
+    .venv/bin/python benchmarks/archive/step_overlap.py          (about 30 s, compiles first)
 
 Chained steps of the state + variational system (each from the last one's result, model
 parameters as run-time values), per step, fastest of 3:
@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from hertzmap.kernels._dop853 import step_var  # noqa: E402

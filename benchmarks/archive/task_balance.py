@@ -1,6 +1,6 @@
 """How evenly a study's tasks load 2 workers: each task's solve time, and the tail it leaves.
 
-    .venv/bin/python benchmarks/task_balance.py [N_OMEGA N_SIGMA]     (default 161 77, ~25 s)
+    .venv/bin/python benchmarks/archive/task_balance.py [N_OMEGA N_SIGMA]     (default 161 77, ~25 s)
 
 Plans the study of benchmarks/bench_grid.py (omega 0.5-2.5, sigma 0.05-1, zeta 0.01, 1T and 2T
 seeds) with the chunking `hertzmap run` would choose, solves every task's block in this process
@@ -18,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "benchmarks"))
+sys.path.insert(0, str(ROOT / "benchmarks"))  # bench_grid
 
 from bench_grid import STUDY  # noqa: E402
 from hertzmap.scheduler.plan import choose_chunks, make_plan  # noqa: E402

@@ -1,7 +1,7 @@
 """What Dask's worker stack profiler costs the solvers: the same block on 2 busy workers with the
 profiler's periodic callbacks started and stopped in alternation (ABBA), in one cluster.
 
-    .venv/bin/python benchmarks/dask_profiler_ab.py [--rounds 20]      (about 30 s)
+    .venv/bin/python benchmarks/archive/dask_profiler_ab.py [--rounds 20]      (about 30 s)
 
 Each round both workers solve the same block (161 omega x 2 sigma, 1T and 2T seeds, rtol 1e-10)
 at once, with the profiler on or off in both. Printed: wall time per block, median and fastest,
@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 
 def solve_one_block(_tag):

@@ -1,7 +1,7 @@
 """Where a grid block's integration steps go: every kernel call of the block solver counted by
 period, Newton budget and outcome.
 
-    .venv/bin/python benchmarks/grid_steps.py          (about 10 s after the numba cache)
+    .venv/bin/python benchmarks/archive/grid_steps.py          (about 10 s after the numba cache)
 
 The block: every 4th omega and every 25th sigma of studies/fine_map.toml (100 x 10 points,
 zeta 0.01, 1T and 2T seeds, rtol 1e-10). The 1T solves have a budget of 40 Newton iterations,
