@@ -22,19 +22,23 @@ def scene_paths() -> dict[str, Path]:
 
 
 def study_path(arg: str | Path) -> Path:
-    """The study file ``arg`` names: an existing file, else a scene (``default``, or
-    ``default.toml``). Raises StudyError("file", ...) naming the scenes when neither fits."""
+    """The study file ``arg`` names: an existing file, else the scene of that name (``default``
+    or ``default.toml``, with no folder), else ``arg`` itself (reading it then says why not)."""
     path = Path(arg)
-    if path.is_file():
+    if path.is_file() or path.parent != Path("."):
         return path
-    scenes = scene_paths()
-    name = path.name.removesuffix(SUFFIX)
-    if path.parent == Path(".") and name in scenes:
-        return scenes[name]
-    raise StudyError("file", f"no study file {str(arg)!r} and no scene of that name "
-                             f"(scenes: {', '.join(scenes)}; hertzmap scenes describes them)")
+    return scene_paths().get(path.name.removesuffix(SUFFIX), path)
 
 
 def load_scene_or_file(arg: str | Path) -> Study:
-    """load_study of study_path(arg)."""
-    return load_study(study_path(arg))
+    """load_study of study_path(arg); a bare name that is neither a file nor a scene gets the
+    scenes named in its error."""
+    path = study_path(arg)
+    try:
+        return load_study(path)
+    except StudyError as exc:
+        if exc.field != "file" or Path(arg).parent != Path(".") or path.is_file():
+            raise
+        scenes = ", ".join(scene_paths())
+        raise StudyError("file", f"{str(exc).removeprefix('file: ')}; nor is it a scene "
+                                 f"({scenes}; hertzmap scenes describes them)") from None
