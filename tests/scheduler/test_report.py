@@ -37,3 +37,29 @@ def test_one_task_for_several_workers_counts_one_busy_worker_and_says_the_rest_i
     assert line.startswith("dask overhead: 10.0 % (task compute 0.90 s over 1 busy worker x "
                            "1.00 s wall; 900 ms per task)")
     assert line.endswith(f"; 1 task for {workers} workers, so {idle} stayed idle")
+
+
+def test_the_certificates_line_keeps_the_worst_of_every_block():
+    """The worst certificate over the blocks as they come (converged orbits only, attractor
+    slots that hold one), and a line that says so; none without a value."""
+    import math
+
+    import numpy as np
+
+    from hertzmap.scheduler.report import certificates_line, worst_certificates
+
+    tally = {"liouville": math.nan, "lyapunov_sum": math.nan, "attractors": 0}
+    status = np.array([[0, 0, 1, -1]])
+    worst_certificates(tally, {"status": status,
+                               "liouville_residual": np.array([[2e-11, 5e-10, 0.3, np.nan]])})
+    worst_certificates(tally, {"status": np.array([[0, -1, -1, -1]]),
+                               "liouville_residual": np.array([[1e-12, np.nan, np.nan, np.nan]]),
+                               "attractor_kind": np.array([[1, 2, 0, 0]]),
+                               "lyapunov_sum_error": np.array([[3e-13, 4e-9, np.nan, np.nan]])})
+    assert tally == {"liouville": 5e-10, "lyapunov_sum": 4e-9, "attractors": 2}
+    line = certificates_line({"liouville_worst": 5e-10, "orbits": 3, "lyapunov_sum_worst": 4e-9,
+                              "attractors": 2})
+    assert line == ("certificates: Liouville residual <= 5.0e-10 over the 3 orbits (relative, "
+                    "|det M - exp(-2 zeta P)|); |lambda1 + lambda2 + 2 zeta| <= 4.0e-09 over the "
+                    "2 census attractors")
+    assert certificates_line({"liouville_worst": math.nan, "orbits": 0}) is None
