@@ -129,7 +129,9 @@ def config_env_lines(config: dict) -> list[str]:
 
 
 def _dashboard_address() -> str | None:
-    return ":0" if importlib.util.find_spec("bokeh") is not None else None
+    """The embedded cluster's dashboard: a free port on the loopback (a bare ":0" binds every
+    interface, whatever the scheduler's host)."""
+    return "127.0.0.1:0" if importlib.util.find_spec("bokeh") is not None else None
 
 
 # -- dask-jobqueue -----------------------------------------------------------------------------

@@ -42,6 +42,30 @@ def test_local_cluster_runs_with_the_trimmed_dask_config():
     assert "profile" not in names and "heartbeat" in names
 
 
+def test_the_embedded_cluster_listens_on_the_loopback_and_serves_its_dashboard():
+    """Out of the box: the dashboard a run prints answers (bokeh is a dependency), and the
+    scheduler, its workers and the dashboard listen on 127.0.0.1 only."""
+    import urllib.request
+
+    from hertzmap.scheduler.cluster import make_client
+
+    client, cluster = make_client(ClusterSpec(kind="local", workers=1))
+    try:
+        link = client.dashboard_link
+        workers = list(client.scheduler_info()["workers"])
+        with urllib.request.urlopen(link, timeout=30) as page:
+            status = page.status
+        bound = {sock.getsockname()[0] for sock in cluster.scheduler.http_server._sockets.values()}
+    finally:
+        client.close()
+        cluster.close()
+    assert link.startswith("http://127.0.0.1:"), link
+    assert status == 200
+    assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
+    assert workers and all(w.startswith("tcp://127.0.0.1:") for w in workers), workers
+    assert bound == {"127.0.0.1"}, bound
+
+
 def test_config_env_lines_reproduce_the_config():
     """The job-script lines for batch workers give Dask the same config (read from DASK_*)."""
     import dask
