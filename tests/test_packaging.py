@@ -33,6 +33,7 @@ sigma = [0.3, 0.5]
 zeta = [0.01]
 [search]
 periods = [1, 2]
+attractors = "never"        # fewer kernels to compile cold in the new venv
 [products]
 outputs = ["orbits", "measures"]
 """
