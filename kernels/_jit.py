@@ -54,7 +54,6 @@ from contextlib import contextmanager
 import numba
 from numba import njit
 from numba.core import sigutils, typing
-from numba.core.dispatcher import Dispatcher
 
 try:
     import fcntl
