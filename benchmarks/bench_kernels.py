@@ -32,6 +32,7 @@ import time
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.dirname(HERE))     # the repo: the benchmarks are not installed
 
 from benchmarks import oracle  # noqa: E402  (scipy reference, shares no code with kernels/)
 
