@@ -41,7 +41,7 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.machine import load_average  # noqa: E402
 from hertzmap.kernels import status as st  # noqa: E402
-from hertzmap.kernels.api import DEFAULT_MAX_STEPS  # noqa: E402
+from hertzmap.kernels.orbit import DEFAULT_MAX_STEPS  # noqa: E402
 from hertzmap.kernels.model import MODELS  # noqa: E402
 from hertzmap.kernels import attractors as attractors_mod  # noqa: E402
 from hertzmap.kernels.shooting import F, N_FIELDS, shoot_batch_into  # noqa: E402

@@ -58,9 +58,9 @@ import numpy as np
 
 from hertzmap.kernels import status as st
 from hertzmap.kernels._jit import kernel
-from hertzmap.kernels.api import DEFAULT_MAX_STEPS, DEFAULT_RTOL, _check_exponent, _model_code, shoot
 from hertzmap.kernels.integrate import S_MAX_Q, S_MIN_Q, integrator_scratch
-from hertzmap.kernels.model import contact_loss_level
+from hertzmap.kernels.model import check_exponent, contact_loss_level, model_code
+from hertzmap.kernels.orbit import DEFAULT_MAX_STEPS, DEFAULT_RTOL, shoot
 from hertzmap.kernels.shooting import _map, _measure_pass
 
 # ---- branch status codes ------------------------------------------------------------------
@@ -113,8 +113,8 @@ class System:
         """(Phi_{mT}(x), M, status)."""
         out = np.empty(6)
         code = period_map_into(float(x[0]), float(x[1]), float(omega), float(sigma),
-                               float(self.zeta), int(m), _check_exponent(self.exponent),
-                               _model_code(self.model), float(self.rtol), float(self.rtol),
+                               float(self.zeta), int(m), check_exponent(self.exponent),
+                               model_code(self.model), float(self.rtol), float(self.rtol),
                                int(self.max_steps), out)
         return out[:2].copy(), out[2:].reshape(2, 2).copy(), int(code)
 
@@ -905,8 +905,8 @@ class _CurveSystem:
         self.m = int(m)
         self.pa, self.pb = (CURVE_PARAMS.index(pair[0]), CURVE_PARAMS.index(pair[1]))
         self.fixed = float(fixed)
-        self.n = _check_exponent(exponent)
-        self.model_code = _model_code(model)
+        self.n = check_exponent(exponent)
+        self.model_code = model_code(model)
         self.model = model
         self.rtol = float(rtol)
         self.max_steps = int(max_steps)

@@ -15,7 +15,7 @@ zeta the damping ratio (Eq. 4). F is the contact force over N.
 F is continuous at q = -n (F(-n) = 0), so the vector field is continuous across the switching
 surface and the saltation matrix of a contact loss or recontact is the identity.
 """
-from math import cos, sqrt
+from math import cos, isfinite, sqrt
 
 from numba import float64, int64
 from numba.types import UniTuple
@@ -40,6 +40,23 @@ def contact_loss_level(model: str, exponent: float) -> float:
     if MODELS[model] == TAYLOR:
         return TAYLOR_CONTACT_LOSS
     return -float(exponent)
+
+
+def model_code(model: str) -> int:
+    """The kernels' int code of a contact law by name (a ValueError naming the laws otherwise)."""
+    try:
+        return MODELS[model]
+    except KeyError:
+        raise ValueError(f"model must be one of {sorted(MODELS)}, got {model!r}") from None
+
+
+def check_exponent(exponent: float) -> float:
+    """The contact exponent n as a float, or a ValueError unless finite and > 0."""
+    exponent = float(exponent)
+    if not (isfinite(exponent) and exponent > 0.0):    # math's: numpy's costs 1 us a call
+        raise ValueError(f"exponent must be a finite number > 0, got {exponent!r}")
+    return exponent
+
 
 
 @kernel(float64(float64, float64, int64))

@@ -12,7 +12,7 @@ import math
 import numpy as np
 
 from hertzmap.kernels import status as st
-from hertzmap.kernels.api import DEFAULT_MAX_ITER, DEFAULT_MAX_STEPS
+from hertzmap.kernels.orbit import DEFAULT_MAX_ITER, DEFAULT_MAX_STEPS
 from hertzmap.kernels.model import MODELS
 from hertzmap.kernels.shooting import F, N_FIELDS, shoot_batch_into
 from hertzmap.study.orbits import same_orbit
