@@ -122,7 +122,7 @@ def solve_case(omega, sigma, zeta, m, n, extra_guess=None) -> dict:
         row["seconds"] += dt
         row["max_seconds"] = max(row["max_seconds"], dt)
         row["status"] = o.status_name
-        row["iterations"] = o.iterations
+        row["iterations"] = o.newton_iterations
         row["orbit"] = o
         if o.converged:
             row.update(converged=True, guess=k)

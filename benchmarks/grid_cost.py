@@ -136,14 +136,14 @@ def classify(rec: Recorder, stored: np.ndarray):
     index = defaultdict(list)
     for r in stored:
         index[(r[0], r[1], r[2], int(r[3]))].append(
-            {"period": int(r[3]), "min_q": r[6], "max_q": r[7], "ptp": r[8], "trace": r[9]})
+            {"period": int(r[3]), "min_q": r[6], "max_q": r[7], "ptp": r[8], "trace_m": r[9]})
     seen = set()
     secs, count = defaultdict(float), defaultdict(int)
     for w, s, z, m, dt, status, q0, v0, mn, mx, ptp, trace in rec.rows:
         if status != st.CONVERGED:
             cls = f"failed {m}T"
         else:
-            solved = {"period": m, "min_q": mn, "max_q": mx, "ptp": ptp, "trace": trace}
+            solved = {"period": m, "min_q": mn, "max_q": mx, "ptp": ptp, "trace_m": trace}
             match = next((n for n, orbit in enumerate(index.get((w, s, z, m), ()))
                           if same_orbit(solved, orbit)), None)
             if match is None:

@@ -19,20 +19,29 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, root
 
 
-def force(q, n=1.5, model="hertz"):
-    """Contact force F(q)/N: (1 + q/n)^n in contact, 0 in flight (Taylor: Eq. 10)."""
-    if model == "taylor":
-        return 1.0 + q + q * q / 6.0 - q ** 3 / 54.0
+def _hertz(q, n):
     s = 1.0 + q / n
-    return s ** n if s > 0.0 else 0.0
+    return (s ** n, s ** (n - 1.0)) if s > 0.0 else (0.0, 0.0)
+
+
+def _taylor(q, n):
+    return 1.0 + q + q * q / 6.0 - q ** 3 / 54.0, 1.0 + q / 3.0 - q * q / 18.0
+
+
+#: the oracle's own contact laws by name, (F, dF/dq) of (q, n): paper Eq. 7 (Hertz: (1 +
+#: q/n)^n in contact, 0 in flight) and Eq. 10 (Taylor); a law the kernels declare
+#: (kernels.model.LAWS) must have its twin here, written independently
+LAWS = {"hertz": _hertz, "taylor": _taylor}
+
+
+def force(q, n=1.5, model="hertz"):
+    """Contact force F(q)/N."""
+    return LAWS[model](q, n)[0]
 
 
 def stiffness(q, n=1.5, model="hertz"):
     """dF/dq."""
-    if model == "taylor":
-        return 1.0 + q / 3.0 - q * q / 18.0
-    s = 1.0 + q / n
-    return s ** (n - 1.0) if s > 0.0 else 0.0
+    return LAWS[model](q, n)[1]
 
 
 class IntegrationFailed(RuntimeError):
@@ -106,6 +115,33 @@ def flow(x0, t0, t1, omega, sigma, zeta, n=1.5, model="hertz", rtol=1e-13, atol=
     except IntegrationFailed:
         return np.full(2, np.nan)
     return y
+
+
+def force_moments(x0, omega, sigma, zeta, m=1, n=1.5, model="hertz", rtol=1e-12):
+    """(mean F, rms F, max q) over one period m T from x0: the integrals of F and F^2 carried
+    along as two more components of the flow (:func:`piecewise`), max q from each piece's
+    dense output refined by a bounded scalar search."""
+    from scipy.optimize import minimize_scalar
+
+    P = m * 2.0 * np.pi / omega
+
+    def rhs(t, y):
+        f = force(y[0], n, model)
+        return [y[1], 1.0 + sigma * np.cos(omega * t) - 2.0 * zeta * y[1] - f, f, f * f]
+
+    peaks = []
+
+    def on_piece(sol):
+        tt = np.linspace(sol.t[0], sol.t[-1], 2001)
+        k = int(np.argmax(sol.sol(tt)[0]))
+        lo, hi = tt[max(k - 1, 0)], tt[min(k + 1, tt.size - 1)]
+        r = minimize_scalar(lambda t: -sol.sol(t)[0], bounds=(lo, hi), method="bounded",
+                            options={"xatol": 1e-12})
+        peaks.append(max(-r.fun, float(sol.sol(tt[k])[0])))
+
+    y, _ = piecewise(rhs, [x0[0], x0[1], 0.0, 0.0], 0.0, P, n=n, switches=model != "taylor",
+                     rtol=rtol, atol=rtol, dense_output=True, on_piece=on_piece)
+    return y[2] / P, float(np.sqrt(y[3] / P)), max(peaks)
 
 
 def period_map(x, omega, sigma, zeta, m=1, **kw):

@@ -107,7 +107,7 @@ def describe(w, s, z, m, x0, n_exp, rtol):
     """(flight fraction, Newton iterations, steps of the solve) of hertzmap's timed solve."""
     ref = shoot(w, s, z, m, guess=x0, rtol=1e-13, exponent=n_exp)
     o = shoot(w, s, z, m, guess=ref.x0 + 1e-2, rtol=rtol, exponent=n_exp)
-    return o.flight_fraction, o.iterations, o.steps
+    return o.flight_fraction, o.newton_iterations, o.steps
 
 
 def summary(label, ratios, share=None):

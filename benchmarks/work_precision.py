@@ -231,7 +231,7 @@ def run_case(name, omega, sigma, zeta, m, rough, cfg, log=print) -> list[Point]:
         # pass (Orbit.steps of a multi-iteration solve over-counts: kernels.integrate's step
         # counters accumulate across the Newton maps and shoot_into adds running totals)
         spm = shoot(omega, sigma, zeta, m, guess=tuple(r[1:3]), rtol=rtol, exponent=N_EXP).steps / 2
-        it = float(r[F["iterations"]])
+        it = float(r[F["newton_iterations"]])
         pts.append(Point(name, "hertzmap", f"{rtol:.0e}", kst.NAMES[int(r[F["status"]])],
                          float(np.abs(r[1:3] - ref.x0).max()), mult_error(mu, ref.multipliers), t,
                          spm, it, t / ((it + 1) * spm * bare)))

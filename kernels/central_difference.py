@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit
 
 from hertzmap.kernels import status as st
-from hertzmap.kernels.model import TAYLOR, rhs_force
+from hertzmap.kernels.model import SWITCHES, rhs_force
 
 
 @njit(cache=True, nogil=True)
@@ -49,10 +49,11 @@ def cd_map(q0, v0, P, N, omega, sigma, zeta, n, model, out):
 
 @njit(cache=True, nogil=True)
 def _force_no_division(q, inv_n, n, model):
-    """rhs_force with its divisions turned into products (q / n -> q * (1 / n)): a division
-    sits on the recurrence's dependency chain and costs ~13 cycles; same values to round-off."""
-    if model == TAYLOR:
-        return 1.0 + q + q * q * (1.0 / 6.0) - q * q * q * (1.0 / 54.0)
+    """rhs_force of a law with a switching surface (kernels.model.SWITCHES) with its division
+    turned into a product (q / n -> q * (1 / n)): a division sits on the recurrence's
+    dependency chain and costs ~13 cycles; same values to round-off. Other laws: rhs_force."""
+    if not SWITCHES[model]:
+        return rhs_force(q, n, model)
     s = 1.0 + q * inv_n
     if s <= 0.0:
         return 0.0

@@ -40,13 +40,16 @@ from hertzmap.kernels._dop853 import (dense_coefficients, dense_coefficients_h, 
                              step_state, step_state_h, step_state_w, step_var, step_var_h,
                              step_var_w)
 from hertzmap.kernels.flight import flight_state, flight_until_recontact
-from hertzmap.kernels.model import HERTZ, rhs_force, rhs_force_and_stiffness
+from hertzmap.kernels.model import SWITCHES, rhs_force, rhs_force_and_stiffness
+from hertzmap.kernels.records import N_HARMONICS as ORBIT_N_HARMONICS
 
 # layout of the ``stats`` array filled by ``integrate``
 (S_ACCEPTED, S_REJECTED, S_EVENTS, S_FLIGHT_TIME, S_MIN_Q, S_MAX_Q, S_MAX_IMPACT, S_H_FIRST,
  S_H_RECONTACT, S_PARTIAL) = range(10)
 N_STATS = 10
-N_HARMONICS = 4
+N_HARMONICS = ORBIT_N_HARMONICS
+# rows of the ``harm`` array: the integrals of F cos(k w t), F sin(k w t), and (column 0) of F^2
+H_COS, H_SIN, H_SQUARE = 0, 1, 2
 BIG = 1e6              # |q| or |v| beyond this: diverged
 W_EXIT = 0.5           # after a recontact, step in w = sqrt(t - t_r) up to t - t_r = W_EXIT^2
 MODE_T, MODE_RECONTACT, MODE_LOSS, MODE_HEIGHT = 0, 1, -1, 2
@@ -79,7 +82,7 @@ def integrator_scratch(dim):
     harmonics, zeroed)."""
     y, f, y_new, f_new = state_arrays(dim)
     return (y, f, y_new, f_new, np.empty((16, 2)), np.empty((7, 2)), np.zeros(N_STATS),
-            np.zeros((2, N_HARMONICS + 1)))
+            np.zeros((3, N_HARMONICS + 1)))
 
 
 @kernel(float64(float64[:, ::1], int64, float64, float64))
@@ -348,13 +351,13 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
               f, y_new, f_new, K, P):
     """Advance y (length 6 with the variational matrix, else 2) from t0 to t1 in place.
 
-    Parameters (all dimensionless): omega, sigma, zeta, n (contact exponent), model (HERTZ or
-    TAYLOR); rtol, atol tolerances of the local error on (q, q') and Phi; h initial step;
+    Parameters (all dimensionless): omega, sigma, zeta, n (contact exponent), model (a contact
+    law's code, kernels.model.LAWS); rtol, atol tolerances of the local error on (q, q') and Phi; h initial step;
     max_steps bound on steps + rejections + events. With ``measure``, fills stats (min/max q,
-    flight time, largest impact velocity); with ``harmonics`` too, accumulates into harm[0, k],
-    harm[1, k] the integrals of F(q) cos(k w t) and F(q) sin(k w t), w = 2 pi / period_harm,
-    k = 0..N_HARMONICS (8-point Gauss-Legendre on the continuous extension of every step: about
-    as costly as the step itself, so only when asked for).
+    flight time, largest impact velocity); with ``harmonics`` too, accumulates into harm[H_COS, k],
+    harm[H_SIN, k] the integrals of F(q) cos(k w t) and F(q) sin(k w t), w = 2 pi / period_harm,
+    k = 0..N_HARMONICS, and into harm[H_SQUARE, 0] that of F(q)^2 (8-point Gauss-Legendre on
+    the continuous extension of every step: about as costly as the step itself, so only when asked for).
     With ``t_eval`` (sorted, inside [t0, t1]) writes q, q', F at those times into out_eval (3, m).
     Work arrays: f, y_new, f_new (len(y)), K (16, 2), P (7, 2).
 
@@ -363,7 +366,7 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
     next call over the same orbit.
     """
     dim = y.shape[0]
-    hertz = model == HERTZ
+    switches = SWITCHES[model]
     t = t0
     n_eval = t_eval.shape[0]
     i_eval = 0
@@ -378,7 +381,7 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
         stats[S_MAX_Q] = y[0]
     # which phase do we start in?
     in_flight = False
-    if hertz:
+    if switches:
         if y[0] < -n:
             in_flight = True
         elif y[0] == -n:
@@ -507,7 +510,7 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
                 h = h_t
             continue
         land_on_switch = False
-        if hertz and mode != MODE_LOSS and y_new[0] < -n:
+        if switches and mode != MODE_LOSS and y_new[0] < -n:
             # The trial step crossed the surface. Its error estimate is meaningless (a kink
             # inside): locate the crossing now and approach it in w = -sqrt(t_stop - t).
             s, err_s = _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma,
@@ -552,7 +555,7 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
                 return st.STEP_SIZE
             continue
         have_dense = False
-        if hertz and mode == MODE_T:
+        if switches and mode == MODE_T:
             q0_, v0_ = y[0], y[1]
             q1_, v1_ = y_new[0], y_new[1]
             if v0_ < 0.0 and v1_ > 0.0 and min(q0_, q1_) + n < h * max(-v0_, v1_):
@@ -598,7 +601,7 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
             stats[S_H_RECONTACT] = h
         approach = 1.0
         d1 = np.inf
-        if hertz and mode == MODE_T and y_new[1] < 0.0 and not lands:
+        if switches and mode == MODE_T and y_new[1] < 0.0 and not lands:
             # Heading for contact loss: the solution's high derivatives grow like
             # (time to the surface)^-k, so the error of a step of given h grows as that time
             # shrinks; scale h by its ratio over this step (without this, every step of the
@@ -715,9 +718,11 @@ def _measure_step(P, y, y_new, mode, x, h, t_ref, n, model, extremum, harmonics,
         qe = dense_eval(P, 0, y[0], xi)
         xx = x + xi * h
         dtdx = 1.0 if mode == MODE_T else abs(2.0 * xx)
-        Fe = rhs_force(qe, n, model) * _GL_W[j] * h * dtdx
+        Fq = rhs_force(qe, n, model)
+        Fe = Fq * _GL_W[j] * h * dtdx
         if Fe != 0.0:
             _add_harmonics(Fe, _time(mode, xx, t_ref), w_h, harm)
+            harm[H_SQUARE, 0] += Fq * Fe
 
 
 @kernel("void(float64[:, ::1], float64[::1], float64, float64, float64, float64, int64, float64, float64[:, ::1])")
@@ -728,20 +733,22 @@ def _height_step_harmonics(P, y, x, h, t_ref, n, model, w_h, harm):
         xi = _GL_X[j]
         xx = x + xi * h
         dtdx = 2.0 * xx / dense_eval(P, 1, y[1], xi)
-        Fe = rhs_force(xx * xx - n, n, model) * _GL_W[j] * h * dtdx
+        Fq = rhs_force(xx * xx - n, n, model)
+        Fe = Fq * _GL_W[j] * h * dtdx
         if Fe != 0.0:
             _add_harmonics(Fe, t_ref + dense_eval(P, 0, y[0], xi), w_h, harm)
+            harm[H_SQUARE, 0] += Fq * Fe
 
 
 @kernel("void(float64, float64, float64, float64[:, ::1])")
 def _add_harmonics(Fe, tt, w_h, harm):
-    """harm[0, k] += Fe cos(k w_h tt), harm[1, k] += Fe sin(k w_h tt), k = 0..N_HARMONICS."""
+    """harm[H_COS, k] += Fe cos(k w_h tt), harm[H_SIN, k] += Fe sin(k w_h tt), k = 0..N_HARMONICS."""
     c1 = cos(w_h * tt)
     s1 = sin(w_h * tt)
     ck = 1.0
     sk = 0.0
     for k in range(N_HARMONICS + 1):
-        harm[0, k] += Fe * ck
-        harm[1, k] += Fe * sk
+        harm[H_COS, k] += Fe * ck
+        harm[H_SIN, k] += Fe * sk
         # angle addition: cos/sin of (k+1) w t from those of k w t
         ck, sk = ck * c1 - sk * s1, sk * c1 + ck * s1

@@ -15,7 +15,9 @@ zeta the damping ratio (Eq. 4). F is the contact force over N.
 F is continuous at q = -n (F(-n) = 0), so the vector field is continuous across the switching
 surface and the saltation matrix of a contact loss or recontact is the identity.
 """
-from math import cos, isfinite, sqrt
+from dataclasses import dataclass
+from math import cos, isfinite, nan, sqrt
+from typing import Callable
 
 from numba import float64, int64
 from numba.types import UniTuple
@@ -24,7 +26,6 @@ from hertzmap.kernels._jit import kernel
 
 HERTZ = 0
 TAYLOR = 1
-MODELS = {"hertz": HERTZ, "taylor": TAYLOR}
 
 #: Paper Eq. 12: the Taylor force 1 + q + q^2/6 - q^3/54 of Eq. 10 vanishes here, the Taylor
 #: model's "loss of contact". The cubic factors exactly, -54 F = (q + 3)(q^2 - 12 q - 18), so
@@ -34,12 +35,46 @@ MODELS = {"hertz": HERTZ, "taylor": TAYLOR}
 TAYLOR_CONTACT_LOSS = 6.0 - 3.0 * sqrt(6.0)
 
 
+@dataclass(frozen=True)
+class ContactLaw:
+    """A contact law F(q), declared once; the kernels' force functions below branch on its
+    ``code``, the integrator on ``switches`` (a switching surface at q = -n, below which F = 0
+    and the flight is integrated in closed form), the study file on ``name`` and
+    ``has_exponent``; ``loss_level(n)`` is the q at which contact is lost (the grazing
+    threshold of every product). Its independent twin for the tests is benchmarks/oracle.py's
+    ``force`` of the same name."""
+
+    name: str
+    code: int
+    switches: bool
+    has_exponent: bool
+    loss_level: Callable[[float], float]
+    equation: str
+    description: str
+
+
+LAWS = (
+    ContactLaw("hertz", HERTZ, True, True, lambda n: -float(n), "Eq. 7",
+               "F = (1 + q/n)^n in contact, 0 in flight below q = -n (n = 3/2: Hertz)"),
+    ContactLaw("taylor", TAYLOR, False, False, lambda n: TAYLOR_CONTACT_LOSS, "Eq. 10-12",
+               "F = 1 + q + q^2/6 - q^3/54, the third-order expansion of the n = 3/2 law; "
+               "never loses contact (valid above TAYLOR_CONTACT_LOSS)"),
+)
+#: name -> code of every law
+MODELS = {law.name: law.code for law in LAWS}
+#: code -> law
+LAW_OF_CODE = {law.code: law for law in LAWS}
+#: code -> has a switching surface (a compile-time constant of the integrator)
+SWITCHES = tuple(LAW_OF_CODE[c].switches for c in range(len(LAWS)))
+#: code -> the contact-loss level of a law without a switching surface (NaN for the others,
+#: whose level -n depends on the exponent)
+FIXED_LOSS_LEVEL = tuple(float(LAW_OF_CODE[c].loss_level(nan)) for c in range(len(LAWS)))
+
+
 def contact_loss_level(model: str, exponent: float) -> float:
     """q at which contact is lost: -n for the Hertz law (paper Eq. 7), TAYLOR_CONTACT_LOSS for
     the Taylor model (Eq. 11-12). Dimensionless."""
-    if MODELS[model] == TAYLOR:
-        return TAYLOR_CONTACT_LOSS
-    return -float(exponent)
+    return LAW_OF_CODE[MODELS[model]].loss_level(exponent)
 
 
 def model_code(model: str) -> int:
@@ -56,7 +91,6 @@ def check_exponent(exponent: float) -> float:
     if not (isfinite(exponent) and exponent > 0.0):    # math's: numpy's costs 1 us a call
         raise ValueError(f"exponent must be a finite number > 0, got {exponent!r}")
     return exponent
-
 
 
 @kernel(float64(float64, float64, int64))

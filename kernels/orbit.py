@@ -10,27 +10,47 @@ from __future__ import annotations
 import numpy as np
 
 from hertzmap.kernels import status as st
-from hertzmap.kernels.integrate import N_HARMONICS
 from hertzmap.kernels.model import check_exponent, model_code
-from hertzmap.kernels.shooting import (FIELDS, I_FLIGHT, I_H1, I_IMPACT, I_ITER, I_LIOU, I_LOSES,
-                                       I_M1I, I_M1R, I_M2I, I_M2R, I_M11, I_M22, I_MEANF, I_MAXQ,
-                                       I_MINPER, I_MINQ, I_PTP, I_Q0, I_RES, I_STABLE, I_STATUS,
-                                       I_STEPS, I_V0, N_FIELDS, F, shoot_batch_into, shoot_into)
+from hertzmap.kernels.records import ORBIT
+from hertzmap.kernels.shooting import (FIELDS, I_M11, I_M22, I_Q0, I_STATUS, I_V0, N_FIELDS, F,
+                                       shoot_batch_into, shoot_into)
 
 DEFAULT_RTOL = 1e-10
 DEFAULT_MAX_ITER = 40
 DEFAULT_MAX_STEPS = 200_000
 
 
+def _column_reader(field):
+    """A property reading ``field`` (kernels.records.ORBIT) from the row: a bool, an int (0 for
+    NaN), a float, a complex vector or a float vector, by its declared dtype and dim."""
+    cols = [F[c] for c in field.kernel_columns]
+    if field.dim is not None and field.dtype == "complex128":
+        def get(self):
+            r = self._row
+            return np.array([complex(r[cols[k]], r[cols[k + 1]]) for k in range(0, len(cols), 2)])
+    elif field.dim is not None:
+        def get(self):
+            return self._row[cols].copy()
+    elif field.dtype == "bool":
+        def get(self):
+            return bool(self._row[cols[0]] == 1.0)
+    elif field.dtype.startswith("int"):
+        def get(self):
+            v = self._row[cols[0]]
+            return int(v) if np.isfinite(v) else 0
+    else:
+        def get(self):
+            return float(self._row[cols[0]])
+    return property(get, doc=f"{field.long_name} [{field.units}]: {field.description}")
+
+
 class Orbit:
     """A periodic orbit of period ``period`` T (T = 2 pi / omega), dimensionless.
 
-    x0: (q, q') at tau = 0 mod T. multipliers: Floquet multipliers (eigenvalues of the
-    monodromy matrix ``monodromy``). Orbit measures are over one period of the orbit.
-
-    A read-only view of the kernel's result row (kernels.shooting.FIELDS; ``row``): each
-    attribute is read from it when asked for, so that ``shoot`` costs little more than the
-    kernel (building all 22 attributes at once cost 11 us, as much as a 1T solve).
+    A read-only view of the kernel's result row (``row``, layout kernels.shooting.FIELDS): every
+    field of the orbit record (kernels.records.ORBIT) is an attribute, read from the row when
+    asked for (building all of them at once cost as much as a 1T solve); plus ``x0`` = (q, q')
+    at tau = 0 mod T, ``monodromy`` as a 2 x 2 matrix, ``converged`` and ``status_name``.
     """
 
     __slots__ = ("omega", "sigma", "zeta", "period", "_row")
@@ -61,17 +81,13 @@ class Orbit:
         return self._row.copy()
 
     def __getitem__(self, name: str) -> float:
-        """Any field of the result row by name (kernels.shooting.FIELDS)."""
+        """Any column of the result row by name (kernels.shooting.FIELDS)."""
         return float(self._row[F[name]])
 
     def __repr__(self) -> str:
         return (f"Orbit(omega={self.omega!r}, sigma={self.sigma!r}, zeta={self.zeta!r}, "
                 f"period={self.period}, status={self.status_name}, x0={self.x0.tolist()}, "
                 f"stable={self.stable}, steps={self.steps})")
-
-    @property
-    def status(self) -> int:
-        return int(self._row[I_STATUS])
 
     @property
     def converged(self) -> bool:
@@ -87,76 +103,16 @@ class Orbit:
         return self._row[I_Q0:I_V0 + 1].copy()
 
     @property
-    def multipliers(self) -> np.ndarray:
-        """The two Floquet multipliers (complex)."""
-        r = self._row
-        return np.array([complex(r[I_M1R], r[I_M1I]), complex(r[I_M2R], r[I_M2I])])
-
-    @property
     def monodromy(self) -> np.ndarray:
         """The monodromy matrix M (2 x 2)."""
         return self._row[I_M11:I_M22 + 1].reshape(2, 2).copy()
 
-    @property
-    def stable(self) -> bool:
-        return bool(self._row[I_STABLE] == 1.0)
 
-    @property
-    def min_q(self) -> float:
-        return float(self._row[I_MINQ])
-
-    @property
-    def max_q(self) -> float:
-        return float(self._row[I_MAXQ])
-
-    @property
-    def ptp(self) -> float:
-        return float(self._row[I_PTP])
-
-    @property
-    def loses_contact(self) -> bool:
-        return bool(self._row[I_LOSES] == 1.0)
-
-    @property
-    def flight_fraction(self) -> float:
-        return float(self._row[I_FLIGHT])
-
-    @property
-    def max_impact_velocity(self) -> float:
-        return float(self._row[I_IMPACT])
-
-    @property
-    def force_harmonics(self) -> np.ndarray:
-        """Amplitudes of F at k omega / period, k = 1..4 (NaN with harmonics=False)."""
-        return self._row[I_H1:I_H1 + N_HARMONICS].copy()
-
-    @property
-    def mean_force(self) -> float:
-        """Must be 1 (the static load) for a periodic orbit (NaN with harmonics=False)."""
-        return float(self._row[I_MEANF])
-
-    @property
-    def iterations(self) -> int:
-        return int(self._row[I_ITER])
-
-    @property
-    def residual(self) -> float:
-        return float(self._row[I_RES])
-
-    @property
-    def liouville_error(self) -> float:
-        """|det M - exp(-2 zeta P)| / max(exp(-2 zeta P), |m11 m22| + |m12 m21|)."""
-        return float(self._row[I_LIOU])
-
-    @property
-    def minimal_period(self) -> int:
-        """1 for a 2T solve that landed on the 1T orbit (0: not converged)."""
-        v = self._row[I_MINPER]
-        return int(v) if np.isfinite(v) else 0
-
-    @property
-    def steps(self) -> int:
-        return int(self._row[I_STEPS])
+# every field of the record the kernel computes (the period is the solve's: set above)
+for _field in ORBIT.fields:
+    if _field.kernel_columns and _field.name not in vars(Orbit):
+        setattr(Orbit, _field.name, _column_reader(_field))
+del _field
 
 
 def shoot(omega: float, sigma: float, zeta: float, period: int = 1, guess=(0.0, 0.0), *,

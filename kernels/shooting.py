@@ -19,25 +19,30 @@ import numpy as np
 
 from hertzmap.kernels import status as st
 from hertzmap.kernels._jit import kernel
-from hertzmap.kernels.integrate import (N_HARMONICS, N_STATS, S_ACCEPTED, S_EVENTS, S_FLIGHT_TIME,
+from hertzmap.kernels.integrate import (H_COS, H_SIN, H_SQUARE, N_HARMONICS, N_STATS, S_ACCEPTED, S_EVENTS, S_FLIGHT_TIME,
                                S_H_FIRST, S_H_RECONTACT, S_MAX_IMPACT, S_MAX_Q, S_MIN_Q,
                                S_REJECTED, BIG,
                                integrate, integrator_scratch)
-from hertzmap.kernels.model import HERTZ, TAYLOR_CONTACT_LOSS
+from hertzmap.kernels.model import FIXED_LOSS_LEVEL, SWITCHES, rhs_force
+from hertzmap.kernels.records import ORBIT
 
-FIELDS = (
-    "status", "q0", "v0",
-    "multiplier1_re", "multiplier1_im", "multiplier2_re", "multiplier2_im",
-    "stable", "min_q", "max_q", "ptp", "loses_contact", "flight_fraction",
-    "max_impact_velocity", "force_h1", "force_h2", "force_h3", "force_h4", "mean_force",
-    "iterations", "residual", "trace_m", "det_m", "liouville_error", "minimal_period",
-    "steps", "rejected", "events", "m11", "m12", "m21", "m22",
-)
-F = {name: i for i, name in enumerate(FIELDS)}
+#: The result row's layout, from the orbit record (kernels.records.ORBIT)
+FIELDS = ORBIT.columns
+F = ORBIT.index
 N_FIELDS = len(FIELDS)
-(I_STATUS, I_Q0, I_V0, I_M1R, I_M1I, I_M2R, I_M2I, I_STABLE, I_MINQ, I_MAXQ, I_PTP, I_LOSES,
- I_FLIGHT, I_IMPACT, I_H1, I_H2, I_H3, I_H4, I_MEANF, I_ITER, I_RES, I_TR, I_DET, I_LIOU,
- I_MINPER, I_STEPS, I_REJ, I_EVENTS, I_M11, I_M12, I_M21, I_M22) = range(N_FIELDS)
+# column indices, compile-time constants of the kernels below
+I_STATUS, I_Q0, I_V0, I_STABLE, I_LIOU = (F["status"], F["q0"], F["v0"], F["stable"],
+                                          F["liouville_residual"])
+I_M1R, I_M1I, I_M2R, I_M2I = (F["multiplier1_re"], F["multiplier1_im"], F["multiplier2_re"],
+                              F["multiplier2_im"])
+I_MINQ, I_MAXQ, I_PTP, I_LOSES, I_FLIGHT, I_IMPACT, I_PEAKF = (
+    F["min_q"], F["max_q"], F["ptp"], F["loses_contact"], F["flight_fraction"],
+    F["max_impact_velocity"], F["peak_force"])
+I_H1, I_RMSF, I_MEANF = F["force_h1"], F["rms_force"], F["mean_force"]
+I_ITER, I_RES, I_TR, I_DET, I_MINPER = (F["newton_iterations"], F["residual"], F["trace_m"],
+                                        F["det_m"], F["minimal_period"])
+I_STEPS, I_REJ, I_EVENTS = F["steps"], F["rejected"], F["events"]
+I_M11, I_M12, I_M21, I_M22 = F["m11"], F["m12"], F["m21"], F["m22"]
 
 XTOL_MEASURE = 1e-3    # Newton hands over to the measure pass below this step (relative)
 # Newton gives up after this many consecutive steps that the line search could not make
@@ -100,9 +105,9 @@ def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, ma
     """Find the period-m orbit near (q_guess, v_guess); write FIELDS into res (float64[N_FIELDS]).
 
     Dimensionless inputs (paper Eq. 7): omega > 0, sigma >= 0, zeta >= 0, n > 0 the contact
-    exponent, model HERTZ or TAYLOR; rtol/atol the integrator's local tolerances on (q, q').
-    ``harmonics``: also the contact-force harmonics and mean force (a quadrature on every step
-    of the measure pass, which it makes about twice as costly); else those fields are NaN.
+    exponent, model a contact law's code (kernels.model.LAWS); rtol/atol the integrator's local tolerances on (q, q').
+    ``harmonics``: also the contact-force harmonics, rms and mean force (a quadrature on every
+    step of the measure pass, which it makes about twice as costly); else those fields are NaN.
     """
     for i in range(res.shape[0]):
         res[i] = np.nan
@@ -273,15 +278,17 @@ def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, ma
     res[I_PTP] = stats[S_MAX_Q] - stats[S_MIN_Q]
     res[I_FLIGHT] = stats[S_FLIGHT_TIME] / P
     res[I_IMPACT] = stats[S_MAX_IMPACT]
+    res[I_PEAKF] = rhs_force(stats[S_MAX_Q], n, model)
     res[I_EVENTS] = stats[S_EVENTS]
-    if model == HERTZ:
+    if SWITCHES[model]:
         res[I_LOSES] = 1.0 if stats[S_EVENTS] > 0 or stats[S_FLIGHT_TIME] > 0.0 else 0.0
     else:
-        res[I_LOSES] = 1.0 if stats[S_MIN_Q] < TAYLOR_CONTACT_LOSS else 0.0
+        res[I_LOSES] = 1.0 if stats[S_MIN_Q] < FIXED_LOSS_LEVEL[model] else 0.0
     if harmonics:
         for k in range(1, N_HARMONICS + 1):
-            res[I_H1 + k - 1] = 2.0 / P * hypot(harm[0, k], harm[1, k])
-        res[I_MEANF] = harm[0, 0] / P
+            res[I_H1 + k - 1] = 2.0 / P * hypot(harm[H_COS, k], harm[H_SIN, k])
+        res[I_MEANF] = harm[H_COS, 0] / P
+        res[I_RMSF] = sqrt(harm[H_SQUARE, 0] / P)
     # smallest j dividing m with Phi_{jT}(x0) = x0: a 2T solve that landed on the 1T orbit
     minimal = m
     scale = 1.0 + hypot(x, v)

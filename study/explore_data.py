@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from hertzmap.kernels.records import ORBIT
 from hertzmap.study import products as P
 from hertzmap.study.orbits import CLASS_LABELS
 from hertzmap.study.schema import ATTRACTOR_KINDS
@@ -315,15 +316,18 @@ def nearest_point(ds: xr.Dataset, x: float, y: float, units: Units
 # the orbits of a point
 # ---------------------------------------------------------------------------------------------
 
-_ORBIT_VARS = ("period", "q0", "v0", "stable", "min_q", "max_q", "ptp", "loses_contact",
-               "flight_fraction", "max_impact_velocity")
+#: the orbit table's rows: the stored scalar fields of the orbit record (kernels.records),
+#: but the solver's status (every listed orbit converged) and its diagnostics
+ORBIT_TABLE_FIELDS = tuple(f for f in ORBIT.stored() if f.dim is None
+                           and f.output != "diagnostics" and f.name != "status")
+_ORBIT_VARS = tuple(f.name for f in ORBIT_TABLE_FIELDS)
 
 
 def point_orbits(ds: xr.Dataset, omega: float, sigma: float, zeta: float) -> xr.Dataset:
     """The distinct converged orbits stored at the grid point nearest (omega, sigma, zeta)
     (``products.valid_orbits``: duplicates dropped), over dim ``orbit``: ``slot``,
-    ``orbit_class``, the stored ``period q0 v0 stable min_q max_q ptp loses_contact
-    flight_fraction max_impact_velocity``, ``multipliers`` (orbit, multiplier) and, when stored,
+    ``orbit_class``, the stored fields of :data:`ORBIT_TABLE_FIELDS`, ``multipliers`` (orbit,
+    multiplier) and, when stored,
     ``force_harmonics`` (orbit, harmonic). Attrs: the grid point's omega, sigma, zeta."""
     pt = ds.sel(omega=[omega], sigma=[sigma], zeta=[zeta], method="nearest")
     valid = P.valid_orbits(pt).values[0, 0, 0]

@@ -118,8 +118,8 @@ def _is_mapping(x) -> bool:
 
 def _trace(orbit: Any) -> float:
     if _is_mapping(orbit):
-        if "trace" in orbit:
-            return float(orbit["trace"])
+        if "trace_m" in orbit:
+            return float(orbit["trace_m"])
         return float(np.sum(orbit["multipliers"]).real)
     return float(np.sum(orbit.multipliers).real)
 

@@ -26,8 +26,7 @@ from typing import Any, Mapping
 import numpy as np
 import xarray as xr
 
-from hertzmap.kernels import status as _status
-from hertzmap.kernels.integrate import N_HARMONICS
+from hertzmap.kernels.records import ORBIT, PERIOD_FLAGS
 from hertzmap.study.spec import Study, StudyError, parse_study
 
 __all__ = [
@@ -87,8 +86,6 @@ STROBE_POINTS = 32
 #: Codes of ``attractor_kind`` (0: empty slot).
 ATTRACTOR_KINDS = {"periodic": 1, "non_periodic": 2, "unsettled": 3, "failed": 4}
 ATTRACTOR_FLAGS = ((0, "empty"),) + tuple((c, k) for k, c in ATTRACTOR_KINDS.items())
-#: flag values/meanings of the period variables: 0 empty, m: an orbit of period m T
-PERIOD_FLAGS = ((0, "empty"),) + tuple((m, f"period_{m}T") for m in range(1, 17))
 
 
 #: Leading dims of a variable by its layout: one value per orbit slot, per grid point, or per
@@ -136,56 +133,10 @@ class VarSpec:
         return a
 
 
-_STATUS_FLAGS = tuple(sorted(_status.NAMES.items()))
-
 VARIABLES: dict[str, VarSpec] = {v.name: v for v in [
-    # -- orbits (always stored) ----------------------------------------------------------
-    VarSpec("period", "int8", 0, "period of the orbit", "1",
-            "period of the periodic response in forcing periods T = 2 pi / omega "
-            "(1: 1T orbit, 2: 2T orbit, ..., 16; 0: empty slot)",
-            flags=PERIOD_FLAGS),
-    VarSpec("status", "int8", _status.EMPTY, "solver status", "1",
-            "outcome of the solve for this slot (kernels/status.py); only status 0 "
-            "(converged) slots hold a periodic orbit", flags=_STATUS_FLAGS),
-    VarSpec("q0", "float64", math.nan, "displacement at tau = 0", "1",
-            "dimensionless displacement q = 3 (z - z_s) / (2 z_s) of the orbit at tau = 0 "
-            "(start point of the periodic orbit); contact is lost at q = -exponent"),
-    VarSpec("v0", "float64", math.nan, "velocity at tau = 0", "1",
-            "dimensionless velocity dq/dtau of the orbit at tau = 0"),
-    VarSpec("multipliers", "complex128", complex(math.nan, 0.0), "Floquet multipliers", "1",
-            "the two eigenvalues of the monodromy matrix over the orbit's period "
-            "(their product is exp(-2 zeta P) for an orbit of period P = period * T)",
-            extra=(("multiplier", 2),)),
-    VarSpec("stable", "bool", False, "orbit is stable", "1",
-            "True when both Floquet multipliers lie inside the unit circle"),
-    VarSpec("liouville_residual", "float64", math.nan, "Liouville residual of the monodromy", "1",
-            "|det M - exp(-2 zeta P)| / max(exp(-2 zeta P), |m11 m22| + |m12 m21|): how far the "
-            "product of the Floquet multipliers is from Liouville's exact value for an orbit of "
-            "period P, relative to what a 2x2 determinant resolves; a certificate of the "
-            "monodromy independent of the solve (integration error ~ rtol)"),
-    # -- measures ----------------------------------------------------------------------------
-    VarSpec("min_q", "float64", math.nan, "minimum displacement over the orbit", "1",
-            "minimum of q over one period of the orbit"),
-    VarSpec("max_q", "float64", math.nan, "maximum displacement over the orbit", "1",
-            "maximum of q over one period of the orbit"),
-    VarSpec("ptp", "float64", math.nan, "peak-to-peak displacement", "1",
-            "max_q - min_q"),
-    VarSpec("loses_contact", "bool", False, "orbit loses contact", "1",
-            "True when q reaches the loss-of-contact threshold q = -exponent during the orbit"),
-    VarSpec("flight_fraction", "float64", math.nan, "fraction of the period in flight", "1",
-            "fraction of the orbit's period spent out of contact (0..1)"),
-    VarSpec("max_impact_velocity", "float64", math.nan, "largest impact velocity", "1",
-            "largest |dq/dtau| at recontact (q = -exponent) over one period of the orbit"),
-    # -- force harmonics ---------------------------------------------------------------------
-    VarSpec("force_harmonics", "float64", math.nan, "contact force harmonic amplitudes", "1",
-            "amplitude of the contact force F(q) (in units of the static preload) at the "
-            f"frequencies k omega / period, k = 1..{N_HARMONICS}",
-            extra=(("harmonic", N_HARMONICS),)),
-    # -- diagnostics --------------------------------------------------------------------------
-    VarSpec("newton_iterations", "int16", 0, "Newton iterations", "1",
-            "number of Newton (shooting) iterations used for this slot"),
-    VarSpec("residual", "float64", math.nan, "final shooting residual", "1",
-            "|Phi_P(x0) - x0| at the returned start point"),
+    # -- the orbits (kernels.records.ORBIT) -------------------------------------------------
+    *(VarSpec(f.name, f.dtype, f.fill, f.long_name, f.units, f.description,
+              extra=(f.dim,) if f.dim else (), flags=f.flags) for f in ORBIT.stored()),
     # -- bifurcations (per omega block and (sigma, zeta) line) ---------------------------------
     VarSpec("bifurcation_omega", "float64", math.nan, "omega of a located bifurcation point", "1",
             "excitation frequency of a fold, flip or grazing point located on a branch along the "
@@ -347,11 +298,10 @@ def empty_arrays(shape: tuple[int, int, int], max_solutions: int,
 
 
 PRODUCT_VARIABLES: dict[str, tuple[str, ...]] = {
-    "orbits": ("period", "status", "q0", "v0", "multipliers", "stable", "liouville_residual",
-               "orbits_found"),
-    "measures": ("min_q", "max_q", "ptp", "loses_contact", "flight_fraction", "max_impact_velocity"),
-    "force_harmonics": ("force_harmonics",),
-    "diagnostics": ("newton_iterations", "residual"),
+    "orbits": tuple(f.name for f in ORBIT.stored("orbits")) + ("orbits_found",),
+    "measures": tuple(f.name for f in ORBIT.stored("measures")),
+    "force_harmonics": tuple(f.name for f in ORBIT.stored("force_harmonics")),
+    "diagnostics": tuple(f.name for f in ORBIT.stored("diagnostics")),
     "bifurcations": BIFURCATION_VARIABLES,
     "attractors": ATTRACTOR_VARIABLES,
     # traced curves: a products group written by the run (study.products.traced_curves),

@@ -22,6 +22,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from hertzmap.kernels.model import LAW_OF_CODE, LAWS, MODELS
+
 __all__ = [
     "StudyError",
     "Study",
@@ -50,7 +52,8 @@ PRODUCTS = ("orbits", "measures", "force_harmonics", "diagnostics", "bifurcation
 CORE_PRODUCT = "orbits"
 DEFAULT_PRODUCTS = ("orbits", "measures")
 
-MODEL_KINDS = ("hertz", "taylor")
+#: the contact laws a study file may name (kernels.model.LAWS)
+MODEL_KINDS = tuple(law.name for law in LAWS)
 EXPONENT_RANGE = (0.0, 3.0)           # exclusive, inclusive
 RTOL_RANGE = (1e-13, 1e-4)            # inclusive
 MAX_SOLUTIONS_RANGE = (1, 16)         # inclusive
@@ -384,7 +387,7 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
     if kind not in MODEL_KINDS:
         raise StudyError("model.kind", f"must be one of {', '.join(map(repr, MODEL_KINDS))}, "
                          f"got {_r(kind)}")
-    if kind == "hertz":
+    if LAW_OF_CODE[MODELS[kind]].has_exponent:
         lo, hi = EXPONENT_RANGE
         exponent = _number(mt.get("exponent", 1.5), "model.exponent", f"{lo} < exponent <= {hi}")
         if not lo < exponent <= hi:
@@ -392,8 +395,9 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
                              f"got {_r(exponent)}")
     else:
         if "exponent" in mt:
-            raise StudyError("model.exponent", "only allowed with kind = \"hertz\" "
-                             "(the Taylor model has no exponent)")
+            raise StudyError("model.exponent", "only allowed with kind = "
+                             + " or ".join(f'"{law.name}"' for law in LAWS if law.has_exponent)
+                             + f" (the {kind} model has no exponent)")
         exponent = None
 
     # [solver]

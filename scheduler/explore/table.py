@@ -5,6 +5,8 @@ import html
 
 import numpy as np
 
+from hertzmap.study.explore_data import ORBIT_TABLE_FIELDS
+
 
 def _fmt(x, digits: int = 7) -> str:
     try:
@@ -24,12 +26,14 @@ def _complex(z: complex) -> str:
 def orbit_table(rows, u) -> str:
     """The orbits of a point as an HTML table, one column per orbit (``rows``: (k, orbits,
     history, closure, class code, colour, class label) per orbit of
-    ``explore_data.point_orbits``), in the page's units ``u``. Each number cell carries
-    ``data-orbit`` and ``data-field`` (the browser test reads them)."""
+    ``explore_data.point_orbits``), in the page's units ``u``: a row for each field of
+    ``explore_data.ORBIT_TABLE_FIELDS`` the store holds, named by its long_name. Each number
+    cell carries ``data-orbit`` and ``data-field`` (the browser test reads them)."""
     if not rows:
         return "<p class='muted'>no converged periodic orbit stored at this point</p>"
     du = "" if not u.physical else u.disp.unit
     vu = "" if not u.physical else u.vel.unit
+    fu = "" if not u.physical else u.force.unit
 
     def line(label, unit, field, values, fmt=_fmt):
         tds = "".join(f"<td data-orbit='{k}' data-field='{field}'>{fmt(val)}</td>"
@@ -52,24 +56,22 @@ def orbit_table(rows, u) -> str:
         line("multiplier 1", "", "mu1", [(k, m[0]) for k, m in mults], fmt=_complex),
         line("multiplier 2", "", "mu2", [(k, m[1]) for k, m in mults], fmt=_complex),
     ]
-    if "min_q" in rows[0][1]:
-        body += [
-            line("min q (store)", du, "min_q", [(k, u.disp(x)) for k, x in get("min_q")]),
-            line("min q (simulated)", du, "min_q_sim", sim_min),
-            line("max q (store)", du, "max_q", [(k, u.disp(x)) for k, x in get("max_q")]),
-            line("peak-to-peak", du, "ptp", [(k, u.disp(x)) for k, x in get("ptp")]),
-            line("loses contact", "", "loses_contact", get("loses_contact"),
-                 fmt=lambda b: "yes" if b else "no"),
-            line("flight fraction", "%", "flight_fraction",
-                 [(k, 100 * x) for k, x in get("flight_fraction")]),
-            line("largest impact velocity", vu, "max_impact_velocity",
-                 [(k, u.vel(x)) for k, x in get("max_impact_velocity")]),
-        ]
-    else:
-        body.append(line("min q (simulated)", du, "min_q_sim", sim_min))
+    scale = {"displacement": (u.disp, du), "velocity": (u.vel, vu), "force": (u.force, fu),
+             "fraction": (lambda x: 100 * x, "%"), None: (lambda x: x, "")}
+    orbits = rows[0][1]
+    for f in ORBIT_TABLE_FIELDS:
+        if f.name in ("period", "stable") or f.name not in orbits:
+            continue
+        conv, unit = scale[f.quantity]
+        fmt = (lambda b: "yes" if b else "no") if f.dtype == "bool" else _fmt
+        body.append(line(f.long_name, unit, f.name,
+                         [(k, x if f.dtype == "bool" else conv(x)) for k, x in get(f.name)],
+                         fmt=fmt))
+        if f.name == "min_q":
+            body.append(line("minimum displacement (simulated)", du, "min_q_sim", sim_min))
+    if "min_q" not in orbits:
+        body.append(line("minimum displacement (simulated)", du, "min_q_sim", sim_min))
     body += [
-        line("start point q(0)", du, "q0", [(k, u.disp(x)) for k, x in get("q0")]),
-        line("start point q'(0)", vu, "v0", [(k, u.vel(x)) for k, x in get("v0")]),
         line("closure |x(P) - x(0)|", "", "closure",
              [(k, closure) for k, _, _, closure, *_ in rows], fmt=lambda x: f"{x:.1e}"),
     ]

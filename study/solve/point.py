@@ -14,6 +14,7 @@ import numpy as np
 from hertzmap.kernels import status as st
 from hertzmap.kernels.orbit import DEFAULT_MAX_ITER, DEFAULT_MAX_STEPS
 from hertzmap.kernels.model import MODELS
+from hertzmap.kernels.records import ORBIT
 from hertzmap.kernels.shooting import F, N_FIELDS, shoot_batch_into
 from hertzmap.study.orbits import same_orbit
 from hertzmap.study.solve.seeds import continuation_seed, flip_seeds, linear_response_seed
@@ -21,16 +22,30 @@ from hertzmap.study.solve.seeds import continuation_seed, flip_seeds, linear_res
 MAX_ITER_1T = 40
 MAX_ITER_2T = 15          # a 2T seed that has not converged in 15 Newton steps is a bad seed
 
-# Columns of the kernel's result rows (kernels.shooting.FIELDS) that become a solution's
-# arrays, gathered by one ``take`` per batch: the start point, the multipliers as (re, im)
-# pairs (viewed as complex), the monodromy row by row, the force harmonics.
-_ARRAY_COLUMNS = np.array([
-    F["q0"], F["v0"],
-    F["multiplier1_re"], F["multiplier1_im"], F["multiplier2_re"], F["multiplier2_im"],
-    F["m11"], F["m12"], F["m21"], F["m22"],
-    F["force_h1"], F["force_h2"], F["force_h3"], F["force_h4"]])
-_START, _MULTIPLIERS, _MONODROMY, _HARMONICS = (slice(0, 2), slice(2, 6), slice(6, 10),
-                                                slice(10, 14))
+#: The orbit record's fields a solution carries (kernels.records.ORBIT): those a study may
+#: store, and the monodromy and its trace, which the solver reads.
+_SOLUTION_FIELDS = tuple(f for f in ORBIT.fields if f.kernel_columns
+                         and (f.output is not None or f.name in ("monodromy", "trace_m")))
+_START = np.array([F["q0"], F["v0"]])
+
+
+def _field_values(rows: np.ndarray, field) -> list:
+    """One value per row of ``field``: Python scalars for scalar fields (they are read one at a
+    time, where numpy scalars cost more), arrays for vectors (the monodromy as 2 x 2)."""
+    cols = [F[c] for c in field.kernel_columns]
+    if field.dim is None:
+        col = rows[:, cols[0]]
+        if field.dtype == "bool":
+            return (col == 1.0).tolist()
+        if field.dtype.startswith("int"):
+            return [int(v) for v in col.tolist()]
+        return col.tolist()
+    block = rows.take(cols, axis=1)
+    if field.dtype == "complex128":
+        return list(block.view(np.complex128))
+    if field.name == "monodromy":
+        return list(block.reshape(-1, 2, 2))
+    return list(block)
 
 
 def shoot_seeds(omega, sigma, zeta, period, seeds, options):
@@ -58,34 +73,20 @@ def shoot_seeds(omega, sigma, zeta, period, seeds, options):
 
 
 def solutions_from_rows(rows: np.ndarray, period: int) -> list[dict]:
-    """Solution dicts from kernel result rows (kernels.shooting.FIELDS) of solves of ``period``.
-    The rows are converted a batch at a time (numpy indexing per row, for each field, was most
-    of the time spent outside the kernel) and the scalar fields read as Python floats."""
-    n = rows.shape[0]
-    picked = rows.take(_ARRAY_COLUMNS, axis=1)
-    starts = picked[:, _START]
-    multipliers = picked[:, _MULTIPLIERS].view(np.complex128)
-    monodromies = picked[:, _MONODROMY].reshape(n, 2, 2)
-    harmonics = picked[:, _HARMONICS]
+    """Solution dicts from kernel result rows (kernels.shooting.FIELDS) of solves of ``period``:
+    the fields of :data:`_SOLUTION_FIELDS` by name, ``x0`` the start point and ``period``.
+    The rows are converted a field at a time for the whole batch (numpy indexing per row, for
+    each field, was most of the time spent outside the kernel)."""
+    values = [(f.name, _field_values(rows, f)) for f in _SOLUTION_FIELDS]
+    starts = rows.take(_START, axis=1)
     out = []
-    for row, x0, mu, M, h in zip(rows.tolist(), starts, multipliers, monodromies, harmonics):
-        minimal = row[F["minimal_period"]]
-        out.append({
-            # a 2T solve whose orbit repeats after T is a 1T orbit (minimal period 1); its
-            # multipliers are still those of the 2T map: callers re-solve it as 1T
-            "period": int(minimal) if math.isfinite(minimal) and minimal >= 1 else period,
-            "status": int(row[F["status"]]),
-            "x0": x0, "multipliers": mu, "monodromy": M,
-            "stable": row[F["stable"]] == 1.0,
-            "liouville_residual": row[F["liouville_error"]],
-            "min_q": row[F["min_q"]], "max_q": row[F["max_q"]], "ptp": row[F["ptp"]],
-            "loses_contact": row[F["loses_contact"]] == 1.0,
-            "flight_fraction": row[F["flight_fraction"]],
-            "max_impact_velocity": row[F["max_impact_velocity"]],
-            "force_harmonics": h,
-            "newton_iterations": int(row[F["iterations"]]), "residual": row[F["residual"]],
-            "trace": row[F["trace_m"]],
-        })
+    for r, minimal in enumerate(rows[:, F["minimal_period"]].tolist()):
+        sol = {name: v[r] for name, v in values}
+        # a 2T solve whose orbit repeats after T is a 1T orbit (minimal period 1); its
+        # multipliers are still those of the 2T map: callers re-solve it as 1T
+        sol["period"] = int(minimal) if math.isfinite(minimal) and minimal >= 1 else period
+        sol["x0"] = starts[r]
+        out.append(sol)
     return out
 
 

@@ -1,7 +1,7 @@
 """kernels.model: the forcing by a shifted cosine against long double, the Taylor force (paper
 Eq. 10) against the polynomial written here, and the Taylor model's contact-loss threshold
 against the root of that polynomial (closed form and scipy's brentq) and the printed Eq. 12
-(study.analytic.paper)."""
+(study.analytic.paper); every declared contact law against the oracle's independent twin."""
 from __future__ import annotations
 
 from math import sqrt
@@ -10,7 +10,10 @@ from scipy.optimize import brentq
 import numpy as np
 import pytest
 
-from hertzmap.kernels.model import TAYLOR, TAYLOR_CONTACT_LOSS, rhs_force
+from benchmarks import oracle
+from hertzmap.kernels.model import (LAWS, MODELS, TAYLOR, TAYLOR_CONTACT_LOSS, contact_side_force,
+                                    contact_side_force_and_stiffness, rhs_force,
+                                    rhs_force_and_stiffness)
 from hertzmap.study.analytic.paper import TAYLOR_CONTACT_LOSS_PRINTED
 
 
@@ -67,3 +70,27 @@ def test_taylor_contact_loss_is_the_root_of_the_taylor_force():
     """The threshold kernels.model documents as "the Taylor force ... vanishes at this q"."""
     assert TAYLOR_CONTACT_LOSS == pytest.approx(TAYLOR_ROOT_CLOSED_FORM, abs=1e-14)
     assert abs(rhs_force(TAYLOR_CONTACT_LOSS, 1.5, TAYLOR)) < 1e-14
+
+
+@pytest.mark.parametrize("law", LAWS, ids=lambda law: law.name)
+@pytest.mark.parametrize("n", [1.0, 10 / 9, 1.5, 2.3])
+def test_every_law_matches_the_oracles_own(law, n):
+    """Every declared contact law: force, stiffness and the force seen by the integrator's
+    contact steps (its continuous extension) against benchmarks/oracle.py's independent twin
+    of the same name, in contact and (for a law with a switching surface) in flight; and the
+    declared loss level is where the oracle's force vanishes."""
+    assert law.name in oracle.LAWS, f"no oracle force for the law {law.name!r}"
+    level = law.loss_level(n)
+    for q in np.linspace(level + 1e-3, 4.0, 37):
+        f, k = oracle.force(q, n, law.name), oracle.stiffness(q, n, law.name)
+        assert rhs_force(q, n, law.code) == pytest.approx(f, rel=1e-13, abs=1e-15)
+        assert rhs_force_and_stiffness(q, n, law.code) == pytest.approx((f, k), rel=1e-13,
+                                                                        abs=1e-15)
+        assert contact_side_force(q, n, law.code) == pytest.approx(f, rel=1e-13, abs=1e-15)
+        assert contact_side_force_and_stiffness(q, n, law.code) == pytest.approx(
+            (f, k), rel=1e-13, abs=1e-15)
+    assert abs(oracle.force(level, n, law.name)) < 1e-12
+    if law.switches:
+        for q in (level - 1e-9, level - 0.5, level - 7.0):
+            assert rhs_force(q, n, law.code) == 0.0 == oracle.force(q, n, law.name)
+    assert MODELS[law.name] == law.code

@@ -25,6 +25,19 @@ ORACLE_CASES = [
 ]
 
 
+
+@pytest.mark.parametrize("omega,sigma,zeta,m,guess,n,model,loses", ORACLE_CASES)
+def test_force_measures_match_scipy(omega, sigma, zeta, m, guess, n, model, loses):
+    """mean, rms and peak contact force of an orbit against the oracle's integrals of F and F^2
+    carried along its own flow from the same start point, and F of its own max q."""
+    orbit = shoot(omega, sigma, zeta, m, guess=guess, exponent=n, model=model, rtol=1e-12)
+    assert orbit.converged, orbit.status_name
+    mean, rms, max_q = oracle.force_moments(orbit.x0, omega, sigma, zeta, m, n=n, model=model)
+    assert orbit.mean_force == pytest.approx(mean, rel=1e-8, abs=1e-8)
+    assert orbit.rms_force == pytest.approx(rms, rel=1e-8)
+    assert orbit.peak_force == pytest.approx(float(oracle.force(max_q, n, model)), rel=1e-8)
+    assert orbit.rms_force > mean      # F varies over the orbit
+
 EXTREME = [
     (0.05, 0.5, 0.01, 1, 1.5), (10.0, 0.5, 0.01, 1, 1.5), (1.0, 10.0, 0.01, 1, 1.5),
     (0.3, 10.0, 0.01, 1, 1.5), (1.9, 0.5, 1e-4, 2, 1.5), (1.0, 0.5, 10.0, 1, 1.5),

@@ -44,12 +44,12 @@ def test_a_real_orbit_is_classified_from_its_own_flags():
 
 @given(hs.floats(-5, 5), hs.floats(-5, 5), hs.floats(-3, 3), hs.floats(1e-3, 1.0))
 def test_identity_tolerance(lo, span, trace, rel):
-    a = dict(period=2, min_q=lo, max_q=lo + abs(span), ptp=abs(span), trace=trace)
+    a = dict(period=2, min_q=lo, max_q=lo + abs(span), ptp=abs(span), trace_m=trace)
     tol = SAME_ORBIT_TOL * (1 + abs(span))
     assert same_orbit(a, dict(a))
     assert same_orbit(a, dict(a, min_q=lo + 0.5 * tol))
     assert not same_orbit(a, dict(a, min_q=lo + 2 * tol))
-    assert not same_orbit(a, dict(a, trace=trace + 2 * SAME_ORBIT_TOL * (1 + abs(trace))))
+    assert not same_orbit(a, dict(a, trace_m=trace + 2 * SAME_ORBIT_TOL * (1 + abs(trace))))
     assert not same_orbit(a, dict(a, period=1))
 
 

@@ -50,7 +50,7 @@ def test_template_schema_and_attrs():
     # 4 slots x (8 float64 with the Liouville residual, 2 complex128, 4 bool/int8, 4
     # harmonics), the orbit count (int16), and the census: count (int8), 3 int8 x 4 attractors,
     # 9 float64 x 4 (the Lyapunov sum error among them), 2 x 4 x 32 strobe points
-    assert bytes_per_point(s) == (4 * (8 * 8 + 2 * 16 + 4 * 1 + 4 * 8) + 2
+    assert bytes_per_point(s) == (4 * (10 * 8 + 2 * 16 + 4 * 1 + 4 * 8) + 2
                                   + 1 + 3 * 4 + 9 * 4 * 8 + 2 * 4 * 32 * 8)
 
 

@@ -1,0 +1,182 @@
+"""The records hertzmap computes, each declared once: its fields, with name, dtype, units,
+long_name, description and the study output that stores them.
+
+Everything else derives from these declarations: the kernels' result-row layout and column
+indices (kernels.shooting.FIELDS, ``I_*``), the Python view ``kernels.Orbit``, the solver's
+solution dicts (study.solve.point), the stored variables and their attrs (study.schema), the
+explore page's orbit table (study.explore_data), and the check that docs/dataset.md has a row
+for every stored variable (tests/study/test_schema.py).
+
+Adding a per-orbit measure: one ``Field`` in :data:`ORBIT` (in the place the stored variables
+should list it), the line of ``kernels.shooting.shoot_into`` that writes its column, and its
+row in docs/dataset.md.
+
+Pure data (no numba, no numpy arrays): the kernels read the indices as compile-time
+constants.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from hertzmap.kernels import status as _status
+
+#: Amplitudes of the contact force kept per orbit: k omega / period, k = 1..N_HARMONICS.
+N_HARMONICS = 4
+#: The longest period (in forcing periods) any record carries.
+MAX_PERIOD = 16
+
+#: flag values/meanings of a period: 0 empty, m an orbit of period m T
+PERIOD_FLAGS = ((0, "empty"),) + tuple((m, f"period_{m}T") for m in range(1, MAX_PERIOD + 1))
+#: flag values/meanings of a solver status (kernels.status)
+STATUS_FLAGS = tuple(sorted(_status.NAMES.items()))
+
+
+@dataclass(frozen=True)
+class Field:
+    """One quantity of a record.
+
+    ``columns``: the kernel row's columns that hold it, in order (default: one column named
+    like the field; empty: not computed by the kernel but by the solve layer, e.g. the stored
+    period of a 2T solve that landed on the 1T orbit). A field of several columns is a vector
+    over the trailing dim ``dim`` = (name, length); ``dtype`` complex128 pairs its columns as
+    (real, imaginary). ``output``: the study output that stores it (study.spec), None for a
+    field kept in the kernel row only (diagnostics of the kernels, the monodromy). ``dtype``,
+    ``fill`` (the value of an empty slot), ``units``, ``long_name``, ``description`` and
+    ``flags`` ((value, meaning) pairs) are what the store says of it. ``quantity`` says how a
+    rig's units scale it (displacement, velocity, force, fraction; None: a pure number)."""
+
+    name: str
+    long_name: str
+    units: str
+    description: str
+    output: str | None = None
+    dtype: str = "float64"
+    fill: Any = math.nan
+    columns: tuple[str, ...] | None = None
+    dim: tuple[str, int] | None = None
+    flags: tuple[tuple[int, str], ...] | None = None
+    quantity: str | None = None
+
+    @property
+    def kernel_columns(self) -> tuple[str, ...]:
+        return (self.name,) if self.columns is None else self.columns
+
+
+@dataclass(frozen=True)
+class Record:
+    """A record: its fields in order (the stored variables follow this order, the kernel row
+    the order of their columns)."""
+
+    name: str
+    fields: tuple[Field, ...]
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """The kernel result row's layout."""
+        return tuple(c for f in self.fields for c in f.kernel_columns)
+
+    @property
+    def index(self) -> dict[str, int]:
+        """Column name -> index in the kernel row."""
+        return {c: i for i, c in enumerate(self.columns)}
+
+    def field(self, name: str) -> Field:
+        for f in self.fields:
+            if f.name == name:
+                return f
+        raise KeyError(f"{self.name} has no field {name!r}")
+
+    def stored(self, output: str | None = None) -> tuple[Field, ...]:
+        """The fields a study stores (those of ``output`` only, when given)."""
+        return tuple(f for f in self.fields
+                     if f.output is not None and (output is None or f.output == output))
+
+
+def _kernel_counts(*names_and_docs) -> tuple[Field, ...]:
+    """Integer fields of a kernel row that no study stores."""
+    return tuple(Field(n, long_name, "1", description, dtype="int64", fill=0)
+                 for n, long_name, description in names_and_docs)
+
+
+#: A periodic orbit of period m T (paper section 3.2): kernels.shooting.shoot_into's row.
+ORBIT = Record("orbit", (
+    Field("period", "period of the orbit", "1",
+          "period of the periodic response in forcing periods T = 2 pi / omega (1: 1T orbit, "
+          "2: 2T orbit, ..., 16; 0: empty slot)",
+          output="orbits", dtype="int8", fill=0, columns=(), flags=PERIOD_FLAGS),
+    Field("status", "solver status", "1",
+          "outcome of the solve for this slot (kernels/status.py); only status 0 (converged) "
+          "slots hold a periodic orbit",
+          output="orbits", dtype="int8", fill=_status.EMPTY, flags=STATUS_FLAGS),
+    Field("q0", "displacement at tau = 0", "1",
+          "dimensionless displacement q = 3 (z - z_s) / (2 z_s) of the orbit at tau = 0 (start "
+          "point of the periodic orbit); contact is lost at q = -exponent", output="orbits",
+          quantity="displacement"),
+    Field("v0", "velocity at tau = 0", "1",
+          "dimensionless velocity dq/dtau of the orbit at tau = 0", output="orbits",
+          quantity="velocity"),
+    Field("multipliers", "Floquet multipliers", "1",
+          "the two eigenvalues of the monodromy matrix over the orbit's period (their product "
+          "is exp(-2 zeta P) for an orbit of period P = period * T)",
+          output="orbits", dtype="complex128", fill=complex(math.nan, 0.0),
+          columns=("multiplier1_re", "multiplier1_im", "multiplier2_re", "multiplier2_im"),
+          dim=("multiplier", 2)),
+    Field("stable", "orbit is stable", "1",
+          "True when both Floquet multipliers lie inside the unit circle",
+          output="orbits", dtype="bool", fill=False),
+    Field("liouville_residual", "Liouville residual of the monodromy", "1",
+          "|det M - exp(-2 zeta P)| / max(exp(-2 zeta P), |m11 m22| + |m12 m21|): how far the "
+          "product of the Floquet multipliers is from Liouville's exact value for an orbit of "
+          "period P, relative to what a 2x2 determinant resolves; a certificate of the "
+          "monodromy independent of the solve (integration error ~ rtol)", output="orbits"),
+    Field("min_q", "minimum displacement over the orbit", "1",
+          "minimum of q over one period of the orbit", output="measures",
+          quantity="displacement"),
+    Field("max_q", "maximum displacement over the orbit", "1",
+          "maximum of q over one period of the orbit", output="measures",
+          quantity="displacement"),
+    Field("ptp", "peak-to-peak displacement", "1", "max_q - min_q", output="measures",
+          quantity="displacement"),
+    Field("loses_contact", "orbit loses contact", "1",
+          "True when q reaches the loss-of-contact threshold q = -exponent during the orbit",
+          output="measures", dtype="bool", fill=False),
+    Field("flight_fraction", "fraction of the period in flight", "1",
+          "fraction of the orbit's period spent out of contact (0..1)", output="measures",
+          quantity="fraction"),
+    Field("max_impact_velocity", "largest impact velocity", "1",
+          "largest |dq/dtau| at recontact (q = -exponent) over one period of the orbit",
+          output="measures", quantity="velocity"),
+    Field("peak_force", "peak contact force over the orbit", "1",
+          "largest contact force F/N over one period of the orbit (F of max_q: the contact "
+          "laws are increasing)", output="measures", quantity="force"),
+    Field("force_harmonics", "contact force harmonic amplitudes", "1",
+          "amplitude of the contact force F(q) (in units of the static preload) at the "
+          f"frequencies k omega / period, k = 1..{N_HARMONICS}",
+          output="force_harmonics", columns=tuple(f"force_h{k}" for k in range(1, N_HARMONICS + 1)),
+          dim=("harmonic", N_HARMONICS)),
+    Field("rms_force", "rms contact force over the orbit", "1",
+          "root mean square of the contact force F/N over one period of the orbit (8-point "
+          "Gauss-Legendre on every integration step, the quadrature of force_harmonics)",
+          output="force_harmonics", quantity="force"),
+    Field("mean_force", "mean contact force over the orbit", "1",
+          "mean of F/N over one period: 1 (the static load) for a periodic orbit, a check of "
+          "the force quadrature"),
+    Field("newton_iterations", "Newton iterations", "1",
+          "number of Newton (shooting) iterations used for this slot",
+          output="diagnostics", dtype="int16", fill=0),
+    Field("residual", "final shooting residual", "1",
+          "|Phi_P(x0) - x0| at the returned start point", output="diagnostics"),
+    Field("trace_m", "trace of the monodromy", "1", "tr M"),
+    Field("det_m", "determinant of the monodromy", "1", "det M"),
+    *_kernel_counts(
+        ("minimal_period", "minimal period", "smallest j dividing the period with "
+         "Phi_{jT}(x0) = x0 (1 for a 2T solve that landed on the 1T orbit; 0: not converged)"),
+        ("steps", "integration steps", "accepted steps of the last period map"),
+        ("rejected", "rejected steps", "rejected steps of the last period map"),
+        ("events", "contact events", "losses of contact and recontacts over the period"),
+    ),
+    Field("monodromy", "monodromy matrix", "1", "M = dPhi/dx over the orbit's period, row by row",
+          columns=("m11", "m12", "m21", "m22"), dim=("monodromy_entry", 4)),
+))
