@@ -1550,7 +1550,7 @@ def trace_curve(x0, omega, sigma, zeta, *, kind, period=1, pair=("omega", "sigma
         o_last = shoot(last["omega"], last["sigma"], last["zeta"], 1, (ue[0], ue[1]),
                        exponent=system.n, model=model, rtol=rtol, max_iter=20,
                        max_steps=max_steps)
-        system.maps += o.iterations + o_last.iterations + 2
+        system.maps += o.newton_iterations + o_last.newton_iterations + 2
         g_end = flip_function(o.monodromy) if o.converged else np.nan
         g_last = flip_function(o_last.monodromy) if o_last.converged else np.nan
         # the 2T fold curve ends on the 1T flip curve where the flip is degenerate (the 2T
@@ -1570,7 +1570,7 @@ def trace_curve(x0, omega, sigma, zeta, *, kind, period=1, pair=("omega", "sigma
                    max_q=o.max_q if o.converged else np.nan, fold=1.0 - tr2 + det2,
                    flip=1.0 + tr2 + det2,
                    grazing=(o.min_q - system.level) if o.converged else np.nan, asym=0.0,
-                   step=np.nan, residual=o.residual, iterations=o.iterations,
+                   step=np.nan, residual=o.residual, iterations=o.newton_iterations,
                    arclength=np.nan, flag=VERTEX_END | VERTEX_CODIM2, _codim2=pt)
         recs = [rec] + recs if at_start else recs + [rec]
     vert = {k: np.asarray([r[k] for r in recs], float) for k in VERTEX_FIELDS}
