@@ -17,6 +17,7 @@ from hertzmap.kernels.model import rhs_force
 from hertzmap.kernels.orbit import (DEFAULT_MAX_ITER, DEFAULT_MAX_STEPS, DEFAULT_RTOL, Orbit,  # noqa: F401
                                     shoot, shoot_batch)
 from hertzmap.kernels.model import check_exponent, model_code
+from hertzmap.kernels.shooting import N_FIELDS
 
 
 def section_times(T: float, t_end: float, samples_per_period: int = 1) -> np.ndarray:
@@ -76,7 +77,7 @@ def simulate(omega: float, sigma: float, zeta: float, x0=(0.0, 0.0), *, t_end: f
     stats = np.zeros(N_STATS)
     code = integrate(y, 0.0, float(t_end), float(omega), float(sigma), float(zeta), n, code_model,
                      float(rtol), float(rtol if atol is None else atol), 0.1, int(max_steps),
-                     False, False, False, T, np.zeros((2, N_HARMONICS + 1)), t_eval, out, stats,
+                     False, False, False, T, np.zeros((3, N_HARMONICS + 1)), t_eval, out, stats,
                      np.empty(2), np.empty(2), np.empty(2), np.empty((16, 2)), np.empty((7, 2)))
     if t_eval.size and t_eval[0] == 0.0:
         out[:, 0] = (x0[0], x0[1], rhs_force(float(x0[0]), n, code_model))

@@ -60,6 +60,7 @@ from hertzmap.kernels.integrate import (N_STATS, S_ACCEPTED, S_EVENTS, S_FLIGHT_
                                S_H_FIRST, S_MAX_IMPACT, S_MAX_Q, S_MIN_Q, S_PARTIAL, S_REJECTED,
                                integrate, integrator_scratch, state_arrays)
 from hertzmap.kernels.model import rhs_force
+from hertzmap.kernels.records import ATTRACTOR
 from hertzmap.kernels.shooting import (I_M1I, I_M1R, I_M2I, I_M2R, I_MINPER, I_Q0, I_STABLE, I_STATUS,
                               I_V0, shoot_into)
 
@@ -70,36 +71,20 @@ MAX_REFINEMENTS = 6     # shooting attempts per transient
 N_BLOCKS = 8            # blocks of the Lyapunov exponent's standard error
 FORCE_DT = 0.05         # default spacing (in tau) of the contact-force samples
 
-ATTRACTOR_FIELDS = (
-    "status",                   # kernels.status code
-    "period",                   # m of the detected cycle (0: none)
-    "periods_run",              # forcing periods integrated from the initial state
-    "settled_at",               # period index of the confirmed detection (NaN: none)
-    "cycle_residual",           # max |x_j - x_{j-m}| / (1 + |x_K|) over the detected cycle
-    "q_end", "v_end",           # last stroboscopic point (tau = 0 mod T)
-    "lyapunov",                 # largest Lyapunov exponent per unit tau
-    "lyapunov_error",           # its standard error over N_BLOCKS blocks (Benettin only)
-    "lyapunov_halves",          # |estimate of the first half - of the second half| (Benettin)
-    "lyapunov_periods",         # periods averaged over (0: from the Floquet multipliers)
-    "liouville_error",          # max_k |det M_k - exp(-2 zeta T)| / scale over the window
-    "lyapunov_sum_error",       # |lambda1 + lambda2 + 2 zeta| (Benettin: mean log|det M_k| / T)
-    "window_periods",           # periods the measures are over
-    "flight_fraction", "max_impact_velocity", "min_q", "max_q",
-    "peak_force",               # F(max q) / N
-    "rms_force",                # sqrt(<F^2>) / N (sampled)
-    "mean_force",               # <F> / N (sampled)
-    "force_quadrature_error",   # |sampled <F> - exact <F>| (Eq. 7 over the window)
-    "steps", "rejected", "events",   # integrator work of the transient and the record
-    "refinements",              # shooting attempts
-    "orbit_period",             # period m of the orbit row (the last shooting attempt; 0: none)
-    "strobe_count",             # stroboscopic points written to the strobe array
-)
-A = {name: i for i, name in enumerate(ATTRACTOR_FIELDS)}
+#: The result row's layout, from the attractor record (kernels.records.ATTRACTOR)
+ATTRACTOR_FIELDS = ATTRACTOR.columns
+A = ATTRACTOR.index
 N_ATTRACTOR_FIELDS = len(ATTRACTOR_FIELDS)
+# column indices, compile-time constants of the kernels below
 (A_STATUS, A_PERIOD, A_RUN, A_SETTLED, A_CYCLE_RES, A_QEND, A_VEND, A_LYAP, A_LYAP_ERR,
- A_LYAP_HALVES, A_LYAP_PERIODS, A_LIOU, A_LYAP_SUM, A_WINDOW, A_FLIGHT, A_IMPACT, A_MINQ, A_MAXQ, A_PEAKF,
- A_RMSF, A_MEANF, A_QUAD_ERR, A_STEPS, A_REJ, A_EVENTS, A_REFINE, A_ORBIT_PERIOD,
- A_STROBE_COUNT) = range(N_ATTRACTOR_FIELDS)
+ A_LYAP_HALVES, A_LYAP_PERIODS, A_LIOU, A_LYAP_SUM, A_WINDOW, A_FLIGHT, A_IMPACT, A_MINQ,
+ A_MAXQ, A_PEAKF, A_RMSF, A_MEANF, A_QUAD_ERR, A_STEPS, A_REJ, A_EVENTS, A_REFINE,
+ A_ORBIT_PERIOD, A_STROBE_COUNT) = (A[c] for c in (
+    "status", "period", "periods_run", "settled_at", "cycle_residual", "q_end", "v_end",
+    "lyapunov", "lyapunov_error", "lyapunov_halves", "lyapunov_periods", "liouville_error",
+    "lyapunov_sum_error", "window_periods", "flight_fraction", "max_impact_velocity", "min_q",
+    "max_q", "peak_force", "rms_force", "mean_force", "force_quadrature_error", "steps",
+    "rejected", "events", "refinements", "orbit_period", "strobe_count"))
 
 LYAPUNOV_FIELDS = ("status", "lyapunov", "lyapunov_error", "lyapunov_halves", "periods",
                    "liouville_error", "q_end", "v_end", "steps", "lyapunov_sum_error")

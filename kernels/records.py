@@ -180,3 +180,108 @@ ORBIT = Record("orbit", (
     Field("monodromy", "monodromy matrix", "1", "M = dPhi/dx over the orbit's period, row by row",
           columns=("m11", "m12", "m21", "m22"), dim=("monodromy_entry", 4)),
 ))
+
+
+#: Stroboscopic points (q, q' at tau = 0 mod T) a census keeps per attractor: the last ones of
+#: its window.
+STROBE_POINTS = 32
+#: Codes of a census attractor's kind (0: empty slot).
+ATTRACTOR_KINDS = {"periodic": 1, "non_periodic": 2, "unsettled": 3, "failed": 4}
+ATTRACTOR_FLAGS = ((0, "empty"),) + tuple((c, k) for k, c in ATTRACTOR_KINDS.items())
+
+
+def _window(name, column, long_name, description, quantity=None):
+    """A measure over the attractor's window, stored under ``name``, from kernel column
+    ``column``."""
+    return Field(name, long_name, "1", description, output="attractors", columns=(column,),
+                 quantity=quantity)
+
+
+def _kernel_only(*names_and_docs) -> tuple[Field, ...]:
+    return tuple(Field(n, n.replace("_", " "), "1", d) for n, d in names_and_docs)
+
+
+#: Where a transient goes (kernels.attractors.attractor_batch_into's row) and what the census
+#: stores of it per attractor slot (dims omega, sigma, zeta, attractor): fields without kernel
+#: columns are the census's own (study.solve.census); the stored names of the window measures
+#: carry the record's prefix (the orbit record has fields of the same kernel names).
+ATTRACTOR = Record("attractor", (
+    Field("attractor_kind", "kind of attractor", "1",
+          "1 periodic (a stable orbit, stored in the slot attractor_solution), 2 non_periodic "
+          "(no period <= 16 within the budget and a positive largest Lyapunov exponent beyond "
+          "three standard errors, with no stable orbit found at the point: chaotic), "
+          "3 unsettled (the transients did not settle within search.transient_periods and the "
+          "response is not shown chaotic: a longer period, a long transient, or a point with "
+          "a stable orbit that these transients did not reach), 4 failed (integration "
+          "failure); 0 empty slot", output="attractors", dtype="int8", fill=0, columns=(),
+          flags=ATTRACTOR_FLAGS),
+    Field("attractor_period", "period of a periodic attractor", "1",
+          "m of a periodic attractor (its orbit has period m T), 0 otherwise",
+          output="attractors", dtype="int8", fill=0, columns=(), flags=PERIOD_FLAGS),
+    Field("attractor_solution", "solution slot of a periodic attractor", "1",
+          "index along the solution dim of the stored orbit a periodic attractor is; -1: not "
+          "periodic, or its orbit did not fit in the slots",
+          output="attractors", dtype="int8", fill=-1, columns=()),
+    Field("basin_fraction", "basin fraction", "1",
+          "fraction of the study's initial states whose transient ends on this attractor "
+          "(a measure of the basin over the box of initial states)",
+          output="attractors", columns=()),
+    Field("lyapunov_exponent", "largest Lyapunov exponent", "1",
+          "per unit dimensionless time tau: Benettin's method with the variational equations "
+          "(exact across contact loss) over the record window (non-periodic and unsettled "
+          "attractors), or log|mu_max| / (m T) from the orbit's multipliers (periodic)",
+          output="attractors", columns=("lyapunov",)),
+    Field("lyapunov_error", "uncertainty of the Lyapunov exponent", "1",
+          "one standard error of the exponent over 8 blocks of the record window (NaN for a "
+          "periodic attractor, whose exponent is exact to the solver's accuracy)",
+          output="attractors"),
+    Field("lyapunov_sum_error", "error of the Lyapunov exponents' sum", "1",
+          "|lambda1 + lambda2 + 2 zeta| per unit tau: the sum of both exponents is -2 zeta "
+          "exactly (Liouville's formula), here taken over the same window as the exponent "
+          "(mean log|det M_k| / T, Benettin) or from the orbit's multipliers (periodic); a "
+          "certificate of the variational integration behind the exponent",
+          output="attractors"),
+    _window("attractor_flight_fraction", "flight_fraction", "flight fraction on the attractor",
+            "fraction of the time out of contact over the attractor's window", "fraction"),
+    _window("attractor_max_impact_velocity", "max_impact_velocity",
+            "largest impact velocity on the attractor",
+            "largest |dq/dtau| at recontact over the attractor's window", "velocity"),
+    _window("attractor_min_q", "min_q", "minimum displacement on the attractor",
+            "minimum of q over the attractor's window", "displacement"),
+    Field("max_q", "maximum displacement on the attractor", "1",
+          "maximum of q over the attractor's window"),
+    _window("attractor_peak_force", "peak_force", "peak contact force on the attractor",
+            "largest contact force F/N over the attractor's window (F of its largest q)",
+            "force"),
+    _window("attractor_rms_force", "rms_force", "rms contact force on the attractor",
+            "root mean square of the contact force F/N over the attractor's window", "force"),
+    Field("strobe_q", "stroboscopic displacement on the attractor", "1",
+          "q at tau = 0 mod T of the last periods of the attractor's window (the points of a "
+          "brute-force bifurcation diagram); NaN beyond those recorded",
+          output="attractors", columns=(), dim=("strobe", STROBE_POINTS),
+          quantity="displacement"),
+    Field("strobe_v", "stroboscopic velocity on the attractor", "1",
+          "dq/dtau at tau = 0 mod T of the same points as strobe_q",
+          output="attractors", columns=(), dim=("strobe", STROBE_POINTS), quantity="velocity"),
+    *_kernel_only(
+        ("status", "kernels.status code"),
+        ("period", "m of the detected cycle (0: none)"),
+        ("periods_run", "forcing periods integrated from the initial state"),
+        ("settled_at", "period index of the confirmed detection (NaN: none)"),
+        ("cycle_residual", "max |x_j - x_{j-m}| / (1 + |x_K|) over the detected cycle"),
+        ("q_end", "last stroboscopic displacement (tau = 0 mod T)"),
+        ("v_end", "last stroboscopic velocity"),
+        ("lyapunov_halves", "|estimate of the first half - of the second half| (Benettin)"),
+        ("lyapunov_periods", "periods averaged over (0: from the Floquet multipliers)"),
+        ("liouville_error", "max_k |det M_k - exp(-2 zeta T)| / scale over the window"),
+        ("window_periods", "periods the measures are over"),
+        ("mean_force", "<F> / N over the window (sampled)"),
+        ("force_quadrature_error", "|sampled <F> - exact <F>| (Eq. 7 over the window)"),
+        ("steps", "accepted integrator steps of the transient and the record"),
+        ("rejected", "rejected steps"),
+        ("events", "contact events"),
+        ("refinements", "shooting attempts"),
+        ("orbit_period", "period m of the orbit row (the last shooting attempt; 0: none)"),
+        ("strobe_count", "stroboscopic points written to the strobe array"),
+    ),
+))

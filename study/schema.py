@@ -26,7 +26,8 @@ from typing import Any, Mapping
 import numpy as np
 import xarray as xr
 
-from hertzmap.kernels.records import ORBIT, PERIOD_FLAGS
+from hertzmap.kernels.records import (ATTRACTOR, ATTRACTOR_KINDS, ORBIT, PERIOD_FLAGS,  # noqa: F401
+                                      STROBE_POINTS)
 from hertzmap.study.spec import Study, StudyError, parse_study
 
 __all__ = [
@@ -81,11 +82,6 @@ CHUNK_DIMS = ("omega_chunk", "sigma_chunk", "zeta_chunk")
 POINT_DIMS = ("omega", "sigma", "zeta")
 #: Attractors kept per grid point (the census); more are merged into the last.
 ATTRACTOR_SLOTS = 4
-#: Stroboscopic points (q, q' at tau = 0 mod T) kept per attractor: the last ones of its window.
-STROBE_POINTS = 32
-#: Codes of ``attractor_kind`` (0: empty slot).
-ATTRACTOR_KINDS = {"periodic": 1, "non_periodic": 2, "unsettled": 3, "failed": 4}
-ATTRACTOR_FLAGS = ((0, "empty"),) + tuple((c, k) for k, c in ATTRACTOR_KINDS.items())
 
 
 #: Leading dims of a variable by its layout: one value per orbit slot, per grid point, or per
@@ -209,64 +205,9 @@ VARIABLES: dict[str, VarSpec] = {v.name: v for v in [
             "states (search.initial_states); -1: the census did not run at this point "
             "(search.attractors = where-none-stable and a stable orbit was found, or not "
             "computed)", layout="point"),
-    VarSpec("attractor_kind", "int8", 0, "kind of attractor", "1",
-            "1 periodic (a stable orbit, stored in the slot attractor_solution), 2 non_periodic "
-            "(no period <= 16 within the budget and a positive largest Lyapunov exponent beyond "
-            "three standard errors, with no stable orbit found at the point: chaotic), "
-            "3 unsettled (the transients did not settle within search.transient_periods and the "
-            "response is not shown chaotic: a longer period, a long transient, or a point with "
-            "a stable orbit that these transients did not reach), 4 failed (integration "
-            "failure); 0 empty slot", extra=(("attractor", ATTRACTOR_SLOTS),),
-            flags=ATTRACTOR_FLAGS, layout="point"),
-    VarSpec("attractor_period", "int8", 0, "period of a periodic attractor", "1",
-            "m of a periodic attractor (its orbit has period m T), 0 otherwise",
-            extra=(("attractor", ATTRACTOR_SLOTS),), flags=PERIOD_FLAGS, layout="point"),
-    VarSpec("attractor_solution", "int8", -1, "solution slot of a periodic attractor", "1",
-            "index along the solution dim of the stored orbit a periodic attractor is; -1: not "
-            "periodic, or its orbit did not fit in the slots",
-            extra=(("attractor", ATTRACTOR_SLOTS),), layout="point"),
-    VarSpec("basin_fraction", "float64", math.nan, "basin fraction", "1",
-            "fraction of the study's initial states whose transient ends on this attractor "
-            "(a measure of the basin over the box of initial states)",
-            extra=(("attractor", ATTRACTOR_SLOTS),), layout="point"),
-    VarSpec("lyapunov_exponent", "float64", math.nan, "largest Lyapunov exponent", "1",
-            "per unit dimensionless time tau: Benettin's method with the variational equations "
-            "(exact across contact loss) over the record window (non-periodic and unsettled "
-            "attractors), or log|mu_max| / (m T) from the orbit's multipliers (periodic)",
-            extra=(("attractor", ATTRACTOR_SLOTS),), layout="point"),
-    VarSpec("lyapunov_error", "float64", math.nan, "uncertainty of the Lyapunov exponent", "1",
-            "one standard error of the exponent over 8 blocks of the record window (NaN for a "
-            "periodic attractor, whose exponent is exact to the solver's accuracy)",
-            extra=(("attractor", ATTRACTOR_SLOTS),), layout="point"),
-    VarSpec("lyapunov_sum_error", "float64", math.nan, "error of the Lyapunov exponents' sum", "1",
-            "|lambda1 + lambda2 + 2 zeta| per unit tau: the sum of both exponents is -2 zeta "
-            "exactly (Liouville's formula), here taken over the same window as the exponent "
-            "(mean log|det M_k| / T, Benettin) or from the orbit's multipliers (periodic); a "
-            "certificate of the variational integration behind the exponent",
-            extra=(("attractor", ATTRACTOR_SLOTS),), layout="point"),
-    VarSpec("attractor_flight_fraction", "float64", math.nan, "flight fraction on the attractor", "1",
-            "fraction of the time out of contact over the attractor's window",
-            extra=(("attractor", ATTRACTOR_SLOTS),), layout="point"),
-    VarSpec("attractor_max_impact_velocity", "float64", math.nan,
-            "largest impact velocity on the attractor", "1",
-            "largest |dq/dtau| at recontact over the attractor's window",
-            extra=(("attractor", ATTRACTOR_SLOTS),), layout="point"),
-    VarSpec("attractor_min_q", "float64", math.nan, "minimum displacement on the attractor", "1",
-            "minimum of q over the attractor's window", extra=(("attractor", ATTRACTOR_SLOTS),),
-            layout="point"),
-    VarSpec("attractor_peak_force", "float64", math.nan, "peak contact force on the attractor", "1",
-            "largest contact force F/N over the attractor's window (F of its largest q)",
-            extra=(("attractor", ATTRACTOR_SLOTS),), layout="point"),
-    VarSpec("attractor_rms_force", "float64", math.nan, "rms contact force on the attractor", "1",
-            "root mean square of the contact force F/N over the attractor's window",
-            extra=(("attractor", ATTRACTOR_SLOTS),), layout="point"),
-    VarSpec("strobe_q", "float64", math.nan, "stroboscopic displacement on the attractor", "1",
-            "q at tau = 0 mod T of the last periods of the attractor's window (the points of a "
-            "brute-force bifurcation diagram); NaN beyond those recorded",
-            extra=(("attractor", ATTRACTOR_SLOTS), ("strobe", STROBE_POINTS)), layout="point"),
-    VarSpec("strobe_v", "float64", math.nan, "stroboscopic velocity on the attractor", "1",
-            "dq/dtau at tau = 0 mod T of the same points as strobe_q",
-            extra=(("attractor", ATTRACTOR_SLOTS), ("strobe", STROBE_POINTS)), layout="point"),
+    *(VarSpec(f.name, f.dtype, f.fill, f.long_name, f.units, f.description,
+              extra=(("attractor", ATTRACTOR_SLOTS),) + ((f.dim,) if f.dim else ()),
+              flags=f.flags, layout="point") for f in ATTRACTOR.stored()),
 ]}
 
 #: Per-slot variables of an orbit (dims GRID_DIMS + extra), in schema order.

@@ -37,6 +37,7 @@ from hertzmap.kernels import status as st
 from hertzmap.kernels.attractors import (A, LYAPUNOV_FIELDS, N_ATTRACTOR_FIELDS, N_LYAPUNOV_FIELDS,
                                 attractor_batch_into, lyapunov_into)
 from hertzmap.kernels.model import MODELS
+from hertzmap.kernels.records import ATTRACTOR
 from hertzmap.kernels.shooting import N_FIELDS
 from hertzmap.study.orbits import same_orbit
 from hertzmap.study.schema import ATTRACTOR_KINDS, ATTRACTOR_SLOTS, STROBE_POINTS
@@ -237,6 +238,13 @@ def _strobe(strobe: np.ndarray, row: np.ndarray) -> np.ndarray:
     return np.array(strobe[:min(n, strobe.shape[0])])
 
 
+#: (stored name, kernel column) of the attractor record's stored fields copied from its row as
+#: they are (kernels.records.ATTRACTOR); the exponent and its error are the census's choice
+_WINDOW_COLUMNS = tuple((f.name, A[f.kernel_columns[0]]) for f in ATTRACTOR.stored()
+                        if f.kernel_columns and f.name not in ("lyapunov_exponent",
+                                                                "lyapunov_error"))
+
+
 def record_attractors(arrays: dict, i: int, j: int, k: int, omega: float,
                       found: list[Attractor], n_states: int, slot_of) -> None:
     """Write a point's attractors into the block arrays (study.schema ATTRACTOR_VARIABLES).
@@ -258,12 +266,8 @@ def record_attractors(arrays: dict, i: int, j: int, k: int, omega: float,
             arrays["lyapunov_exponent"][cell] = row[A["lyapunov"]]
             arrays["lyapunov_error"][cell] = row[A["lyapunov_error"]]
         if row is not None:
-            arrays["lyapunov_sum_error"][cell] = row[A["lyapunov_sum_error"]]
-            arrays["attractor_flight_fraction"][cell] = row[A["flight_fraction"]]
-            arrays["attractor_max_impact_velocity"][cell] = row[A["max_impact_velocity"]]
-            arrays["attractor_min_q"][cell] = row[A["min_q"]]
-            arrays["attractor_peak_force"][cell] = row[A["peak_force"]]
-            arrays["attractor_rms_force"][cell] = row[A["rms_force"]]
+            for name, column in _WINDOW_COLUMNS:
+                arrays[name][cell] = row[column]
         n = min(a.strobe.shape[0], STROBE_POINTS)
         if n:
             arrays["strobe_q"][cell + (slice(STROBE_POINTS - n, None),)] = a.strobe[-n:, 0]
