@@ -727,8 +727,9 @@ def _map_figure(sheet, prods, asked) -> list[Path]:
 def _measures_figure(sheet, prods, asked) -> list[Path]:
     if not sheet.is_map:
         return []
-    return [plot_map_measures(prods["loss_of_contact_map"], sheet.path("measures", sheet.zeta_tag(z)),
-                              zeta=z, curves=prods["bifurcation_curves"])
+    return [plot_map_measures(prods["loss_of_contact_map"],
+                              sheet.path("measures", sheet.zeta_tag(z)), zeta=z,
+                              curves=prods["bifurcation_curves"])
             for z in sheet.zeta]
 
 
@@ -750,7 +751,8 @@ def _bifurcation_figure(sheet, prods, asked) -> list[Path]:
                                  omega_range=(float(sheet.omega.min()), float(sheet.omega.max())),
                                  sigma_range=(float(sheet.sigma.min()), float(sheet.sigma.max())),
                                  located=prods.get("located_bifurcations"),
-                                 traced=prods.get("traced_curves"), isola=prods.get("isola_boundary"))
+                                 traced=prods.get("traced_curves"),
+                                 isola=prods.get("isola_boundary"))
             for z in sheet.zeta]
 
 
