@@ -224,17 +224,23 @@ def _plot_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("store", type=Path, nargs="?", help="a store written by hertzmap run")
     p.add_argument("--out", type=Path, default=Path("results"), help="folder for the PNGs (default results/)")
     p.add_argument("--which", nargs="+", default=["auto"], metavar="FIG",
-                   help="auto (default) or: map measures bifurcation response harmonics histories")
+                   help="auto (default: every figure the store's products support) or: map "
+                   "measures lyapunov bifurcation response harmonics strobe histories")
     p.add_argument("--paper", nargs="+", default=[], metavar="FIG",
                    help="the paper's analytic figures, no store needed: fig02 fig03 fig04 fig05")
     p.add_argument("--no-products", action="store_true",
-                   help="do not write the products into the store (read-only)")
+                   help="read-only: write nothing into the store; the products are computed in "
+                   "memory and the figures drawn from them (without it, from the products as "
+                   "stored)")
 
 
 @subcommand("plot", "products of a store into its products/ groups, and PNG figures")(_plot_args)
 def cmd_plot(args: argparse.Namespace) -> int:
-    """Compute the products of a store (study.products), store them in its products/ groups
-    (scheduler.store) unless --no-products, and draw the figures (study.plots)."""
+    """The products of a store, then its figures: compute every product that the registry
+    (study.products.catalog) says the store supports, write them into its products/ groups
+    (scheduler.store), read them back and draw the figures from the stored groups (study.plots),
+    with the groups hertzmap run wrote (the traced curves). With --no-products nothing is
+    written and the figures are drawn from the products in memory."""
     from hertzmap.scheduler.errors import StoreError
     from hertzmap.scheduler.store import list_products, read_product, write_products
     from hertzmap.study import plots
@@ -248,20 +254,14 @@ def cmd_plot(args: argparse.Namespace) -> int:
             if not (Path(args.store) / "zarr.json").is_file():
                 raise ValueError(f"{args.store} is not a zarr store")
             ds = P.open_store(args.store)
-            prods = P.compute_products(ds)
-            if plots.wants_time_histories(ds, args.which):
-                prods["time_histories"] = P.time_histories(ds, rig=P.rig_of(ds))
-            # the traced curves are written by hertzmap run (the "curves" output); they are
-            # read here, and the isola boundary read off them
-            traced = read_product(args.store, "traced_curves") \
-                if "traced_curves" in list_products(args.store) else None
-            if traced is not None:
-                prods["isola_boundary"] = P.isola_boundary(traced)
+            stored = list_products(args.store)
+            given = {name: read_product(args.store, name) for name in P.RUN_PRODUCTS
+                     if name in stored}
+            prods = P.compute_products(ds, which=args.which, given=given)
             if not args.no_products:
                 write_products(args.store, prods)
-            if traced is not None:
-                prods["traced_curves"] = traced
-            paths += plots.plot_results(ds, prods, args.out, args.which,
+                prods = {name: read_product(args.store, name) for name in prods}
+            paths += plots.plot_results(ds, {**given, **prods}, args.out, args.which,
                                         prefix=ds.attrs.get("hertzmap_study_name")
                                         or Path(args.store).stem)
     except (ValueError, KeyError, FileNotFoundError, StoreError) as exc:

@@ -98,7 +98,7 @@ class CurveRun:
 
     def pending(self) -> bool:
         """True when the study asks for curves and its store does not hold them yet."""
-        return "curves" in self.study.products and not has_traced_curves(self.store.path,
+        return "curves" in self.study.outputs and not has_traced_curves(self.store.path,
                                                                           self.study.hash)
 
     def run(self, client, n_workers: int) -> dict[str, Any]:

@@ -45,7 +45,7 @@ def describe(study: Study, store_path: Path, task_seconds: float, cluster) -> st
         f"{study.max_solutions} solution slots, periods {list(study.periods)}",
         f"model        {study.model}" + (f" exponent {study.exponent}" if study.exponent else "")
         + f", rtol {study.rtol:g}",
-        f"products     {', '.join(study.products)} -> {', '.join(stored_variables(study))}",
+        f"outputs      {', '.join(study.outputs)} -> {', '.join(stored_variables(study))}",
         f"tasks        {len(plan.tasks)} (chunk {plan.chunks[0]} omega x {plan.chunks[1]} sigma x "
         f"{plan.chunks[2]} zeta; about {fmt_time(est / max(1, len(plan.tasks)))} each)",
         f"compute      about {fmt_time(est)} of one core{per_worker} (estimate)",

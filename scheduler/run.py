@@ -108,7 +108,7 @@ def run_study(study: Study, opts: RunOptions, *, out: TextIO | None = None,
 
 def warm_up_plugin(study: Study, opts: RunOptions) -> Warmup:
     """The worker plugin that compiles (or loads) the study's kernels on every worker."""
-    return Warmup(opts.solver, study.solver_kwargs(), curves="curves" in study.products)
+    return Warmup(opts.solver, study.solver_kwargs(), curves="curves" in study.outputs)
 
 
 def start_warm_up(client, study: Study, opts: RunOptions) -> Future:

@@ -2,20 +2,27 @@
 
 Entry points:
 
-* :func:`plot_results` - the figures a study's results support, from its products
-  (``study.products.compute_products``), into a folder. ``hertzmap plot STORE [--out DIR]
-  [--which ...]`` computes the products, stores them and calls it.
+* :func:`plot_results` - the figures of a study's products, into a folder: a loop over the
+  registry (``study.products.catalog``), each product drawing its figures. ``hertzmap plot
+  STORE [--out DIR] [--which ...]`` computes the products, stores them and calls it with the
+  stored groups.
 * :func:`plot_paper` - the paper's analytic figures that need no store (Fig. 2, 3, 4, 5):
   ``hertzmap plot --paper fig02 fig03 fig04 fig05``.
 * One function per figure (``plot_loss_of_contact_map``, ``plot_map_measures``,
-  ``plot_bifurcation_set``, ``plot_frequency_response``, ``plot_force_harmonics``,
-  ``plot_time_histories``, ``paper_fig02`` ... ``paper_fig05``), each taking products and a path.
+  ``plot_lyapunov_map``, ``plot_bifurcation_set``, ``plot_frequency_response``,
+  ``plot_force_harmonics``, ``plot_bifurcation_diagram``, ``plot_time_histories``,
+  ``paper_fig02`` ... ``paper_fig05``), each taking products and a path; the registry names
+  them (``Figure.plot``) and :data:`_DRAW` says which PNGs of a store each draws.
+
+No product of a store is computed here: a store's figure draws the products it is given
+(the paper's analytic figures compute their multiple-scales curves).
 
 No Dask, no scheduler, no store writes. Figures are small (about 100 dpi) so that they can be
 committed.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Sequence
 
@@ -30,6 +37,7 @@ from matplotlib.patches import Patch  # noqa: E402
 
 from hertzmap.kernels.model import TAYLOR_CONTACT_LOSS  # noqa: E402
 from hertzmap.study import products as P  # noqa: E402
+from hertzmap.study.products.catalog import NAMED_FREQUENCIES, WHICH, check_which  # noqa: E402
 from hertzmap.study.analytic import multiple_scales as mms  # noqa: E402
 from hertzmap.study.analytic.rig import restoring_force  # noqa: E402
 from hertzmap.study.orbits import CLASS_LABELS  # noqa: E402
@@ -38,7 +46,6 @@ __all__ = [
     "WHICH",
     "PAPER_FIGURES",
     "plot_results",
-    "wants_time_histories",
     "plot_paper",
     "plot_loss_of_contact_map",
     "plot_map_measures",
@@ -55,10 +62,6 @@ __all__ = [
 ]
 
 DPI = 100
-
-#: Figures of :func:`plot_store` ("auto": those the store supports).
-WHICH = ("map", "measures", "bifurcation", "response", "harmonics", "histories", "lyapunov",
-         "strobe")
 
 #: Colour and legend label of each orbit class (study.orbits codes 1..8).
 _CLASS_COLORS = {1: "tab:blue", 2: "tab:green", 3: "tab:red", 4: "#9ecae1", 5: "#fcae91",
@@ -168,9 +171,9 @@ _CODIM2_STYLE = {1: ("v", "cusp"), 2: ("*", "fold meets flip (isola joins)"),
                  3: ("D", "grazing meets fold"), 4: ("s", "grazing meets flip")}
 
 
-def _draw_traced(ax, traced, zeta) -> None:
+def _draw_traced(ax, traced, zeta, isola=None) -> None:
     """The traced curves of the (omega, sigma) plane at ``zeta``, their codimension-2 points
-    and sigma** of the isola."""
+    and sigma** of the isola (``isola``: the isola_boundary product)."""
     if traced is None or not traced.sizes.get("vertex", 0):
         return
     longer = sorted({int(m) for m in np.unique(traced["curve_period"].values) if m >= 3})
@@ -196,10 +199,9 @@ def _draw_traced(ax, traced, zeta) -> None:
                 ax.plot(traced["codim2_omega"].values[sel], traced["codim2_sigma"].values[sel],
                         marker, ms=8, mfc="gold", mec="k", ls="none", zorder=5,
                         label=f"{label} (codim 2)")
-    if ("fold", 2) in drawn:
-        iso = P.isola_boundary(traced)
-        if iso.sizes["zeta"] and np.isclose(iso["zeta"].values, zeta).any():
-            row = iso.sel(zeta=zeta, method="nearest")
+    if ("fold", 2) in drawn and isola is not None:
+        if isola.sizes["zeta"] and np.isclose(isola["zeta"].values, zeta).any():
+            row = isola.sel(zeta=zeta, method="nearest")
             if np.isfinite(float(row["sigma_isola"])):
                 ax.plot(float(row["omega_isola"]), float(row["sigma_isola"]), "X", ms=9,
                         mfc="tab:orange", mec="k", ls="none", zorder=5,
@@ -235,10 +237,11 @@ def _grid_fallback(traced, zeta, names):
 # ---------------------------------------------------------------------------------------------
 
 def plot_loss_of_contact_map(lcm, curves, path, *, zeta=None, mms=None, title=None,
-                             traced=None) -> Path:
+                             traced=None, isola=None) -> Path:
     """Kinds of stable response over (omega, sigma) with the flip, grazing and isola curves
-    (traced ones where the study has them, ``traced``: products/traced_curves; else the
-    grid's contours) and the MMS flip curve."""
+    (traced ones where the study has them, ``traced``: products/traced_curves, with sigma**
+    from ``isola``, products/isola_boundary; else the grid's contours) and the MMS flip
+    curve."""
     zeta = float(lcm["zeta"].values[0] if zeta is None else zeta)
     m = lcm.sel(zeta=zeta, method="nearest")
     field = "map_class" if "map_class" in m else "stable_set"
@@ -260,7 +263,7 @@ def plot_loss_of_contact_map(lcm, curves, path, *, zeta=None, mms=None, title=No
                         colors="none", hatches=["////"])
             handles.append(Patch(facecolor="none", edgecolor="0.3", hatch="////",
                                  label="and a stable orbit of period m >= 3"))
-    _draw_traced(ax, traced, zeta)
+    _draw_traced(ax, traced, zeta, isola)
     _draw_curves(ax, curves, zeta, _grid_fallback(traced, zeta, ("flip_1T", "grazing_1T",
                                                                    "grazing_2T", "isola")))
     _draw_mms(ax, mms, zeta, sigma1=False)
@@ -381,11 +384,12 @@ def _located_segments(located, zeta, kind, period):
 
 
 def plot_bifurcation_set(curves, mms, path, *, zeta=None, lcm=None, omega_range=None,
-                         sigma_range=None, title=None, located=None, traced=None) -> Path:
+                         sigma_range=None, title=None, located=None, traced=None,
+                         isola=None) -> Path:
     """Bifurcation set in (omega, sigma) (paper Fig. 3, 7, 9): MMS sigma1/sigma2 against the
     numerical flip curve (squares), 2T existence boundary (folds) and isolas. With ``traced``
     (products/traced_curves) the traced fold, flip and grazing curves, their codimension-2
-    points and sigma** (the grid's curves only where a kind could not be traced, labelled with
+    points and sigma** (``isola``: products/isola_boundary; the grid's curves only where a kind could not be traced, labelled with
     the reason); else with ``located`` (the ``located_bifurcations`` product) the flip curve
     and the 2T folds are the located points (solver accuracy); else the contours of grid
     indicators."""
@@ -395,7 +399,7 @@ def plot_bifurcation_set(curves, mms, path, *, zeta=None, lcm=None, omega_range=
     fig, ax = plt.subplots(figsize=(7.2, 4.8), layout="constrained")
     if traced is not None:
         _draw_mms(ax, mms, zeta)
-        _draw_traced(ax, traced, zeta)
+        _draw_traced(ax, traced, zeta, isola)
         fallback = _grid_fallback(traced, zeta, ("flip_1T", "boundary_2T", "isola"))
         if any(n == "isola" for n, _ in fallback):
             _shade_isola_cells(ax, lcm, zeta)
@@ -675,96 +679,153 @@ def _zoom_for(fr, sigma, zeta):
     return (1.85, min(float(om.max()), 2.1))
 
 
-def _check_which(which: Sequence[str]) -> tuple[str, ...]:
-    which = tuple(which)
-    bad = [w for w in which if w not in WHICH + ("auto",)]
-    if bad:
-        raise ValueError(f"unknown figure(s) {bad}; choose from auto, {', '.join(WHICH)}")
-    return which
+@dataclass(frozen=True)
+class _Sheet:
+    """What the figures of one store share: its grid, the folder and the files' prefix."""
+    omega: np.ndarray
+    sigma: np.ndarray
+    zeta: np.ndarray
+    out: Path
+    name: str
+
+    @property
+    def is_map(self) -> bool:
+        """Maps and bifurcation sets need >= 2 omega and >= 2 sigma."""
+        return self.omega.size >= 2 and self.sigma.size >= 2
+
+    @property
+    def lines(self) -> int:
+        return self.sigma.size * self.zeta.size
+
+    @property
+    def named_frequencies(self) -> bool:
+        """A scene of a few named frequencies (study.products.catalog): its figure is the time
+        histories; response and harmonics only when asked for."""
+        return self.omega.size <= NAMED_FREQUENCIES
+
+    def path(self, which: str, tag: str = "") -> Path:
+        return self.out / f"{self.name}_{which}{tag}.png"
+
+    def zeta_tag(self, z) -> str:
+        return f"_zeta{z:g}" if self.zeta.size > 1 else ""
+
+    def line_tag(self, s, z, *, always: bool = False) -> str:
+        """The files' tag of line (s, z): none for a study of one line, unless ``always``."""
+        return f"_sigma{s:g}" + self.zeta_tag(z) if always or self.lines > 1 else ""
 
 
-def wants_time_histories(ds, which: Sequence[str] = ("auto",)) -> bool:
-    """True when :func:`plot_results` draws time histories for these results: asked for, or
-    ``auto`` on a scene of at most 8 named frequencies. The caller then adds the
-    ``time_histories`` product (study.products.time_histories) to the products it passes."""
-    which = _check_which(which)
-    return "histories" in which or ("auto" in which and ds.sizes["omega"] <= 8)
+def _map_figure(sheet, prods, asked) -> list[Path]:
+    if not sheet.is_map:
+        return []
+    return [plot_loss_of_contact_map(prods["loss_of_contact_map"], prods["bifurcation_curves"],
+                                     sheet.path("map", sheet.zeta_tag(z)), zeta=z,
+                                     mms=prods["mms_curves"], traced=prods.get("traced_curves"),
+                                     isola=prods.get("isola_boundary"))
+            for z in sheet.zeta]
+
+
+def _measures_figure(sheet, prods, asked) -> list[Path]:
+    if not sheet.is_map:
+        return []
+    return [plot_map_measures(prods["loss_of_contact_map"],
+                              sheet.path("measures", sheet.zeta_tag(z)), zeta=z,
+                              curves=prods["bifurcation_curves"])
+            for z in sheet.zeta]
+
+
+def _lyapunov_figure(sheet, prods, asked) -> list[Path]:
+    lcm = prods["loss_of_contact_map"]
+    if not (sheet.is_map and "lyapunov_exponent" in lcm
+            and np.isfinite(lcm["lyapunov_exponent"].values).any()):
+        return []
+    return [plot_lyapunov_map(lcm, sheet.path("lyapunov", sheet.zeta_tag(z)), zeta=z)
+            for z in sheet.zeta]
+
+
+def _bifurcation_figure(sheet, prods, asked) -> list[Path]:
+    if not sheet.is_map:
+        return []
+    return [plot_bifurcation_set(prods["bifurcation_curves"], prods["mms_curves"],
+                                 sheet.path("bifurcation", sheet.zeta_tag(z)), zeta=z,
+                                 lcm=prods["loss_of_contact_map"],
+                                 omega_range=(float(sheet.omega.min()), float(sheet.omega.max())),
+                                 sigma_range=(float(sheet.sigma.min()), float(sheet.sigma.max())),
+                                 located=prods.get("located_bifurcations"),
+                                 traced=prods.get("traced_curves"),
+                                 isola=prods.get("isola_boundary"))
+            for z in sheet.zeta]
+
+
+#: response figures unless asked for: studies of at most this many (sigma, zeta) lines
+RESPONSE_FIGURE_LINES = 8
+#: harmonics figures: the first this many sigma and zeta values
+HARMONICS_FIGURE_LINES = (4, 2)
+
+
+def _response_figure(sheet, prods, asked) -> list[Path]:
+    if not (asked or sheet.lines <= RESPONSE_FIGURE_LINES and not sheet.named_frequencies) \
+            or sheet.omega.size < 2:
+        return []
+    fr = prods["frequency_response"]
+    return [plot_frequency_response(fr, sheet.path("response", sheet.line_tag(s, z)), sigma=s,
+                                    zeta=z, zoom=_zoom_for(fr, s, z), mms=prods.get("mms_response"))
+            for s in sheet.sigma for z in sheet.zeta]
+
+
+def _harmonics_figure(sheet, prods, asked) -> list[Path]:
+    if not (asked or not sheet.named_frequencies) or sheet.omega.size < 2:
+        return []
+    ns, nz = HARMONICS_FIGURE_LINES
+    return [plot_force_harmonics(prods["force_harmonics"],
+                                 sheet.path("harmonics", sheet.line_tag(s, z)), sigma=s, zeta=z)
+            for s in sheet.sigma[:ns] for z in sheet.zeta[:nz]]
+
+
+def _strobe_figure(sheet, prods, asked) -> list[Path]:
+    diagrams = prods["stroboscopic_diagram"]
+    paths = []
+    for i in range(diagrams.sizes["line"]):
+        diag = P.diagram_line(diagrams, i)
+        if diag.sizes["point"]:
+            paths.append(plot_bifurcation_diagram(diag, sheet.path("strobe", sheet.line_tag(
+                diag.attrs["sigma"], diag.attrs["zeta"], always=True))))
+    return paths
+
+
+def _histories_figure(sheet, prods, asked) -> list[Path]:
+    th = prods["time_histories"]
+    return [plot_time_histories(th, sheet.path("histories"))] if th.sizes["case"] else []
+
+
+#: How each figure of the registry (study.products.catalog, by its --which name) is drawn for a
+#: whole store: which PNGs, for which lines; ``asked``: named in --which (not only "auto").
+_DRAW = {"map": _map_figure, "measures": _measures_figure, "lyapunov": _lyapunov_figure,
+         "bifurcation": _bifurcation_figure, "response": _response_figure,
+         "harmonics": _harmonics_figure, "strobe": _strobe_figure,
+         "histories": _histories_figure}
 
 
 def plot_results(ds, prods, out: str | Path = "results", which: Sequence[str] = ("auto",),
                  *, prefix: str | None = None) -> list[Path]:
-    """The figures that a study's results support, drawn from its products ``prods``
-    (study.products.compute_products, plus ``time_histories`` where wanted), into ``out`` as
+    """The figures of the products ``prods`` (by name: ``hertzmap plot`` passes the groups it
+    has just stored, read back from the store), into ``out`` as
     ``<study>_<figure>[_...].png``. Returns the paths.
 
-    ``ds``: the results (study.products.open_store). ``which``: "auto" (everything the
-    results support), or names from :data:`WHICH`. Maps and bifurcation sets need >= 2 omega
-    and >= 2 sigma; response curves are drawn for studies with at most 8 (sigma, zeta) lines;
-    harmonics need the ``force_harmonics`` output; time histories need the ``time_histories``
-    product (see :func:`wants_time_histories`).
+    A loop over the registry (study.products.catalog.PRODUCTS): each product in ``prods``
+    draws its figures. ``ds``: the results (study.products.open_store; its grid and name only).
+    ``which``: "auto" (every figure the products support), or names from :data:`WHICH`. Maps
+    and bifurcation sets need >= 2 omega and >= 2 sigma; response curves are drawn unless asked
+    for only for studies of at most :data:`RESPONSE_FIGURE_LINES` (sigma, zeta) lines and more
+    than a few named frequencies, harmonics only for the latter.
     """
-    which = _check_which(which)
-    auto = "auto" in which
-    name = prefix or ds.attrs.get("hertzmap_study_name") or "study"
-    out = Path(out)
+    which = check_which(which)
+    sheet = _Sheet(ds["omega"].values, ds["sigma"].values, ds["zeta"].values, Path(out),
+                   prefix or ds.attrs.get("hertzmap_study_name") or "study")
     paths: list[Path] = []
-    is_map = ds.sizes["omega"] >= 2 and ds.sizes["sigma"] >= 2
-    nlines = ds.sizes["sigma"] * ds.sizes["zeta"]
-    lcm, curves, mms = prods["loss_of_contact_map"], prods["bifurcation_curves"], prods["mms_curves"]
-    zetas = ds["zeta"].values
-    multi_z = len(zetas) > 1
-    for z in zetas:
-        zs = f"_zeta{z:g}" if multi_z else ""
-        if is_map and (auto or "map" in which):
-            paths.append(plot_loss_of_contact_map(lcm, curves, out / f"{name}_map{zs}.png",
-                                                  zeta=z, mms=mms,
-                                                  traced=prods.get("traced_curves")))
-        if is_map and (auto or "measures" in which):
-            paths.append(plot_map_measures(lcm, out / f"{name}_measures{zs}.png", zeta=z,
-                                           curves=curves))
-        if is_map and (auto or "bifurcation" in which):
-            om = ds["omega"].values
-            paths.append(plot_bifurcation_set(curves, mms, out / f"{name}_bifurcation{zs}.png",
-                                              zeta=z, lcm=lcm,
-                                              omega_range=(float(om.min()), float(om.max())),
-                                              sigma_range=(float(ds["sigma"].min()),
-                                                           float(ds["sigma"].max())),
-                                              located=prods.get("located_bifurcations"),
-                                              traced=prods.get("traced_curves")))
-        if is_map and (auto or "lyapunov" in which) and "lyapunov_exponent" in lcm \
-                and np.isfinite(lcm["lyapunov_exponent"].values).any():
-            paths.append(plot_lyapunov_map(lcm, out / f"{name}_lyapunov{zs}.png", zeta=z))
-    few = ds.sizes["omega"] <= 8        # a scene of named frequencies: time histories only
-    if "frequency_response" in prods and (auto and nlines <= 8 and not few or "response" in which):
-        fr = prods["frequency_response"]
-        for s in ds["sigma"].values:
-            for z in zetas:
-                tag = f"_sigma{s:g}" + (f"_zeta{z:g}" if multi_z else "") if nlines > 1 else ""
-                if ds.sizes["omega"] >= 2:
-                    paths.append(plot_frequency_response(
-                        fr, out / f"{name}_response{tag}.png", sigma=s, zeta=z,
-                        zoom=_zoom_for(fr, s, z), mms=prods.get("mms_response")))
-    if "force_harmonics" in prods and (auto and not few or "harmonics" in which) \
-            and ds.sizes["omega"] >= 2:
-        fh = prods["force_harmonics"]
-        for s in ds["sigma"].values[:4]:
-            for z in zetas[:2]:
-                tag = f"_sigma{s:g}" + (f"_zeta{z:g}" if multi_z else "") if nlines > 1 else ""
-                paths.append(plot_force_harmonics(fh, out / f"{name}_harmonics{tag}.png",
-                                                  sigma=s, zeta=z))
-    if "strobe_q" in ds and (auto or "strobe" in which):
-        sigmas = ds["sigma"].values
-        picks = sigmas if sigmas.size <= 4 else sigmas[np.round(np.linspace(
-            0, sigmas.size - 1, 4)).astype(int)]
-        for s in picks:
-            for z in zetas[:2]:
-                diag = P.stroboscopic_diagram(ds, float(s), float(z))
-                if diag.sizes["point"]:
-                    tag = f"_sigma{s:g}" + (f"_zeta{z:g}" if multi_z else "")
-                    paths.append(plot_bifurcation_diagram(diag, out / f"{name}_strobe{tag}.png"))
-    th = prods.get("time_histories")
-    if th is not None and th.sizes["case"]:
-        paths.append(plot_time_histories(th, out / f"{name}_histories.png"))
+    for product in P.PRODUCTS:
+        if product.name not in prods:
+            continue
+        for figure in product.figures:
+            if "auto" in which or figure.which in which:
+                paths += _DRAW[figure.which](sheet, prods, figure.which in which)
     return paths
-
-

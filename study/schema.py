@@ -42,7 +42,7 @@ __all__ = [
     "BIFURCATION_KINDS",
     "empty_arrays",
     "study_from_attrs",
-    "PRODUCT_VARIABLES",
+    "OUTPUT_VARIABLES",
     "GRID_DIMS",
     "PRODUCT_GROUP",
     "STORE_FORMAT",
@@ -238,7 +238,7 @@ def empty_arrays(shape: tuple[int, int, int], max_solutions: int,
     return out
 
 
-PRODUCT_VARIABLES: dict[str, tuple[str, ...]] = {
+OUTPUT_VARIABLES: dict[str, tuple[str, ...]] = {
     "orbits": tuple(f.name for f in ORBIT.stored("orbits")) + ("orbits_found",),
     "measures": tuple(f.name for f in ORBIT.stored("measures")),
     "force_harmonics": tuple(f.name for f in ORBIT.stored("force_harmonics")),
@@ -289,8 +289,8 @@ _TASK_DONE_ATTRS = {
 
 
 def stored_variables(study: Study) -> tuple[str, ...]:
-    """Names of the data variables stored for this study (its products), in schema order."""
-    wanted = {n for p in study.products for n in PRODUCT_VARIABLES[p]}
+    """Names of the data variables stored for this study (its outputs), in schema order."""
+    wanted = {n for p in study.outputs for n in OUTPUT_VARIABLES[p]}
     return tuple(n for n in VARIABLES if n in wanted)
 
 

@@ -1,7 +1,7 @@
 """The study file: parse and validate a TOML study into a frozen :class:`Study`.
 
 A study file describes *what* to compute (the grid, the model, the solver accuracy, the
-periods searched, the products stored), never *where* (that is the command line's job).
+periods searched, the outputs stored), never *where* (that is the command line's job).
 See docs/study-file.md for the reference of every table and key.
 
 Every validation problem raises :class:`StudyError` (a ``ValueError``) whose message names
@@ -29,8 +29,8 @@ __all__ = [
     "Study",
     "load_study",
     "parse_study",
-    "PRODUCTS",
-    "DEFAULT_PRODUCTS",
+    "OUTPUTS",
+    "DEFAULT_OUTPUTS",
     "MAX_GRID_POINTS",
     "SPEC_VERSION",
 ]
@@ -42,15 +42,16 @@ MAX_GRID_POINTS = 20_000_000
 
 AXES = ("omega", "sigma", "zeta")
 
-#: Output groups a study can ask for; the variables of each group are defined in study/dataset.py.
+#: What a run can store, the study file's ``[products] outputs`` (not the products derived from
+#: the results afterwards, study.products); the variables of each: study.schema.OUTPUT_VARIABLES.
 #: "curves" (traced fold, flip and grazing curves, products/traced_curves, written by the run)
 #: stores the sign changes of the test functions along each line (``crossing_*``, its seeds)
 #: and implies "measures" (the stored orbits' min q and max q match neighbouring grid points).
-PRODUCTS = ("orbits", "measures", "force_harmonics", "diagnostics", "bifurcations",
-            "attractors", "curves")
+OUTPUTS = ("orbits", "measures", "force_harmonics", "diagnostics", "bifurcations",
+           "attractors", "curves")
 #: "orbits" is always stored (period, q0, v0, status, multipliers, stable).
-CORE_PRODUCT = "orbits"
-DEFAULT_PRODUCTS = ("orbits", "measures")
+CORE_OUTPUT = "orbits"
+DEFAULT_OUTPUTS = ("orbits", "measures")
 
 #: the contact laws a study file may name (kernels.model.LAWS)
 MODEL_KINDS = tuple(law.name for law in LAWS)
@@ -120,7 +121,7 @@ class Study:
     initial_states: int = DEFAULT_INITIAL_STATES
     transient_periods: int = DEFAULT_TRANSIENT_PERIODS
     record_periods: int = DEFAULT_RECORD_PERIODS
-    products: tuple[str, ...] = DEFAULT_PRODUCTS
+    outputs: tuple[str, ...] = DEFAULT_OUTPUTS
     rig: tuple[tuple[str, Any], ...] | None = None
     source_text: str = field(default="", compare=False, repr=False)
 
@@ -154,11 +155,11 @@ class Study:
             "rtol": float(self.rtol),
             "max_solutions": int(self.max_solutions),
         }
-        if "force_harmonics" not in self.products:
+        if "force_harmonics" not in self.outputs:
             kw["harmonics"] = False  # not stored: skip their quadrature (a quarter of the time)
-        if "bifurcations" in self.products:
+        if "bifurcations" in self.outputs:
             kw["locate"] = True     # only then: other studies call the solver as before
-        if "curves" in self.products:
+        if "curves" in self.outputs:
             kw["crossings"] = True  # the curves' seeds along each line (no kernel call)
         if self.discover:
             kw["discover"] = True   # transients + continuation per line (study.solve.discovery)
@@ -179,7 +180,8 @@ class Study:
             "model": {"kind": self.model, "exponent": self.exponent},
             "solver": {"rtol": self.rtol, "max_solutions": self.max_solutions},
             "search": self._search_dict(),
-            "products": {"outputs": list(self.products)},
+            # the study file's table and key ([products] outputs): the hash reads them
+            "products": {"outputs": list(self.outputs)},
             "rig": self.rig_dict,
         }
 
@@ -459,15 +461,15 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
     # [products]
     pr = _table(doc, "products")
     _refuse_unknown(pr, "products", ("outputs",))
-    outputs = pr.get("outputs", list(DEFAULT_PRODUCTS))
+    outputs = pr.get("outputs", list(DEFAULT_OUTPUTS))
     if not isinstance(outputs, list):
-        raise StudyError("products.outputs", f"expected a list of names from {list(PRODUCTS)}, "
+        raise StudyError("products.outputs", f"expected a list of names from {list(OUTPUTS)}, "
                          f"got {_r(outputs)}")
     for o in outputs:
-        if o not in PRODUCTS:
-            raise StudyError("products.outputs", f"unknown product {_r(o)}; allowed: {', '.join(PRODUCTS)}")
+        if o not in OUTPUTS:
+            raise StudyError("products.outputs", f"unknown output {_r(o)}; allowed: {', '.join(OUTPUTS)}")
     if len(set(outputs)) != len(outputs):
-        raise StudyError("products.outputs", f"duplicated product in {_r(outputs)}")
+        raise StudyError("products.outputs", f"duplicated output in {_r(outputs)}")
     if "attractors" in outputs and attractors == "never":
         raise StudyError("products.outputs", '"attractors" needs search.attractors other than '
                          '"never"')
@@ -483,8 +485,8 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
                              "\"curves\")")
         outputs = list(outputs) + ["measures"]
     # the census's results are stored whenever it runs
-    products = tuple(p for p in PRODUCTS if p in outputs or p == CORE_PRODUCT
-                     or (p == "attractors" and attractors != "never"))
+    outputs = tuple(p for p in OUTPUTS if p in outputs or p == CORE_OUTPUT
+                    or (p == "attractors" and attractors != "never"))
 
     # [rig]
     rig = None
@@ -521,7 +523,7 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
         transients=transients,
         attractors=attractors,
         **census,
-        products=products,
+        outputs=outputs,
         rig=rig,
         source_text=text,
     )

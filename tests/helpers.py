@@ -281,6 +281,71 @@ def hand_built_results() -> xr.Dataset:
     return ds
 
 
+def solved_results(toml: str, path, name: str = "real") -> Path:
+    """A small real store: the study's grid solved as one block (study.solve.block, no Dask),
+    written with every block flagged done."""
+    from hertzmap.study.schema import block_dataset, stored_variables
+    from hertzmap.study.solve.block import solve_block
+
+    study = parse_study(toml, default_name=name)
+    ds = blank_results(toml, name)
+    arrays = solve_block(study.axis("omega"), study.axis("sigma"), study.axis("zeta"),
+                         **study.solver_kwargs())
+    blk = block_dataset(arrays, stored_variables(study))
+    for v in blk.data_vars:
+        ds[v] = ds[v].copy(data=blk[v].values)
+    return write_results(ds, path)
+
+
+#: A 2 x 2 grid near omega = 2 with every output the grid's block stores (the census at every
+#: point, short transients): it supports every product of the registry but isola_boundary,
+#: which takes traced curves (:func:`fake_traced_curves`).
+EVERY_OUTPUT_STUDY = """
+[grid]
+omega = [1.9, 2.05]
+sigma = [0.3, 0.5]
+zeta = 0.01
+[search]
+attractors = "always"
+initial_states = 2
+transient_periods = 50
+record_periods = 32
+[products]
+outputs = ["orbits", "measures", "force_harmonics", "bifurcations", "attractors"]
+"""
+
+
+def fake_trace(index, kind, period, zeta, sigma, codim2=()):
+    """One traced curve as study.solve.curves returns it, every value made up: a curve of
+    ``kind`` and ``period`` through the ``sigma`` values (its lowest vertex flagged the
+    extremum), omega from 1 to 2."""
+    from hertzmap.study.products.traced_curves import VERTEX_EXTREMUM
+
+    n = len(sigma)
+    flag = np.zeros(n)
+    flag[int(np.argmin(sigma))] = VERTEX_EXTREMUM
+    V = {k: np.zeros(n) for k in ("q0", "v0", "min_q", "max_q", "fold", "flip", "grazing", "step",
+                                  "arclength", "residual")}
+    V.update(omega=np.linspace(1.0, 2.0, n), sigma=np.asarray(sigma, float),
+             zeta=np.full(n, zeta), flag=flag, multipliers=np.ones((n, 2), complex))
+    seed = dict(index=index, plane=("omega", "sigma"), fixed=zeta, kind=kind, period=period,
+                omega=1.5, sigma=float(min(sigma)), zeta=zeta, q0=0.0, v0=0.0)
+    return {"seed": seed, "status": ("boundary", "branch_point"), "vertices": V,
+            "codim2": list(codim2), "maps": 10}
+
+
+def fake_traced_curves(zeta: float = 0.01) -> xr.Dataset:
+    """A traced_curves product of one made-up isola fold curve (2T) whose lowest sigma is
+    0.17 at ``zeta``, joining the flip curve at sigma 0.36 (its last vertex)."""
+    from hertzmap.study.products.traced_curves import combine_traced_curves, traced_curves_dataset
+
+    join = dict(kind="fold_flip", period=2, omega=2.0, sigma=0.36, zeta=zeta, q0=0.0, v0=0.0,
+                multipliers=[-1, 0.5], value=0.0, left=1e-9, right=np.nan, accuracy=1e-8,
+                vertex=4)
+    return combine_traced_curves([traced_curves_dataset([
+        fake_trace(0, "fold", 2, zeta, [0.3, 0.2, 0.17, 0.25, 0.36], [join])])])
+
+
 def write_results(ds: xr.Dataset, path) -> Path:
     """A dataset written as a zarr store (as the scheduler writes one)."""
     import warnings

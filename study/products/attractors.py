@@ -1,6 +1,10 @@
 """The attractor census as products: the brute-force bifurcation diagram (the stroboscopic points
 of every attractor against omega along a sigma line), with the stored periodic orbits over it.
 
+:func:`stroboscopic_diagram` is one line's; :func:`stroboscopic_diagrams` those of a few lines
+in one Dataset (the product ``stroboscopic_diagram``, its lines chosen by the registry,
+study.products.catalog), and :func:`diagram_line` one line of it back.
+
 This is the standard picture of vibro-impact work: each grid point's attractors leave their
 last stroboscopic points q(tau = k T) on a vertical line at its omega (one point for a 1T orbit,
 m points for an orbit of period m, a cloud for a chaotic one), and the continuation branches (the
@@ -14,6 +18,8 @@ import xarray as xr
 from hertzmap.study.products.classes import valid_orbits
 from hertzmap.study.products.results import open_store, source_attrs, var_attrs
 from hertzmap.study.schema import ATTRACTOR_KINDS
+
+_TITLE = "brute-force bifurcation diagram (stroboscopic points)"
 
 
 def stroboscopic_diagram(ds: xr.Dataset, sigma: float | None = None,
@@ -70,6 +76,50 @@ def stroboscopic_diagram(ds: xr.Dataset, sigma: float | None = None,
              "period of the orbit", "1", "in forcing periods")),
          "orbit_stable": ("orbit", stab[idx[:, 0], idx[:, 1]].astype(bool), var_attrs(
              "orbit is stable", "1", "both multipliers inside the unit circle"))})
-    out.attrs = source_attrs(ds, "brute-force bifurcation diagram (stroboscopic points)")
+    out.attrs = source_attrs(ds, _TITLE)
     out.attrs.update({"sigma": float(line["sigma"]), "zeta": float(line["zeta"])})
     return out
+
+
+#: the per-line bookkeeping of :func:`stroboscopic_diagrams` (dropped by :func:`diagram_line`)
+_LINE_VARIABLES = ("line_sigma", "line_zeta", "strobe_line", "orbit_line")
+
+
+def stroboscopic_diagrams(ds: xr.Dataset, *, sigma_lines: int, zeta_lines: int) -> xr.Dataset:
+    """:func:`stroboscopic_diagram` along a few lines in one Dataset: at most ``sigma_lines``
+    sigma values (all of them, or that many evenly spread from the first to the last) at each of
+    the first ``zeta_lines`` zeta values. Dim ``line`` (``line_sigma``, ``line_zeta``); the
+    lines' points and orbits one after the other along ``point`` and ``orbit``, each with the
+    index of its line (``strobe_line``, ``orbit_line``)."""
+    if "computed" not in ds:
+        ds = open_store(ds)
+    sigmas = ds["sigma"].values
+    if sigmas.size > sigma_lines:
+        sigmas = sigmas[np.round(np.linspace(0, sigmas.size - 1, sigma_lines)).astype(int)]
+    parts = [stroboscopic_diagram(ds, float(s), float(z))
+             for s in sigmas for z in ds["zeta"].values[:zeta_lines]]
+    data = {name: (var.dims, np.concatenate([p[name].values for p in parts]), var.attrs)
+            for name, var in parts[0].data_vars.items()}
+    for dim, name in (("point", "strobe_line"), ("orbit", "orbit_line")):
+        data[name] = (dim, np.concatenate([np.full(p.sizes[dim], i, np.int16)
+                                           for i, p in enumerate(parts)]), var_attrs(
+            f"line of the {dim}", "1", "index along line (line_sigma, line_zeta)"))
+    data["line_sigma"] = ("line", np.array([p.attrs["sigma"] for p in parts], float), var_attrs(
+        "excitation amplitude", "1", "sigma of the line (the grid value)"))
+    data["line_zeta"] = ("line", np.array([p.attrs["zeta"] for p in parts], float), var_attrs(
+        "damping ratio", "1", "zeta of the line (the grid value)"))
+    out = xr.Dataset(data)
+    out.attrs = source_attrs(ds, f"{_TITLE}, {len(parts)} line(s)")
+    return out
+
+
+def diagram_line(diagrams: xr.Dataset, line: int) -> xr.Dataset:
+    """Line ``line`` of :func:`stroboscopic_diagrams`: as :func:`stroboscopic_diagram` of it
+    (its points and orbits, attrs ``sigma`` and ``zeta``)."""
+    one = diagrams.isel(point=np.flatnonzero(diagrams["strobe_line"].values == line),
+                        orbit=np.flatnonzero(diagrams["orbit_line"].values == line))
+    one = one.drop_vars(_LINE_VARIABLES)
+    one.attrs = dict(diagrams.attrs, title=_TITLE,
+                     sigma=float(diagrams["line_sigma"].values[line]),
+                     zeta=float(diagrams["line_zeta"].values[line]))
+    return one

@@ -1,6 +1,7 @@
 """The multiple-scales results as products: the sigma1 / sigma2 thresholds (paper Eq. 25-27,
 Fig. 3, 7, 9) and the frequency response A(omega), min q (Fig. 4, 5), from
-study.analytic.multiple_scales."""
+study.analytic.multiple_scales; :func:`mms_curves_over` and :func:`mms_response_over` over a
+study's omega window (the products ``mms_curves`` and ``mms_response``)."""
 from __future__ import annotations
 
 from typing import Iterable
@@ -14,6 +15,8 @@ from hertzmap.study.products.results import var_attrs
 
 #: MMS curves are computed on |omega - 2| <= MMS_HALF_WIDTH (the expansion is about omega = 2).
 MMS_HALF_WIDTH = 0.25
+#: omega values of the MMS products of a study, across its window
+MMS_POINTS = 801
 
 
 def mms_curves(omega: Iterable[float], zeta: Iterable[float]) -> xr.Dataset:
@@ -77,3 +80,32 @@ def mms_response(omega: Iterable[float], sigma: float, zeta: float) -> xr.Datase
                  "taylor_contact_loss": TAYLOR_CONTACT_LOSS}
     return out
 
+
+
+def mms_window(omega: Iterable[float]) -> tuple[float, float] | None:
+    """The part of abs(omega - 2) <= MMS_HALF_WIDTH within the range of ``omega``, or None."""
+    om = np.asarray(list(omega), float)
+    a, b = max(float(om.min()), 2.0 - MMS_HALF_WIDTH), min(float(om.max()), 2.0 + MMS_HALF_WIDTH)
+    return (a, b) if a < b else None
+
+
+def mms_curves_over(ds: xr.Dataset) -> xr.Dataset:
+    """:func:`mms_curves` over the study's omega window (:func:`mms_window`; the whole of
+    abs(omega - 2) <= MMS_HALF_WIDTH when the grid is outside it) at its zeta values."""
+    a, b = mms_window(ds["omega"].values) or (2.0 - MMS_HALF_WIDTH, 2.0 + MMS_HALF_WIDTH)
+    return mms_curves(np.linspace(a, b, MMS_POINTS), ds["zeta"].values)
+
+
+def mms_response_over(ds: xr.Dataset) -> xr.Dataset:
+    """:func:`mms_response` on each (sigma, zeta) line of the study, over its omega window
+    (:func:`mms_window`, which must not be None). Dims (sigma, zeta, omega)."""
+    a, b = mms_window(ds["omega"].values)
+    fine = np.linspace(a, b, MMS_POINTS)
+    resp = [mms_response(fine, float(s), float(z)).expand_dims(sigma=[float(s)], zeta=[float(z)])
+            for s in ds["sigma"].values for z in ds["zeta"].values]
+    out = xr.combine_by_coords([r.drop_attrs(deep=False) for r in resp])
+    for c in ("sigma", "zeta"):
+        out[c].attrs = dict(ds[c].attrs)
+    out.attrs = {"title": "multiple-scales frequency response (paper Fig. 4, 5)",
+                 "taylor_contact_loss": TAYLOR_CONTACT_LOSS}
+    return out

@@ -14,7 +14,7 @@ from benchmarks import oracle
 from hertzmap.scheduler.cli import main
 from hertzmap.scheduler.store import Store, lock_path, store_status
 from hertzmap.study import products as P
-from hertzmap.study.schema import PRODUCT_VARIABLES, stored_variables
+from hertzmap.study.schema import OUTPUT_VARIABLES, stored_variables
 from hertzmap.study.spec import parse_study
 from tests.helpers import hertzmap_cmd, kill_client_mid_study, subprocess_env
 from tests.scheduler.test_run import assert_same_store
@@ -119,7 +119,7 @@ def test_without_the_product_nothing_changes(tmp_path):
     assert "bifurcations" not in s.to_dict()["products"]["outputs"]
     assert parse_study(BIFURCATION_STUDY).hash != s.hash
     assert "locate" not in s.solver_kwargs()
-    assert not set(stored_variables(s)) & set(PRODUCT_VARIABLES["bifurcations"])
+    assert not set(stored_variables(s)) & set(OUTPUT_VARIABLES["bifurcations"])
     assert parse_study(BIFURCATION_STUDY).solver_kwargs()["locate"] is True
     from hertzmap.study.solve.block import solve_block
     om, sg, zt = s.axis("omega"), s.axis("sigma")[:1], s.axis("zeta")

@@ -28,6 +28,79 @@ def test_cli_plot(hand, tmp_path):
     assert main(["plot", "--paper", "fig99"]) == 2
 
 
+#: the products hertzmap plot computes on tests.helpers.EVERY_OUTPUT_STUDY given traced curves
+#: (docs/products.md: all of them)
+EVERY_PRODUCT = {"orbit_classes", "loss_of_contact_map", "bifurcation_curves",
+                 "located_bifurcations", "mms_curves", "frequency_response", "mms_response",
+                 "force_harmonics", "stroboscopic_diagram", "time_histories", "isola_boundary"}
+
+
+@pytest.fixture()
+def every_output_store(tmp_path):
+    """A small real store of every output, with the traced-curves group a run writes (made
+    up)."""
+    from hertzmap.scheduler.store import write_product
+    from tests.helpers import EVERY_OUTPUT_STUDY, fake_traced_curves, solved_results
+
+    store = solved_results(EVERY_OUTPUT_STUDY, tmp_path / "r.zarr")
+    write_product(store, "traced_curves", fake_traced_curves())
+    return store
+
+
+def test_plot_writes_the_supported_products_and_draws_the_stored_groups(every_output_store,
+                                                                         tmp_path, monkeypatch):
+    from hertzmap.scheduler import store as S
+    from hertzmap.study import plots
+
+    store = every_output_store
+    computed, drawn = {}, {}
+    write_products, plot_results = S.write_products, plots.plot_results
+
+    def write_and_mark(path, products):
+        """Write, then mark each stored group: only a product read back carries the mark."""
+        computed.update(products)
+        groups = write_products(path, products)
+        for name in products:
+            S.write_product(path, name, S.read_product(path, name).assign_attrs(stored=name))
+        return groups
+
+    def record(ds, prods, *args, **kwargs):
+        drawn.update(prods)
+        return plot_results(ds, prods, *args, **kwargs)
+
+    monkeypatch.setattr(S, "write_products", write_and_mark)
+    monkeypatch.setattr(plots, "plot_results", record)
+    out = tmp_path / "png"
+    assert main(["plot", str(store), "--out", str(out)]) == 0
+    assert set(computed) == EVERY_PRODUCT
+    assert set(S.list_products(store)) == EVERY_PRODUCT | {"traced_curves"}
+    assert set(drawn) == EVERY_PRODUCT | {"traced_curves"}
+    assert all(drawn[name].attrs.get("stored") == name for name in EVERY_PRODUCT)
+    for name in ("real_map.png", "real_bifurcation.png", "real_strobe_sigma0.3.png",
+                 "real_histories.png"):
+        assert (out / name).is_file(), name
+
+
+def test_plot_without_products_writes_nothing(every_output_store, tmp_path):
+    from hertzmap.scheduler.store import list_products
+
+    store = every_output_store
+    files = {p: p.read_bytes() for p in sorted(store.rglob("*")) if p.is_file()}
+    assert main(["plot", str(store), "--out", str(tmp_path / "png"), "--no-products"]) == 0
+    assert {p: p.read_bytes() for p in sorted(store.rglob("*")) if p.is_file()} == files
+    assert list_products(store) == ["traced_curves"]
+    assert (tmp_path / "png" / "real_strobe_sigma0.3.png").is_file()
+
+
+def test_plot_help_names_every_figure(capsys):
+    from hertzmap.study.products import WHICH
+
+    with pytest.raises(SystemExit):
+        main(["plot", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert all(f" {w}" in text for w in WHICH)
+
+
 MINIMAL = """
 [grid]
 omega = {start = 0.5, stop = 2.5, num = 5}

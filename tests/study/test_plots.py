@@ -1,13 +1,17 @@
-"""study.plots: every figure a study's products support is drawn (valid PNGs of a sane size), the
-paper's analytic figures, and which figures a scene gets."""
+"""study.plots: every figure a study's products support is drawn (valid PNGs of a sane size), from
+the products alone (nothing computed while drawing), the paper's analytic figures, and which
+figures a scene gets."""
 from __future__ import annotations
+
+import dataclasses
 
 import matplotlib
 import pytest
 
 from hertzmap.study import plots
 from hertzmap.study import products as P
-from tests.helpers import blank_results, set_orbit
+from tests.helpers import (EVERY_OUTPUT_STUDY, blank_results, fake_traced_curves, set_orbit,
+                           solved_results)
 
 
 def test_plots_write_pngs(tmp_path):
@@ -35,11 +39,47 @@ def test_plots_write_pngs(tmp_path):
     assert int(prods["loss_of_contact_map"]["exists_2T"].sum()) > 0
 
 
-def test_histories_are_drawn_only_where_asked_or_few_frequencies():
-    few = P.open_store(blank_results("[grid]\nomega = [1.0, 2.0]\nsigma = 0.3\nzeta = 0.01\n"))
-    many = P.open_store(blank_results("[grid]\nomega = {start = 1, stop = 2, num = 9}\n"
-                                      "sigma = 0.3\nzeta = 0.01\n"))
-    assert plots.wants_time_histories(few) and not plots.wants_time_histories(many)
-    assert plots.wants_time_histories(many, ["histories"])
+@pytest.fixture(scope="module")
+def real(tmp_path_factory):
+    """The products of a small real store of every output (tests.helpers), made-up traced
+    curves standing for the run's."""
+    store = solved_results(EVERY_OUTPUT_STUDY, tmp_path_factory.mktemp("real") / "r.zarr")
+    ds = P.open_store(store)
+    traced = fake_traced_curves()
+    return ds, {"traced_curves": traced, **P.compute_products(ds, given={"traced_curves": traced})}
+
+
+def test_every_figure_of_the_registry_is_drawn_from_its_product_alone(real, tmp_path,
+                                                                      monkeypatch):
+    ds, prods = real
+    for product in P.PRODUCTS:
+        for figure in product.figures:
+            assert callable(getattr(plots, figure.plot)), figure
+    # nothing is computed while drawing: every product function of study.products fails
+    def computed(*args, **kwargs):
+        raise AssertionError("a product computed while drawing")
+    for name in ("compute_products", "orbit_classes", "loss_of_contact_map", "bifurcation_curves",
+                 "located_curves", "mms_curves", "mms_response", "mms_curves_over",
+                 "mms_response_over", "frequency_response", "force_harmonics", "time_histories",
+                 "stroboscopic_diagram", "stroboscopic_diagrams", "isola_boundary"):
+        monkeypatch.setattr(P, name, computed)
+    monkeypatch.setattr(P, "PRODUCTS", tuple(dataclasses.replace(p, compute=computed)
+                                             for p in P.PRODUCTS))
+    paths = plots.plot_results(ds, prods, tmp_path, which=list(P.WHICH))
+    assert sorted(p.name for p in paths) == sorted(
+        ["real_map.png", "real_measures.png", "real_lyapunov.png", "real_bifurcation.png",
+         "real_response_sigma0.3.png", "real_response_sigma0.5.png",
+         "real_harmonics_sigma0.3.png", "real_harmonics_sigma0.5.png",
+         "real_strobe_sigma0.3.png", "real_strobe_sigma0.5.png", "real_histories.png"])
+    for p in paths:
+        assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # a scene of named frequencies (2 omega): by default its histories, not its responses;
+    # and no figure of a product not given, whatever the results hold
+    auto = plots.plot_results(ds, {n: v for n, v in prods.items() if n != "stroboscopic_diagram"},
+                              tmp_path / "auto")
+    assert "strobe_q" in ds
+    assert sorted(p.name for p in auto) == sorted(
+        ["real_map.png", "real_measures.png", "real_lyapunov.png", "real_bifurcation.png",
+         "real_histories.png"])
     with pytest.raises(ValueError, match="unknown figure"):
-        plots.wants_time_histories(many, ["maps"])
+        plots.plot_results(ds, prods, tmp_path, which=["maps"])

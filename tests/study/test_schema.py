@@ -11,7 +11,7 @@ import pytest
 from hertzmap.kernels import status
 from hertzmap.study import products as P
 from hertzmap.study.orbits import ORBIT_CLASSES
-from hertzmap.study.schema import (BIFURCATION_KINDS, BIFURCATION_SLOTS, PRODUCT_VARIABLES, VARIABLES,
+from hertzmap.study.schema import (BIFURCATION_KINDS, BIFURCATION_SLOTS, OUTPUT_VARIABLES, VARIABLES,
                           bytes_per_point, empty_arrays, stored_variables, study_from_attrs,
                           template)
 from hertzmap.study.spec import StudyError, parse_study
@@ -24,9 +24,9 @@ def test_template_schema_and_attrs():
     names = stored_variables(s)
     # the census's variables come with every study whose search.attractors is not "never"
     assert s.attractors == "where-none-stable"
-    assert set(names) == set(PRODUCT_VARIABLES["orbits"] + PRODUCT_VARIABLES["measures"]
-                             + PRODUCT_VARIABLES["force_harmonics"]
-                             + PRODUCT_VARIABLES["attractors"])
+    assert set(names) == set(OUTPUT_VARIABLES["orbits"] + OUTPUT_VARIABLES["measures"]
+                             + OUTPUT_VARIABLES["force_harmonics"]
+                             + OUTPUT_VARIABLES["attractors"])
     assert "residual" not in ds and "newton_iterations" not in ds
     assert set(ds.data_vars) == set(names) | {"task_done"}
     assert ds.sizes["omega"] == 17 and ds.sizes["solution"] == 4

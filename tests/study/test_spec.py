@@ -9,7 +9,7 @@ from hypothesis import given, settings, strategies as hs
 import numpy as np
 import pytest
 
-from hertzmap.study.spec import (DEFAULT_PRODUCTS, MAX_GRID_POINTS, Study, StudyError, load_study,
+from hertzmap.study.spec import (DEFAULT_OUTPUTS, MAX_GRID_POINTS, Study, StudyError, load_study,
                         parse_study)
 from tests.helpers import REPO
 
@@ -118,7 +118,7 @@ def test_minimal_study_defaults():
     assert s.periods == (1, 2)
     # the attractor census runs by default (where shooting finds no stable orbit, and at probe
     # points), so its variables are stored
-    assert s.products == DEFAULT_PRODUCTS + ("attractors",)
+    assert s.outputs == DEFAULT_OUTPUTS + ("attractors",)
     assert s.rig is None
     # force_harmonics is not among the default products: the solver skips their quadrature
     assert s.solver_kwargs() == {"periods": (1, 2), "exponent": 1.5, "model": "hertz",
@@ -158,7 +158,7 @@ contact = "single"
     assert s.omega == (2.0, 1.0)          # order kept (a downward sweep)
     assert s.sigma == (0.0, 0.5, 1.0)
     assert (s.exponent, s.rtol, s.max_solutions, s.periods) == (1.0, 1e-8, 6, (2,))
-    assert s.products == ("orbits", "force_harmonics", "diagnostics", "attractors")  # orbits always
+    assert s.outputs == ("orbits", "force_harmonics", "diagnostics", "attractors")  # orbits always
     assert s.rig_dict == {"E": 2.1e11, "nu": 0.3, "R": 0.0127, "m": 1.2, "N": 50.0,
                           "contact": "single"}
 
@@ -187,7 +187,7 @@ def test_hash_ignores_formatting_but_not_content():
     assert len(a.hash) == 64 and int(a.hash, 16) >= 0
     doc = json.loads(a.canonical_json())
     assert doc["grid"]["omega"] == [0.5, 1.0, 1.5, 2.0, 2.5]
-    assert doc["products"]["outputs"] == list(DEFAULT_PRODUCTS) + ["attractors"]
+    assert doc["products"]["outputs"] == list(DEFAULT_OUTPUTS) + ["attractors"]
 
 
 def test_study_is_frozen_and_source_text_kept():
@@ -261,7 +261,7 @@ def test_search_periods_and_the_census_fields():
     assert three.periods == (3,) and three.attractors == "where-none-stable"
     # a 1T-only scene pays nothing for the census unless it asks
     one = parse_study(base + "[search]\nperiods = [1]\n", default_name="s")
-    assert one.attractors == "never" and "attractors" not in one.products
+    assert one.attractors == "never" and "attractors" not in one.outputs
     assert one.solver_kwargs()["attractors"] == "never"
     asked = parse_study(base + '[search]\nperiods = [1]\nattractors = "always"\n'
                         "initial_states = 4\ntransient_periods = 200\nrecord_periods = 64\n",
@@ -271,7 +271,7 @@ def test_search_periods_and_the_census_fields():
                                "record_periods")} == {"attractors": "always", "initial_states": 4,
                                                       "transient_periods": 200,
                                                       "record_periods": 64}
-    assert "attractors" in asked.products
+    assert "attractors" in asked.outputs
     # the canonical form reads back as the same study
     again = parse_study(_toml_of(asked.to_dict()), default_name="s")
     assert again.hash == asked.hash

@@ -13,8 +13,7 @@ import xarray as xr
 from hertzmap.study import products as P
 from hertzmap.study.analytic import multiple_scales as ms
 from hertzmap.study.analytic.paper import F0_PRINTED
-from hertzmap.study.spec import parse_study
-from tests.helpers import RIG_TABLE, blank_results, write_results
+from tests.helpers import RIG_TABLE, solved_results
 
 
 def _undone(ds):
@@ -165,19 +164,9 @@ def test_mms_products():
 def test_real_orbits_line_histories_harmonics_and_rig(tmp_path):
     """A tiny real store from the block solver: response, force harmonics and F_exp time
     histories in physical units."""
-    from hertzmap.study.solve.block import solve_block
-    from hertzmap.study.schema import block_dataset, stored_variables
-
     toml = ("[grid]\nomega = [1.88, 1.97]\nsigma = 0.5\nzeta = 0.01\n[products]\n"
             "outputs = [\"orbits\", \"measures\", \"force_harmonics\"]\n" + RIG_TABLE)
-    study = parse_study(toml, default_name="real")
-    ds = blank_results(toml, "real")
-    arrays = solve_block(study.axis("omega"), study.axis("sigma"), study.axis("zeta"),
-                         **study.solver_kwargs())
-    blk = block_dataset(arrays, stored_variables(study))
-    for v in blk.data_vars:
-        ds[v] = ds[v].copy(data=blk[v].values)
-    store = write_results(ds, tmp_path / "real.zarr")
+    store = solved_results(toml, tmp_path / "real.zarr")
     d = P.open_store(store)
     rig = P.rig_of(d)
     # the [rig] table is the paper's rig (section 4.1): f0 as printed in Eq. 29c, 271 Hz

@@ -7,10 +7,9 @@ import re
 import numpy as np
 import xarray as xr
 
-from hertzmap.study.products.traced_curves import (TRACED_VARIABLES, VERTEX_EXTREMUM,
-                                          combine_traced_curves, isola_boundary,
-                                          traced_curves_dataset)
-from tests.helpers import REPO
+from hertzmap.study.products.traced_curves import (TRACED_VARIABLES, combine_traced_curves,
+                                          isola_boundary, traced_curves_dataset)
+from tests.helpers import REPO, fake_trace
 from tests.study.test_schema import _doc_table
 
 
@@ -20,29 +19,15 @@ def test_docs_list_every_traced_variable():
     assert documented == set(TRACED_VARIABLES)
 
 
-def _fake_trace(index, kind, period, zeta, sigma, codim2=()):
-    n = len(sigma)
-    flag = np.zeros(n)
-    flag[int(np.argmin(sigma))] = VERTEX_EXTREMUM
-    V = {k: np.zeros(n) for k in ("q0", "v0", "min_q", "max_q", "fold", "flip", "grazing", "step",
-                                  "arclength", "residual")}
-    V.update(omega=np.linspace(1.0, 2.0, n), sigma=np.asarray(sigma, float),
-             zeta=np.full(n, zeta), flag=flag, multipliers=np.ones((n, 2), complex))
-    seed = dict(index=index, plane=("omega", "sigma"), fixed=zeta, kind=kind, period=period,
-                omega=1.5, sigma=float(min(sigma)), zeta=zeta, q0=0.0, v0=0.0)
-    return {"seed": seed, "status": ("boundary", "branch_point"), "vertices": V,
-            "codim2": list(codim2), "maps": 10}
-
-
 def test_the_worked_query_sigma_star2_per_zeta():
     join = dict(kind="fold_flip", period=2, omega=2.0, sigma=0.36, zeta=0.01, q0=0.0, v0=0.0,
                 multipliers=[-1, 0.5], value=0.0, left=1e-9, right=np.nan, accuracy=1e-8,
                 vertex=4)
     parts = [traced_curves_dataset([t]) for t in (
-        _fake_trace(0, "fold", 2, 0.01, [0.3, 0.2, 0.17, 0.25, 0.36], [join]),
-        _fake_trace(1, "fold", 2, 0.02, [0.5, 0.4, 0.35, 0.45, 0.6],
+        fake_trace(0, "fold", 2, 0.01, [0.3, 0.2, 0.17, 0.25, 0.36], [join]),
+        fake_trace(1, "fold", 2, 0.02, [0.5, 0.4, 0.35, 0.45, 0.6],
                     [dict(join, zeta=0.02, sigma=0.7)]),
-        _fake_trace(2, "fold", 1, 0.01, [0.3, 0.1, 0.05, 0.2, 0.3]))]    # not the isola
+        fake_trace(2, "fold", 1, 0.01, [0.3, 0.1, 0.05, 0.2, 0.3]))]    # not the isola
     tc = combine_traced_curves(parts)
     text = (REPO / "docs" / "dataset.md").read_text()
     query = text[text.index("### Worked query: sigma**"):]

@@ -247,8 +247,8 @@ outputs = ["orbits", "curves"]
     s = parse_study(base.replace("SIGMA", "[0.4, 0.5]"))
     # the seeds are the grid's sign changes: the stored orbits' measures and the lines'
     # crossings, not the located points (their continuation costs 2-5x the grid)
-    assert "curves" in s.products and "measures" in s.products
-    assert "bifurcations" not in s.products
+    assert "curves" in s.outputs and "measures" in s.outputs
+    assert "bifurcations" not in s.outputs
     kw = s.solver_kwargs()
     assert kw["crossings"] is True and not kw.get("locate", False)
     with pytest.raises(StudyError) as e:

@@ -1,0 +1,189 @@
+"""The products, declared once: which exist, when the results support each, how each is
+computed and which figures draw from it.
+
+Each :class:`Product` of :data:`PRODUCTS` (in the order they are computed: a product comes
+after the products it takes) names
+
+* ``needs(ds, context)``: whether the results support it (``ds``: study.products.open_store;
+  ``context``: a :class:`Context`, the figures asked for and the products at hand);
+* ``compute(ds, *inputs)``: the pure function, given the results and the products named in
+  ``inputs`` (earlier entries, or :data:`RUN_PRODUCTS`, written by ``hertzmap run``);
+* ``figures``: the figures of study/plots.py drawn from it, each a :class:`Figure` (its
+  ``--which`` name and plotting function).
+
+The thresholds that decide a product (how many lines, which lines) are declared here, next to
+their entry, and nowhere else. :func:`compute_products` is the loop over the registry;
+``hertzmap plot`` writes what it returns into the store (scheduler.store) and draws the
+figures from the stored groups (study.plots.plot_results, a loop over the same registry).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Mapping, Sequence
+
+import xarray as xr
+
+from hertzmap.study.products.attractors import stroboscopic_diagrams
+from hertzmap.study.products.classes import orbit_classes
+from hertzmap.study.products.curves import bifurcation_curves, located_curves
+from hertzmap.study.products.maps import loss_of_contact_map
+from hertzmap.study.products.multiple_scales import (MMS_HALF_WIDTH, mms_curves_over,
+                                                     mms_response_over, mms_window)
+from hertzmap.study.products.response import force_harmonics, frequency_response, time_histories
+from hertzmap.study.products.results import open_store, rig_of, source_attrs
+from hertzmap.study.products.traced_curves import isola_boundary
+
+__all__ = ["Figure", "Product", "Context", "PRODUCTS", "RUN_PRODUCTS", "WHICH", "MAX_LINES",
+           "NAMED_FREQUENCIES", "STROBE_SIGMA_LINES", "STROBE_ZETA_LINES", "product",
+           "check_which", "compute_products"]
+
+
+@dataclass(frozen=True)
+class Figure:
+    """A figure drawn from a product: ``which``, its name for ``hertzmap plot --which`` and in
+    its files' names (``<study>_<which>[_...].png``), and ``plot``, the function of study/plots.py
+    that draws one of its PNGs."""
+    which: str
+    plot: str
+
+
+@dataclass(frozen=True)
+class Context:
+    """What besides the results decides a product: ``which``, the figures asked for
+    (``hertzmap plot --which``: "auto" or :data:`WHICH` names), and ``products``, the products
+    at hand by name (those of :data:`RUN_PRODUCTS` the store holds, and those computed so far)."""
+    which: tuple[str, ...] = ("auto",)
+    products: Mapping[str, xr.Dataset] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Product:
+    """One product: the zarr group ``products/<name>`` (docs/products.md has a row for each)."""
+    name: str
+    description: str
+    needs: Callable[[xr.Dataset, Context], bool]
+    compute: Callable[..., xr.Dataset]
+    figures: tuple[Figure, ...] = ()
+    inputs: tuple[str, ...] = ()
+
+
+#: Products that ``hertzmap run`` writes itself (the ``curves`` output) and the others may take.
+RUN_PRODUCTS = ("traced_curves",)
+
+#: frequency_response and mms_response: studies of at most this many (sigma, zeta) lines.
+MAX_LINES = 16
+#: time_histories: a study of at most this many omega values is a scene of named frequencies
+#: (its histories are drawn unless other figures are asked for; study.plots draws no response
+#: or harmonics figure of it unless asked).
+NAMED_FREQUENCIES = 8
+#: stroboscopic_diagram: its lines, at most this many sigma values (evenly spread) at each of
+#: the first this many zeta values.
+STROBE_SIGMA_LINES = 4
+STROBE_ZETA_LINES = 2
+
+
+def _always(ds: xr.Dataset, context: Context) -> bool:
+    return True
+
+
+def _few_lines(ds: xr.Dataset, context: Context) -> bool:
+    return ds.sizes["sigma"] * ds.sizes["zeta"] <= MAX_LINES
+
+
+def _mms_window_in_few_lines(ds: xr.Dataset, context: Context) -> bool:
+    return _few_lines(ds, context) and mms_window(ds["omega"].values) is not None
+
+
+def _stored(*names: str) -> Callable[[xr.Dataset, Context], bool]:
+    """needs: the results hold these variables (the study's outputs stored them)."""
+    return lambda ds, context: all(n in ds for n in names)
+
+
+def _at_hand(name: str) -> Callable[[xr.Dataset, Context], bool]:
+    return lambda ds, context: name in context.products
+
+
+def _histories_wanted(ds: xr.Dataset, context: Context) -> bool:
+    return "histories" in context.which or ("auto" in context.which
+                                            and ds.sizes["omega"] <= NAMED_FREQUENCIES)
+
+
+PRODUCTS: tuple[Product, ...] = (
+    Product("orbit_classes", "the class of every orbit slot (paper Fig. 6 I-V, extended)",
+            _always,
+            lambda ds: orbit_classes(ds).to_dataset().assign_attrs(
+                source_attrs(ds, "orbit classes"))),
+    Product("loss_of_contact_map", "per grid point: the kinds of stable response, contact loss, "
+            "coexistence, the census's attractors and the curves' indicators",
+            _always, loss_of_contact_map,
+            (Figure("map", "plot_loss_of_contact_map"), Figure("measures", "plot_map_measures"),
+             Figure("lyapunov", "plot_lyapunov_map"))),
+    Product("bifurcation_curves", "contour lines of the map's indicators (flip, grazing, 2T "
+            "boundary, isola)",
+            _always, lambda ds, lcm: bifurcation_curves(lcm),
+            (Figure("bifurcation", "plot_bifurcation_set"),), inputs=("loss_of_contact_map",)),
+    Product("located_bifurcations", "the stored fold / flip / grazing points linked into curves",
+            _stored("bifurcation_kind"), located_curves),
+    Product("mms_curves", "the multiple-scales thresholds sigma1, sigma2, sigma*",
+            _always, mms_curves_over),
+    Product("frequency_response", f"response curves of every orbit (at most {MAX_LINES} lines)",
+            _few_lines, lambda ds: frequency_response(ds, rig=rig_of(ds)),
+            (Figure("response", "plot_frequency_response"),)),
+    Product("mms_response", f"the multiple-scales frequency response (at most {MAX_LINES} "
+            f"lines; omega within abs(omega - 2) <= {MMS_HALF_WIDTH:g})",
+            _mms_window_in_few_lines, mms_response_over),
+    Product("force_harmonics", "contact-force harmonics on a common frequency axis",
+            _stored("force_harmonics"), lambda ds: force_harmonics(ds, rig=rig_of(ds)),
+            (Figure("harmonics", "plot_force_harmonics"),)),
+    Product("stroboscopic_diagram", "the census's stroboscopic points and the stored orbits "
+            f"along at most {STROBE_SIGMA_LINES} x {STROBE_ZETA_LINES} (sigma, zeta) lines",
+            _stored("strobe_q"),
+            lambda ds: stroboscopic_diagrams(ds, sigma_lines=STROBE_SIGMA_LINES,
+                                             zeta_lines=STROBE_ZETA_LINES),
+            (Figure("strobe", "plot_bifurcation_diagram"),)),
+    Product("time_histories", "F_exp of every stable orbit over 4 forcing cycles (scenes of at "
+            f"most {NAMED_FREQUENCIES} omega values, or asked for)",
+            _histories_wanted, lambda ds: time_histories(ds, rig=rig_of(ds)),
+            (Figure("histories", "plot_time_histories"),)),
+    Product("isola_boundary", "sigma** of the isola and where it joins the flip curve, read off "
+            "the traced curves",
+            _at_hand("traced_curves"), lambda ds, traced: isola_boundary(traced),
+            inputs=("traced_curves",)),
+)
+
+#: Every figure's --which name, in the registry's order.
+WHICH = tuple(f.which for p in PRODUCTS for f in p.figures)
+
+
+def product(name: str) -> Product:
+    """The registry's entry ``name``."""
+    for p in PRODUCTS:
+        if p.name == name:
+            return p
+    raise KeyError(f"no product {name!r}; the products: {', '.join(p.name for p in PRODUCTS)}")
+
+
+def check_which(which: Sequence[str]) -> tuple[str, ...]:
+    """``which`` as a tuple; ValueError on a name that is neither "auto" nor a figure's."""
+    which = tuple(which)
+    bad = [w for w in which if w not in WHICH + ("auto",)]
+    if bad:
+        raise ValueError(f"unknown figure(s) {bad}; choose from auto, {', '.join(WHICH)}")
+    return which
+
+
+def compute_products(results: str | Path | xr.Dataset, *, which: Sequence[str] = ("auto",),
+                     given: Mapping[str, xr.Dataset] | None = None) -> dict[str, xr.Dataset]:
+    """Every product of :data:`PRODUCTS` that the results support, by name (a pure function:
+    nothing is written). ``which``: the figures asked for (decides ``time_histories``);
+    ``given``: products at hand (those of :data:`RUN_PRODUCTS` the store holds), taken by
+    the products that need them and not returned."""
+    ds = open_store(results)
+    at_hand = dict(given or {})
+    out: dict[str, xr.Dataset] = {}
+    context = Context(check_which(which), at_hand)
+    for p in PRODUCTS:
+        if p.needs(ds, context):
+            out[p.name] = at_hand[p.name] = p.compute(ds, *(at_hand[n] for n in p.inputs))
+    return out
