@@ -36,7 +36,7 @@ sys.path.insert(0, str(ROOT))
 from benchmarks.machine import load_line  # noqa: E402
 from benchmarks.run_summary import run_summary  # noqa: E402
 
-ORBIT = ("import time, os; import kernels; "
+FIRST_ORBIT = ("import time, os; import hertzmap.kernels as kernels; "
          "o = kernels.shoot(1.5, 0.2, 0.01, 1, guess=(-0.16, 0.006)); "
          "assert o.status == 0, o; "
          "print(time.time(), time.process_time())")
@@ -48,7 +48,7 @@ def first_orbit(cache: str) -> tuple[float, float, float]:
     interpreter's exit (freeing numba's compiled modules: about 0.5 s after a cold compile)."""
     env = dict(os.environ, NUMBA_CACHE_DIR=cache)
     t0 = time.time()
-    out = subprocess.run([sys.executable, "-c", ORBIT], env=env, cwd=ROOT, capture_output=True,
+    out = subprocess.run([sys.executable, "-c", FIRST_ORBIT], env=env, cwd=ROOT, capture_output=True,
                          text=True, check=True).stdout
     wall = time.time() - t0
     at_orbit, cpu = map(float, out.split())

@@ -41,13 +41,12 @@ from hertzmap.kernels._dop853 import (dense_coefficients, dense_coefficients_h, 
                              step_var_w)
 from hertzmap.kernels.flight import flight_state, flight_until_recontact
 from hertzmap.kernels.model import SWITCHES, rhs_force, rhs_force_and_stiffness
-from hertzmap.kernels.records import N_HARMONICS as ORBIT_N_HARMONICS
+from hertzmap.kernels.records import N_HARMONICS
 
 # layout of the ``stats`` array filled by ``integrate``
 (S_ACCEPTED, S_REJECTED, S_EVENTS, S_FLIGHT_TIME, S_MIN_Q, S_MAX_Q, S_MAX_IMPACT, S_H_FIRST,
  S_H_RECONTACT, S_PARTIAL) = range(10)
 N_STATS = 10
-N_HARMONICS = ORBIT_N_HARMONICS
 # rows of the ``harm`` array: the integrals of F cos(k w t), F sin(k w t), and (column 0) of F^2
 H_COS, H_SIN, H_SQUARE = 0, 1, 2
 BIG = 1e6              # |q| or |v| beyond this: diverged
