@@ -53,6 +53,7 @@ def worst_certificates(tally: dict[str, Any], arrays: dict) -> None:
 
     if "liouville_residual" in arrays:
         r = arrays["liouville_residual"][arrays["status"] == 0]
+        r = r[np.isfinite(r)]
         if r.size:
             tally["liouville"] = float(np.nanmax([tally["liouville"], r.max()]))
     if "lyapunov_sum_error" in arrays:
