@@ -131,6 +131,10 @@ ORBIT = Record("orbit", (
           "product of the Floquet multipliers is from Liouville's exact value for an orbit of "
           "period P, relative to what a 2x2 determinant resolves; a certificate of the "
           "monodromy independent of the solve (integration error ~ rtol)", output="orbits"),
+    Field("atlas_round", "how the orbit was found", "1",
+          "0: by the grid's search at this point; r >= 1: continued into this point from a "
+          "grid neighbour by round r of the atlas (study.solve.atlas); -1: empty slot",
+          output="orbits", dtype="int8", fill=-1, columns=()),
     Field("min_q", "minimum displacement over the orbit", "1",
           "minimum of q over one period of the orbit", output="measures",
           quantity="displacement"),

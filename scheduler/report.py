@@ -88,6 +88,10 @@ def print_summary(s: dict[str, Any], out: TextIO) -> None:
     certificates = certificates_line(s)
     if certificates:
         lines.append(certificates)
+    if s.get("orbits_dropped"):
+        lines.append(f"orbits dropped: {s['orbits_dropped']} distinct orbits at "
+                     f"{s['points_dropping']} points did not fit in the max_solutions slots "
+                     f"(stable ones kept first; per point: orbits_dropped)")
     if s.get("time_limited"):
         lines.append(f"time limit: {s['time_limited']} grid points not solved within "
                      f"--task-timeout (status time_limit); rerun with --overwrite and a larger "

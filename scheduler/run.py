@@ -315,7 +315,8 @@ class StudyRun:
         progress = Progress(self.err, len(self.plan.tasks), sum(t.size for t in todo), n_done)
         sampler = Sampler(self.study, opts.error_sample)
         tally = {"compute": 0.0, "conv": 0, "fail": 0, "cut": 0, "with": 0, "points": 0,
-                 "liouville": math.nan, "lyapunov_sum": math.nan, "attractors": 0}
+                 "liouville": math.nan, "lyapunov_sum": math.nan, "attractors": 0,
+                 "dropped": 0, "dropping": 0}
         pids: set[int] = set()
         t0 = time.perf_counter()
         self.futures.extend(client.map(run_task, self.task_specs(todo, kwargs), key=keys,
@@ -344,6 +345,10 @@ class StudyRun:
             tally["fail"] += int(((st > 0) & (st != TIME_LIMIT)).sum())
             tally["cut"] += int((st == TIME_LIMIT).sum())
             tally["with"] += int((st == 0).any(axis=-1).sum())
+            if "orbits_dropped" in arrays:
+                dropped = arrays["orbits_dropped"]
+                tally["dropped"] += int(dropped[dropped > 0].sum())
+                tally["dropping"] += int((dropped > 0).sum())
             worst_certificates(tally, arrays)
             tally["points"] += task.size
             sampler.add(task, arrays)
@@ -369,6 +374,7 @@ class StudyRun:
             worker_processes_seen=len(pids),
             liouville_worst=tally["liouville"], lyapunov_sum_worst=tally["lyapunov_sum"],
             attractors=tally["attractors"],
+            orbits_dropped=tally["dropped"], points_dropping=tally["dropping"],
         )
         total = len(self.plan.tasks)
         with self.interrupt.critical():

@@ -199,6 +199,10 @@ VARIABLES: dict[str, VarSpec] = {v.name: v for v in [
             "distinct converged orbits (all periods searched, stable or not) the solver found at "
             "the point; more than the solution slots means the extra ones (unstable first, then "
             "the longest periods) were not stored; -1: point not computed", layout="point"),
+    VarSpec("orbits_dropped", "int16", -1, "distinct periodic orbits not stored at the point", "1",
+            "orbits_found minus the converged orbits the solution slots hold: where a point has "
+            "more distinct orbits than slots, the stable ones are kept first, then by period "
+            "and ptp; -1: point not computed", layout="point"),
     # -- the attractor census (per point and attractor slot) ---------------------------------------
     VarSpec("attractor_count", "int8", -1, "attractors found by the census", "1",
             "distinct long-time responses reached by the transients from the study's initial "
@@ -223,7 +227,7 @@ CROSSING_VARIABLES: tuple[str, ...] = tuple(n for n in LINE_VARIABLES
                                             if n.startswith("crossing_"))
 #: Per-point variables of the attractor census (dims POINT_DIMS + extra).
 ATTRACTOR_VARIABLES: tuple[str, ...] = tuple(
-    n for n, v in VARIABLES.items() if v.layout == "point" and n != "orbits_found")
+    n for n, v in VARIABLES.items() if v.layout == "point" and not n.startswith("orbits_"))
 
 
 def empty_arrays(shape: tuple[int, int, int], max_solutions: int,
@@ -239,7 +243,7 @@ def empty_arrays(shape: tuple[int, int, int], max_solutions: int,
 
 
 OUTPUT_VARIABLES: dict[str, tuple[str, ...]] = {
-    "orbits": tuple(f.name for f in ORBIT.stored("orbits")) + ("orbits_found",),
+    "orbits": tuple(f.name for f in ORBIT.stored("orbits")) + ("orbits_found", "orbits_dropped"),
     "measures": tuple(f.name for f in ORBIT.stored("measures")),
     "force_harmonics": tuple(f.name for f in ORBIT.stored("force_harmonics")),
     "diagnostics": tuple(f.name for f in ORBIT.stored("diagnostics")),

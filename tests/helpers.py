@@ -61,7 +61,7 @@ def placeholder_solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5,
         _hold_after_the_first_block(os.environ.get("HERTZMAP_PLACEHOLDER_HOLD"))
     w, s, z = np.meshgrid(omega, sigma, zeta, indexing="ij")
     out = empty_arrays((len(omega), len(sigma), len(zeta)), max_solutions,
-                       ORBIT_VARIABLES + ("orbits_found",))
+                       ORBIT_VARIABLES + ("orbits_found", "orbits_dropped"))
     amp = s / np.sqrt((1 - w**2) ** 2 + (2 * z * w) ** 2)
     slots = []
     if 1 in periods:
@@ -90,6 +90,8 @@ def placeholder_solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5,
         out["newton_iterations"][sl] = np.where(mask, 3, 0)
         out["residual"][sl] = np.where(mask, 1e-12, np.nan)
     out["orbits_found"][...] = (out["status"] == 0).sum(axis=-1)
+    out["orbits_dropped"][...] = 0
+    out["atlas_round"][out["status"] == 0] = 0
     if census.get("attractors", "never") != "never":      # the census found nothing here
         out.update(empty_arrays((len(omega), len(sigma), len(zeta)), max_solutions,
                                 ATTRACTOR_VARIABLES))

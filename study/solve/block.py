@@ -72,7 +72,7 @@ def line_bifurcations(special, omega_lo, omega_hi) -> list[dict]:
     return out
 
 
-def _record_line(arrays, names, slots, j, k, records):
+def record_line(arrays, names, slots, j, k, records):
     """A line's records (dicts with kind and the other fields of the stored ``names``:
     study.schema BIFURCATION_VARIABLES or CROSSING_VARIABLES, ``<prefix>_<field>``) into the
     block arrays: the count, then one slot per record (at most ``slots``)."""
@@ -168,7 +168,8 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
                    mms_stride=None if seed_strides[1] is None else int(seed_strides[1]),
                    harmonics=bool(harmonics),
                    seeds=tuple((int(p), float(q), float(v)) for p, q, v in seeds))
-    names = ORBIT_VARIABLES + ("orbits_found",) + (BIFURCATION_VARIABLES if locate else ()) \
+    names = ORBIT_VARIABLES + ("orbits_found", "orbits_dropped") \
+        + (BIFURCATION_VARIABLES if locate else ()) \
         + (CROSSING_VARIABLES if crossings else ()) \
         + (ATTRACTOR_VARIABLES if attractors != "never" else ())
     arrays = empty_arrays((omega.size, sigma.size, zeta.size), int(max_solutions), names)
@@ -199,11 +200,11 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
                     line = discover_line(omega, sigma[j], zeta[k], periods=periods,
                                          exponent=exponent, model=model, rtol=rtol,
                                          transients=0, initial=per_point)
-                _record_line(arrays, BIFURCATION_VARIABLES, BIFURCATION_SLOTS, j, k,
+                record_line(arrays, BIFURCATION_VARIABLES, BIFURCATION_SLOTS, j, k,
                              line_bifurcations(line.special, float(omega.min()),
                                                float(omega.max())))
             if crossings and search.visited.all():
-                _record_line(arrays, CROSSING_VARIABLES, CROSSING_SLOTS, j, k,
+                record_line(arrays, CROSSING_VARIABLES, CROSSING_SLOTS, j, k,
                              line_crossings(omega, per_point, level, periods))
             points, slots, recorded = [], [], []
             for i in range(omega.size):
@@ -217,6 +218,9 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
                     points.append(i)
                     slots.append(slot)
                     recorded.append(sol)
+                if search.visited[i]:
+                    arrays["orbits_dropped"][i, j, k] = len(per_point[i]) - sum(
+                        1 for sol in ordered[:max_solutions] if sol["status"] == st.CONVERGED)
                 if i in search.attractors:
                     stored = ordered[:max_solutions]
                     record_attractors(

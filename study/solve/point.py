@@ -86,6 +86,7 @@ def solutions_from_rows(rows: np.ndarray, period: int) -> list[dict]:
         # multipliers are still those of the 2T map: callers re-solve it as 1T
         sol["period"] = int(minimal) if math.isfinite(minimal) and minimal >= 1 else period
         sol["x0"] = starts[r]
+        sol["atlas_round"] = 0          # found by the grid's search (study.solve.atlas: >= 1)
         out.append(sol)
     return out
 

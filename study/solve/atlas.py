@@ -1,0 +1,184 @@
+"""The atlas: every stored orbit is continued into its grid neighbours along every swept axis,
+until no point gains an orbit, so that the map does not depend on where the grid's seeds and
+probes fell (an orbit exists on a connected region of parameter space bounded by its folds,
+flips and the window; continuing it point to point fills that region).
+
+Jacobi rounds over tiles (the grid's task blocks): round r reads the stored orbits as they were
+after round r - 1 (the snapshot; round 1 reads the grid's) and, at every point of a tile, shoots
+from each orbit that round r - 1 added at a neighbour (round 1: every grid orbit) the orbit at
+this point: natural continuation, Newton shooting at the point's (omega, sigma, zeta) from the
+neighbour's start point, at the orbit's period (study.solve.point.shoot_seeds_minimal). An
+orbit of the neighbour that the continuity rule already pairs with one of the point's
+(study.orbits.match_neighbours) is not shot. A converged orbit new by the identity rule
+(study.orbits.same_orbit) joins the point with ``atlas_round = r``; the point's slots are
+ordered again (stable ones first where they overflow: study.solve.block.slot_order), its census
+attractors keep their orbits (``attractor_solution`` follows them) and the crossings of its line
+are found again (the traced curves' seeds see the new orbits).
+
+Sources are taken in a fixed order (omega, sigma, zeta; lower neighbour first; slot order), so a
+tile's result depends on the snapshot only: the same for any worker count or task order. The
+rounds stop when one adds nothing (a fixed point). scheduler.atlas_tasks runs them, resumably.
+
+Pure: numpy over the kernels (no Dask, no I/O).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from hertzmap.kernels import status as st
+from hertzmap.study.orbits import match_neighbours, same_orbit
+from hertzmap.study.schema import CROSSING_SLOTS, CROSSING_VARIABLES, ORBIT_VARIABLES, VARIABLES
+from hertzmap.study.solve.block import record_line, slot_order
+from hertzmap.study.solve.curves import line_crossings
+from hertzmap.study.solve.point import shoot_seeds_minimal
+
+#: The per-point variables the atlas rewrites besides the orbit slots (when stored).
+POINT_NAMES = ("orbits_found", "orbits_dropped", "attractor_solution")
+
+
+def atlas_names(stored: tuple[str, ...]) -> tuple[str, ...]:
+    """The stored variables a tile of the atlas rewrites (of those a study stores)."""
+    wanted = ORBIT_VARIABLES + POINT_NAMES + CROSSING_VARIABLES
+    return tuple(n for n in stored if n in wanted)
+
+
+@dataclass
+class TileResult:
+    """A tile after one round: its arrays (only the tile's cells, atlas_names), which points
+    gained an orbit, and the work done."""
+
+    arrays: dict[str, np.ndarray]
+    changed: np.ndarray
+    shots: int = 0
+    added: int = 0
+    by_period: dict[int, int] = field(default_factory=dict)
+
+
+def stored_orbits(arrays: dict[str, np.ndarray], idx: tuple[int, int, int]) -> list[dict]:
+    """The slots of point ``idx`` as solution dicts (every stored slot variable, as stored,
+    and x0), in slot order; failed solves (status > 0) included, empty slots not."""
+    out = []
+    names = [n for n in ORBIT_VARIABLES if n in arrays]
+    status = arrays["status"][idx]
+    for s in np.nonzero(status != st.EMPTY)[0]:
+        d = {n: arrays[n][idx + (s,)] for n in names}
+        for n in ("period", "status", "atlas_round"):
+            if n in d:
+                d[n] = int(d[n])
+        if "stable" in d:
+            d["stable"] = bool(d["stable"])
+        d["x0"] = np.array([float(d["q0"]), float(d["v0"])])
+        out.append(d)
+    return out
+
+
+def _converged(orbits: list[dict]) -> list[dict]:
+    return [o for o in orbits if o["status"] == st.CONVERGED and o["period"] > 0]
+
+
+def neighbours(idx, shape):
+    """The grid neighbours of idx (one step along each axis of more than one point), lower
+    first, in axis order (omega, sigma, zeta)."""
+    for axis in range(3):
+        if shape[axis] < 2:
+            continue
+        for step in (-1, 1):
+            nb = list(idx)
+            nb[axis] += step
+            if 0 <= nb[axis] < shape[axis]:
+                yield tuple(nb)
+
+
+def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
+                   own: tuple[slice, slice, slice], omega: np.ndarray, sigma: np.ndarray,
+                   zeta: np.ndarray, round_: int, options: dict, max_solutions: int,
+                   level: float, periods: tuple[int, ...]) -> TileResult:
+    """One round at one tile. ``region``: the stored slot and point variables over the tile
+    and its one-point halo, as read from the snapshot; ``lines``: the tile's stored crossing
+    variables (dims omega_block (1), sigma, zeta, crossing), if any; ``own``: the tile's cells
+    within the region; omega, sigma, zeta: the region's axes; ``options``: the solver's
+    (exponent, model, rtol, harmonics); ``level``: the contact-loss level (the crossings'
+    grazing test); ``periods``: the periods the study searches. Returns the tile's arrays
+    (atlas_names) with the orbits this round adds."""
+    shape = region["status"].shape[:3]
+    orbits = {idx: stored_orbits(region, idx) for idx in np.ndindex(shape)}
+    out = {n: region[n][own].copy() for n in region if n in ORBIT_VARIABLES + POINT_NAMES}
+    out.update({n: a.copy() for n, a in lines.items()})
+    lo = tuple(s.start for s in own)
+    own_shape = tuple(s.stop - s.start for s in own)
+    result = TileResult(out, np.zeros(own_shape, bool))
+    for local in np.ndindex(own_shape):
+        idx = tuple(a + b for a, b in zip(local, lo))
+        before = orbits[idx]
+        known = _converged(before)
+        added: list[dict] = []
+        for nb in neighbours(idx, shape):
+            there = _converged(orbits[nb])
+            if not any(o.get("atlas_round", 0) == round_ - 1 for o in there):
+                continue
+            paired = {ia for ia, _ in match_neighbours(there, known + added)}
+            for ia, o in enumerate(there):
+                if ia in paired or o.get("atlas_round", 0) != round_ - 1:
+                    continue
+                result.shots += 1
+                sol = shoot_seeds_minimal(float(omega[idx[0]]), float(sigma[idx[1]]),
+                                          float(zeta[idx[2]]), int(o["period"]),
+                                          [tuple(o["x0"])], options)[0]
+                if sol["status"] != st.CONVERGED or sol["period"] < 1 \
+                        or any(same_orbit(sol, k) for k in known + added):
+                    continue
+                sol["atlas_round"] = round_
+                added.append(sol)
+        if not added:
+            continue
+        result.changed[local] = True
+        result.added += len(added)
+        for o in added:
+            result.by_period[o["period"]] = result.by_period.get(o["period"], 0) + 1
+        _rewrite_point(out, local, before, known + added, len(added), max_solutions, periods)
+    if result.changed.any() and "crossing_kind" in out:
+        _recount_crossings(out, own_shape, result.changed, omega[own[0]], level, periods)
+    return result
+
+
+def _rewrite_point(out, local, before, orbits, n_added, max_solutions, periods):
+    """The point's slots from its orbits (study.solve.block's order and rules), its counts,
+    and its attractors' slots following their orbits."""
+    kept = slot_order(orbits, max_solutions)
+    if 1 in periods and not any(o["period"] == 1 for o in kept):
+        # why the 1T solve failed, kept first as the grid keeps it
+        kept = [o for o in before if o["status"] != st.CONVERGED][:1] + kept
+    kept = kept[:max_solutions]
+    for n in ORBIT_VARIABLES:
+        if n not in out:
+            continue
+        arr = out[n]
+        arr[local] = VARIABLES[n].fill
+        for slot, o in enumerate(kept):
+            arr[local + (slot,)] = o["x0"][0] if n == "q0" else o["x0"][1] if n == "v0" else o[n]
+    if "orbits_found" in out:
+        out["orbits_found"][local] = max(int(out["orbits_found"][local]), 0) + n_added
+        if "orbits_dropped" in out:
+            stored = sum(1 for o in kept if o["status"] == st.CONVERGED)
+            out["orbits_dropped"][local] = max(0, int(out["orbits_found"][local]) - stored)
+    if "attractor_solution" in out:
+        slots = out["attractor_solution"][local]
+        for a, s in enumerate(slots):
+            # slots are filled from 0: the orbit in slot s is the snapshot's s-th
+            if 0 <= s < len(before):
+                slots[a] = next((k for k, o in enumerate(kept) if o is before[s]), -1)
+
+
+def _recount_crossings(out, own_shape, changed, omega, level, periods):
+    """The crossings of every (sigma, zeta) line of the tile that gained an orbit, from the
+    line's orbits as the round leaves them (as the grid finds them:
+    study.solve.curves.line_crossings)."""
+    slots = {n: out[n] for n in ORBIT_VARIABLES if n in out}
+    for j, k in sorted({(int(j), int(k)) for _, j, k in zip(*np.nonzero(changed))}):
+        per_point = [_converged(stored_orbits(slots, (i, j, k))) for i in range(own_shape[0])]
+        for n in CROSSING_VARIABLES:
+            out[n][0, j, k] = VARIABLES[n].fill
+        record_line(out, CROSSING_VARIABLES, CROSSING_SLOTS, j, k,
+                    line_crossings(np.asarray(omega, float), per_point, level, periods))
