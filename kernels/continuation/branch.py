@@ -31,7 +31,8 @@ from hertzmap.kernels.continuation.core import (BOUNDARY, BRANCH_DIFFERENCE, BRA
                                                 BRANCH_STATUS, CLOSED, MAX_POINTS, START_FAIL,
                                                 STEP_FAIL, System, adapt_step, branch_params,
                                                 correct, fixed_point_residual, flip_function,
-                                                floquet_multipliers, fold_function, null_vector,
+                                                floquet_multipliers, fold_function,
+                                                illinois_bracket, illinois_trial, null_vector,
                                                 predict_correct)
 from hertzmap.kernels.orbit import DEFAULT_MAX_STEPS, DEFAULT_RTOL
 
@@ -131,9 +132,7 @@ def _locate(fun, ua, ub, ga, gb, gfun, pidx, max_iter=40, tol=1e-12):
     best = None
     side = 0
     for it in range(1, max_iter + 1):
-        th = ta - ga * (tb - ta) / (gb - ga) if gb != ga else 0.5 * (ta + tb)
-        if not (ta < th < tb):
-            th = 0.5 * (ta + tb)
+        th = illinois_trial(ta, tb, ga, gb)
         up = ua + th * c
         r = correct(fun, up, normal)
         if r is None:
@@ -146,16 +145,7 @@ def _locate(fun, ua, ub, ga, gb, gfun, pidx, max_iter=40, tol=1e-12):
         best = (u, M, g, width, it)
         if g == 0.0:
             return (u, M, g, 0.0, it)
-        if np.sign(g) == np.sign(ga):
-            ta, ga = th, g
-            if side == -1:
-                gb *= 0.5
-            side = -1
-        else:
-            tb, gb = th, g
-            if side == 1:
-                ga *= 0.5
-            side = 1
+        ta, tb, ga, gb, side = illinois_bracket(th, g, ta, tb, ga, gb, side)
         width = min(abs(c[pidx]) * (tb - ta), abs(g / slope))
         best = (u, M, g, width, it)
         if (tb - ta) * nc <= tol * (1.0 + np.linalg.norm(u)) or abs(g) <= 1e-14:

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hertzmap.kernels.continuation.core import illinois_bracket, illinois_trial
 from hertzmap.kernels.continuation.extended_system import _chord
 
 #: codimension-2 points along a curve
@@ -59,9 +60,7 @@ def locate_zero(system, ua, ub, ga, gb, gfun, J=None, max_iter=30):
     best = None
     wp = float(np.linalg.norm(c[2:]))
     for _ in range(max_iter):
-        th = ta - ga * (tb - ta) / (gb - ga) if gb != ga else 0.5 * (ta + tb)
-        if not (ta < th < tb):
-            th = 0.5 * (ta + tb)
+        th = illinois_trial(ta, tb, ga, gb)
         r = _chord(system, ua + th * c, normal, J=J)
         if r is None:
             return best
@@ -71,16 +70,7 @@ def locate_zero(system, ua, ub, ga, gb, gfun, J=None, max_iter=30):
             return best
         if g == 0.0:
             return (u, F, aux, Jt, g, 0.0)
-        if np.sign(g) == np.sign(ga):
-            ta, ga = th, g
-            if side == -1:
-                gb *= 0.5
-            side = -1
-        else:
-            tb, gb = th, g
-            if side == 1:
-                ga *= 0.5
-            side = 1
+        ta, tb, ga, gb, side = illinois_bracket(th, g, ta, tb, ga, gb, side)
         # the bracket's width, or the secant's estimate |g / g'| where smaller
         slope = abs(gb - ga) / (wp * (tb - ta)) if tb > ta and wp > 0.0 else 0.0
         width = wp * (tb - ta)

@@ -185,6 +185,34 @@ def fixed_point_residual(system, m, param, omega, sigma, difference):
     return residual
 
 
+# ---- a zero of a test function between two points -------------------------------------------
+
+def illinois_trial(ta, tb, ga, gb):
+    """The next trial in the bracket [ta, tb] (values ga, gb of opposite signs) of the Illinois
+    variant of regula falsi: the secant's zero, or the midpoint where it falls outside."""
+    th = ta - ga * (tb - ta) / (gb - ga) if gb != ga else 0.5 * (ta + tb)
+    if not (ta < th < tb):
+        th = 0.5 * (ta + tb)
+    return th
+
+
+def illinois_bracket(th, g, ta, tb, ga, gb, side):
+    """The bracket after the trial th (value g): th replaces the end of g's sign, and an end
+    kept twice in a row has its value halved (Illinois: the secant then moves it). ``side``:
+    which end moved last (-1: ta, +1: tb, 0: none yet). Returns (ta, tb, ga, gb, side)."""
+    if np.sign(g) == np.sign(ga):
+        ta, ga = th, g
+        if side == -1:
+            gb *= 0.5
+        side = -1
+    else:
+        tb, gb = th, g
+        if side == 1:
+            ga *= 0.5
+        side = 1
+    return ta, tb, ga, gb, side
+
+
 # ---- the corrector, the tangent, the step ----------------------------------------------------
 
 class Correction(NamedTuple):
