@@ -23,6 +23,15 @@ def _vertex(curve, i):
     return V["omega"][i], V["sigma"][i], V["zeta"][i], (V["q0"][i], V["v0"][i])
 
 
+def _oracle_sigma(curve, i, point, half_width, m=1):
+    """Vertex i's sigma and the oracle's (``point``: O.flip_point or O.grazing_point) at the
+    vertex's omega, sigma free within ``half_width`` of it: (sigma, oracle's sigma, its x)."""
+    w, s, z, x = _vertex(curve, i)
+    so, xo = point(x, (s - half_width, s + half_width), fixed="omega", free="sigma",
+                   params=dict(omega=w, sigma=s, zeta=z), m=m)
+    return s, so, xo
+
+
 @pytest.fixture(scope="module")
 def flip_curve_0005():
     """The 1T flip curve at zeta 0.005 (paper Fig. 7) across omega 1.9..2.1, sigma 0.15..0.5."""
@@ -50,11 +59,9 @@ def test_flip_curve_points_match_the_oracle(flip_curve_0005):
     assert abs(V["sigma"][k] - float(ms.sigma_star(0.005, "min"))) < 1e-4
     assert abs(V["omega"][k] - 2.0) < 1e-3
     for i in (k, len(c) // 5):
-        w, s, z, x = _vertex(c, i)
-        so, xo = O.flip_point(x, (s - 1e-3, s + 1e-3), fixed="omega", free="sigma",
-                              params=dict(omega=w, sigma=s, zeta=z))
+        s, so, xo = _oracle_sigma(c, i, O.flip_point, 1e-3)
         assert abs(s - so) < 1e-8, (i, s, so)
-        assert np.hypot(*(np.array(x) - xo)) < 1e-7
+        assert np.hypot(V["q0"][i] - xo[0], V["v0"][i] - xo[1]) < 1e-7
 
 
 @pytest.fixture(scope="module")
@@ -118,10 +125,7 @@ def test_grazing_curve_of_2t_orbits_matches_the_oracle(branch_2t):
     assert np.all(np.abs(V["min_q"] + 1.5) < 1e-9)
     # the grazing curve meets the 2T fold curve (the isola's) at its lower end
     assert any(p.kind == "fold_grazing" for p in c.codim2)
-    i = len(c) // 3
-    w, s, z, x = _vertex(c, i)
-    so, xo = O.grazing_point(x, (s - 2e-3, s + 2e-3), fixed="omega", free="sigma",
-                             params=dict(omega=w, sigma=s, zeta=z), m=2)
+    s, so, _ = _oracle_sigma(c, len(c) // 3, O.grazing_point, 2e-3, m=2)
     assert abs(s - so) < 1e-8, (s, so)
 
 
@@ -133,10 +137,7 @@ def test_2t_to_4t_flip_curve_with_contact_loss_matches_the_oracle():
     V = c.vertices
     assert len(c) > 10 and np.all(np.abs(V["flip"]) < 1e-9)
     assert np.all(V["min_q"] < -1.5)                    # every orbit on it loses contact
-    i = len(c) // 2
-    w, s, z, x = _vertex(c, i)
-    so, _ = O.flip_point(x, (s - 2e-3, s + 2e-3), fixed="omega", free="sigma",
-                         params=dict(omega=w, sigma=s, zeta=z), m=2)
+    s, so, _ = _oracle_sigma(c, len(c) // 2, O.flip_point, 2e-3, m=2)
     assert abs(s - so) < 1e-8, (s, so)
 
 
