@@ -17,6 +17,7 @@ from hertzmap.kernels.model import rhs_force
 from hertzmap.kernels.orbit import (DEFAULT_MAX_ITER, DEFAULT_MAX_STEPS, DEFAULT_RTOL, Orbit,  # noqa: F401
                                     shoot, shoot_batch)
 from hertzmap.kernels.model import check_exponent, model_code
+from hertzmap.kernels.shooting import N_FIELDS
 
 
 def section_times(T: float, t_end: float, samples_per_period: int = 1) -> np.ndarray:
