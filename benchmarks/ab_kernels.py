@@ -41,7 +41,9 @@ def extract(rev: str, into: Path) -> str:
     """kernels/ of ``rev`` as the package ``kernels_ab`` under ``into``; returns its name."""
     pkg = into / "kernels_ab"
     pkg.mkdir()
-    files = subprocess.run(["git", "-C", str(ROOT), "ls-tree", "--name-only", f"{rev}:kernels"],
+    # every file of the tree, subpackages (kernels/continuation/) included
+    files = subprocess.run(["git", "-C", str(ROOT), "ls-tree", "-r", "--name-only",
+                            f"{rev}:kernels"],
                            capture_output=True, text=True, check=True).stdout.split()
     for name in files:
         if not name.endswith(".py"):
@@ -51,6 +53,7 @@ def extract(rev: str, into: Path) -> str:
         # the installed name (hertzmap.kernels) and the repo-relative one of older revisions
         src = re.sub(r"\bfrom (hertzmap\.)?kernels\b", "from kernels_ab", src)
         src = re.sub(r"\bimport (hertzmap\.)?kernels\b", "import kernels_ab", src)
+        (pkg / name).parent.mkdir(parents=True, exist_ok=True)
         (pkg / name).write_text(src)
     sys.path.insert(0, str(into))
     return "kernels_ab"

@@ -54,33 +54,6 @@ def isola_sigma02_transients_only(rtol):
     return {"folds": folds}
 
 
-def fold_curve(rtol, ds_max=0.02):
-    """zeta 0.01: the 2T fold curve through the isola's folds at sigma 0.2, continued both ways:
-    its lowest sigma (sigma**) and where it reaches the 1T orbit (meets the flip curve)."""
-    iso = discover_line(np.linspace(1.0, 2.0, 21), 0.2, 0.01, rtol=rtol, transients=0)
-    folds = [d for d in iso.special if d["kind"] == "fold" and d["period"] == 2]
-    lo = min(folds, key=lambda d: d["omega"])
-    out = {}
-    down = cont.continue_curve(0.01, (lo["q0"], lo["v0"]), lo["omega"], 0.2, kind="fold",
-                               period=2, direction=-1, rtol=rtol, ds=0.01, ds_max=ds_max,
-                               max_points=3000, omega_bounds=(0.5, 2.5),
-                               sigma_bounds=(0.05, 0.6))
-    ext = cont.curve_extremum(down, "sigma", "min")
-    out["sigma_min"], out["omega_at_min"], out["spacing"] = ext if ext else (np.nan,) * 3
-    out["down_status"] = down.status_name
-    hi = max(folds, key=lambda d: d["omega"])
-    up = cont.continue_curve(0.01, (hi["q0"], hi["v0"]), hi["omega"], 0.2, kind="fold",
-                             period=2, direction=1, rtol=rtol, ds=0.01, ds_max=ds_max,
-                             max_points=3000, omega_bounds=(0.5, 2.5), sigma_bounds=(0.05, 0.6))
-    meet = [p for p in up.special if p.kind == "flip_meets_fold"]
-    out["up_status"] = up.status_name
-    out["meet"] = (meet[0].omega, meet[0].sigma, meet[0].accuracy) if meet else None
-    out["up_sigma_max"] = float(np.max(up.points["sigma"]))
-    out["curve_down"] = down
-    out["curve_up"] = up
-    return out
-
-
 def traced_isola(rtol):
     """zeta 0.01: the isola's fold curve as the curves output traces it (trace_curve, the
     window of the fig09 scene): sigma** (its refined lowest vertex) and where it ends on the
@@ -99,16 +72,25 @@ def traced_isola(rtol):
 
 
 def flip_curve(zeta, rtol, omega_bounds=(1.85, 2.15), sigma_max=1.2):
-    """The flip curve of the 1T orbit in (omega, sigma), from a flip at sigma = 0.5."""
+    """The flip curve of the 1T orbit in (omega, sigma), from a flip at sigma = 0.5, traced
+    across the window (trace_curve), its vertices close enough (dp_frac) for the linear
+    interpolation of its crossings of a sigma line."""
     s = 0.5
     b1 = cont.continue_orbit(zeta, linear_response_seed(2.3, s, zeta), omega=2.3, sigma=s,
                              period=1, direction=-1, p_min=1.85, p_max=2.35, rtol=rtol,
                              dp_max=0.01)
     flip = [p for p in b1.special if p.kind == "flip"][0]
-    c = cont.continue_curve(zeta, flip.x0, flip.omega, s, kind="flip", period=1, direction=-1,
-                            rtol=rtol, ds=0.005, ds_max=0.02, max_points=3000,
-                            omega_bounds=omega_bounds, sigma_bounds=(0.0, sigma_max))
-    return c
+    return cont.trace_curve(flip.x0, flip.omega, s, zeta, kind="flip", period=1, rtol=rtol,
+                            bounds={"omega": omega_bounds, "sigma": (0.0, sigma_max)},
+                            dp_frac=0.001)
+
+
+def lowest_sigma(curve):
+    """(sigma, omega, refined) of a traced curve's lowest vertex; refined: it is a located
+    extremum (VERTEX_EXTREMUM: the extremum of sigma along the curve, not a vertex near it)."""
+    V = curve.vertices
+    k = int(np.argmin(V["sigma"]))
+    return V["sigma"][k], V["omega"][k], bool(int(V["flag"][k]) & cont.VERTEX_EXTREMUM)
 
 
 def main(argv=None):
@@ -139,14 +121,6 @@ def main(argv=None):
     print("transients only (no sweep, no MMS):", np.round(t["folds"], 10))
 
     print("\n## Fig. 9/10: zeta 0.01, fold curve of the isola's 2T orbits")
-    res = {r: fold_curve(r) for r in rtols}
-    for r, v in res.items():
-        print(f"rtol {r:.0e}: sigma** = {v['sigma_min']:.8f} at omega {v['omega_at_min']:.6f}"
-              f" (spacing {v['spacing']:.1e}, {v['down_status']}); upper side {v['up_status']},"
-              f" meets 1T at {v['meet']}, max sigma on it {v['up_sigma_max']:.6f}")
-    v = fold_curve(rtols[-1], ds_max=0.005)
-    print(f"ds_max 0.005: sigma** = {v['sigma_min']:.8f} at omega {v['omega_at_min']:.6f};"
-          f" meets 1T at {v['meet']}")
     res = {r: traced_isola(r) for r in rtols}
     for r, v in res.items():
         j = v["join"]
@@ -159,20 +133,22 @@ def main(argv=None):
                                           for d in r.special],
           "class counts", r.classes().sum(axis=0))
     c01 = flip_curve(0.01, rtols[-1] if a.quick else 1e-10)
-    ext = cont.curve_extremum(c01, "sigma", "min")
-    print(f"flip curve zeta 0.01: min sigma {ext[0]:.7f} at omega {ext[1]:.6f};"
+    smin, wmin, refined = lowest_sigma(c01)
+    print(f"flip curve zeta 0.01: min sigma {smin:.7f} at omega {wmin:.6f} (refined: {refined});"
           f" MMS sigma_star(min) {float(ms.sigma_star(0.01, 'min')):.7f}")
 
     print("\n## Fig. 7: zeta 0.005, flip curve of the 1T orbit against MMS sigma2")
     c = flip_curve(0.005, rtols[-1] if a.quick else 1e-10)
-    P = c.points
-    print(f"{len(c)} points, {c.status_name}, omega {P['omega'].min():.4f}..{P['omega'].max():.4f}"
-          f", sigma {P['sigma'].min():.4f}..{P['sigma'].max():.4f}")
+    P = c.vertices
+    print(f"{len(c)} vertices, {c.status_names}, omega {P['omega'].min():.4f}.."
+          f"{P['omega'].max():.4f}, sigma {P['sigma'].min():.4f}..{P['sigma'].max():.4f}")
     print("| sigma | omega (continuation) | omega (MMS sigma2, derived) | difference |")
     print("|---|---|---|---|")
     for s in (0.2, 0.3, 0.5, 0.8, 1.0):
         ws = []
-        for k in np.nonzero(np.diff(np.sign(P["sigma"] - s)))[0]:
+        # a crossing between two vertices, once where it falls on a vertex (the seed's sigma)
+        below = P["sigma"] < s
+        for k in np.nonzero(below[:-1] != below[1:])[0]:
             th = (s - P["sigma"][k]) / (P["sigma"][k + 1] - P["sigma"][k])
             ws.append(P["omega"][k] + th * (P["omega"][k + 1] - P["omega"][k]))
         for w in sorted(ws):
@@ -182,8 +158,8 @@ def main(argv=None):
             roots = grid[ks] - d[ks] * (grid[ks + 1] - grid[ks]) / (d[ks + 1] - d[ks])
             wm = roots[np.argmin(np.abs(roots - w))] if roots.size else np.nan
             print(f"| {s} | {w:.6f} | {wm:.6f} | {w - wm:+.1e} |")
-    ext = cont.curve_extremum(c, "sigma", "min")
-    print(f"min sigma of the flip curve: {ext[0]:.7f} at omega {ext[1]:.6f};"
+    smin, wmin, refined = lowest_sigma(c)
+    print(f"min sigma of the flip curve: {smin:.7f} at omega {wmin:.6f} (refined: {refined});"
           f" MMS: {float(ms.sigma_star(0.005, 'min')):.7f}")
     print(f"\ntotal {time.perf_counter() - t0:.1f} s")
 

@@ -9,7 +9,9 @@ Public API::
 Modules: ``model`` (paper Eq. 7 and 11), ``flight`` (closed-form flight), ``_dop853`` (generated
 integrator steps), ``integrate`` (events, dense output, measures), ``shooting`` (Newton, Floquet),
 ``attractors`` (stroboscopic transients, period detection, Lyapunov exponents),
-``central_difference`` (the paper's own scheme, baseline), ``api`` (this interface).
+``continuation`` (a package: branches, the line search's seed path and bifurcation curves, one
+module per algorithm on one predictor-corrector), ``central_difference`` (the paper's own
+scheme, baseline), ``api`` (this interface).
 """
 from hertzmap.kernels._cache import configure_cache_dir
 

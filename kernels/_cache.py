@@ -3,8 +3,9 @@
 numba invalidates a cached function when *its own* file changes, not when a function it calls
 in another module does: after an edit of integrate.py, shooting.py's cached machine code would
 still hold the old integrator, silently. Pointing the cache at a folder named after a hash of
-all kernels/*.py makes any change to any kernel a fresh cache, shared by every process (Dask
-workers included) that runs the same code. NUMBA_CACHE_DIR, if set, is respected as a root.
+every kernels/**/*.py (subpackages included: kernels/continuation/) makes any change to any
+kernel a fresh cache, shared by every process (Dask workers included) that runs the same code.
+NUMBA_CACHE_DIR, if set, is respected as a root.
 """
 import hashlib
 import os
@@ -16,8 +17,8 @@ import numba
 def kernels_source_hash() -> str:
     h = hashlib.sha256()
     here = pathlib.Path(__file__).parent
-    for path in sorted(here.glob("*.py")):
-        h.update(path.name.encode())
+    for path in sorted(here.rglob("*.py")):
+        h.update(path.relative_to(here).as_posix().encode())
         h.update(path.read_bytes())
     h.update(numba.__version__.encode())
     return h.hexdigest()[:16]

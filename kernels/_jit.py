@@ -263,7 +263,10 @@ INTEGRATOR_MODULE = "integrate"
 
 
 def _module_tail(dispatcher) -> str:
-    return dispatcher.py_func.__module__.rsplit(".", 1)[-1]
+    """The kernels module (or subpackage: ``continuation`` for kernels.continuation.core) that
+    defines the kernel."""
+    package = __name__.rpartition(".")[0]
+    return dispatcher.py_func.__module__.removeprefix(package + ".").split(".")[0]
 
 
 def leaf_kernels() -> list:

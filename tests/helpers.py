@@ -332,7 +332,7 @@ def fake_trace(index, kind, period, zeta, sigma, codim2=()):
              zeta=np.full(n, zeta), flag=flag, multipliers=np.ones((n, 2), complex))
     seed = dict(index=index, plane=("omega", "sigma"), fixed=zeta, kind=kind, period=period,
                 omega=1.5, sigma=float(min(sigma)), zeta=zeta, q0=0.0, v0=0.0)
-    return {"seed": seed, "status": ("boundary", "branch_point"), "vertices": V,
+    return {"seed": seed, "status": ("boundary", "meets_1T_orbit"), "vertices": V,
             "codim2": list(codim2), "maps": 10}
 
 

@@ -115,6 +115,16 @@ def test_kernels_are_pure_numerics():
     assert not bad, bad
 
 
+def test_kernel_modules_do_not_import_the_front_door():
+    """kernels.api (re-exported by kernels/__init__.py) is the kernels' interface for the layers
+    above; a kernel module takes what it needs from the module that defines it (shoot from
+    kernels.orbit), so that importing one kernel module does not import them all."""
+    bad = [f"{path.relative_to(REPO)}:{line} imports {t}"
+           for m, path in MODULES.items() if m.startswith("kernels.") and m != "kernels.api"
+           for t, line in _imports(path) if t in ("kernels", "kernels.api")]
+    assert not bad, bad
+
+
 def test_argparse_only_in_the_command_line():
     bad = [f"{p.relative_to(REPO)}:{line}" for m, p in MODULES.items()
            if m.split(".")[0] in ("kernels", "study", "scheduler") and m != "scheduler.cli"
@@ -155,6 +165,12 @@ ONE_DEFINITION = {
     "PERIOD_FLAGS": "kernels.records",
     "MODELS": "kernels.model",
     "TAYLOR_CONTACT_LOSS": "kernels.model",
+    "BRANCH_STATUS": "kernels.continuation.core",
+    "BRANCH_DIFFERENCE": "kernels.continuation.core",
+    "PATH_DIFFERENCE": "kernels.continuation.core",
+    "PATH_STALL_DIFFERENCE": "kernels.continuation.core",
+    "CURVE_DIFFERENCE": "kernels.continuation.core",
+    "CORRECTOR_ITERATIONS": "kernels.continuation.path",
     "VARIABLES": "study.schema",
     "BIFURCATION_SLOTS": "study.schema",
     "BIFURCATION_KINDS": "study.schema",

@@ -29,10 +29,9 @@ from hertzmap.study.schema import BIFURCATION_KINDS
 PLANE_CODES = {("omega", "sigma"): 1, ("omega", "zeta"): 2, ("sigma", "zeta"): 3}
 #: Codimension-2 kinds, by code (1-based, kernels.continuation.CODIM2_KINDS order).
 CODIM2_CODES = {k: i + 1 for i, k in enumerate(CODIM2_KINDS)}
-#: End status codes of a curve (kernels.continuation.BRANCH_STATUS; "branch_point" is a 2T
+#: End status codes of a curve (kernels.continuation.BRANCH_STATUS: "meets_1T_orbit" is a 2T
 #: curve that ends on the 1T orbit).
-STATUS_MEANINGS = {0: "boundary", 1: "closed", 2: "meets_1T_orbit", 3: "max_points",
-                   4: "step_fail", 5: "start_fail"}
+STATUS_MEANINGS = BRANCH_STATUS
 #: What became of each seed (study.solve.curves.SeedBook.outcomes), by code.
 SEED_OUTCOMES = {1: "traced", 2: "covered", 3: "start_fail", 4: "on_earlier_curve",
                  5: "off_seed", 6: "near_untraced"}

@@ -55,6 +55,7 @@ import xarray as xr
 
 from hertzmap.kernels import continuation as cont
 from hertzmap.kernels import status as st
+from hertzmap.kernels.continuation import extended_system
 from hertzmap.study.orbits import (CONTINUITY_SHARE, continuity_distance, flip_function, fold_function,
                           match_neighbours)
 from hertzmap.study.schema import BIFURCATION_KINDS
@@ -390,7 +391,8 @@ def curve_kernels() -> list:
     corrector and the period map (the T-shift of a 2T point). A study that asks for curves
     compiles them in its workers' warm-up, beside the grid's
     (study.solve.block.entry_kernels), not after the grid."""
-    return [cont.curve_system_into, cont._chord_into, cont.period_map_into]
+    return [extended_system.curve_system_into, extended_system._chord_into,
+            cont.period_map_into]
 
 
 def trace_seed(seed: Seed, bounds: dict[str, tuple[float, float]], *, exponent: float = 1.5,

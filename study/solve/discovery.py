@@ -15,7 +15,7 @@ A line is a set of omega values at fixed (sigma, zeta). Discovery runs in three 
    of a 1T branch the 2T branch is switched onto and traced. Every branch is intersected with
    the grid values of omega (Newton at fixed omega from the interpolated branch point).
 3. **Bifurcation points.** Sign changes of the fold, flip and grazing test functions between
-   consecutive points of a branch are refined on the branch (kernels.continuation._locate);
+   consecutive points of a branch are refined on the branch (kernels.continuation.branch);
    2T branches ending on the 1T orbit give "branch_point" entries (the flip seen from 2T).
 
 Distinct solutions are kept once (the identity rule of study.orbits: invariants min q, max q,

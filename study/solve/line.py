@@ -11,7 +11,8 @@ branches beyond folds (paper section 3.2, Fig. 6-10).
    the unstable half of an isola), which no seed and no sweep reaches. The ends are the orbits
    with no continuation at the next grid point (matched point to point by their invariants
    min q and max q, one to one); from each, pseudo-arclength continuation in omega
-   (kernels.continuation) goes around the fold in a window of two grid steps and comes back;
+   (kernels.continuation.arc_path) goes around the fold in a window of two grid steps and
+   comes back;
    Newton at the grid points it crosses gives the orbits of the new branch, which are then
    followed along the line by natural continuation until that branch ends too (another fold:
    turned again) or joins a known orbit. Bounded: a few turns per line and period.
@@ -294,10 +295,10 @@ class LineSearch:
                         return False
                 return not self.out_of_time()
 
-            arc_path(self.system, np.asarray(orbit["x0"], float), float(self.omega[k]),
-                     self.sigma, period, float(direction), lo, hi, ds=2.0 * h,
-                     dp_max=TRACE_DP * h, max_points=TRACE_POINTS_PER_STEP * self.omega.size,
-                     on_step=on_step)
+            cont.arc_path(self.system, np.asarray(orbit["x0"], float), float(self.omega[k]),
+                          self.sigma, period, float(direction), lo, hi, ds=2.0 * h,
+                          dp_max=TRACE_DP * h,
+                          max_points=TRACE_POINTS_PER_STEP * self.omega.size, on_step=on_step)
             if leg["end"] is None or past_fold or state["stop"]:
                 break
             (k, orbit), direction = leg["end"], -direction
@@ -377,107 +378,6 @@ class LineSearch:
     def solutions(self, i: int) -> list[dict]:
         """The distinct converged orbits at grid point i, ordered by (period, ptp)."""
         return sorted(self.per_point[i], key=lambda s: (s["period"], s["ptp"]))
-
-
-#: Newton iterations of arc_path's corrector per step
-CORRECTOR_ITERATIONS = 5
-
-
-def arc_path(system, x0, omega, sigma, period, direction, w_lo, w_hi, *, ds, dp_max,
-             max_points, on_step, tol=1e-7) -> int:
-    """A lean pseudo-arclength continuation of the period-``period`` orbit through (x0, omega)
-    in omega, starting towards ``direction``, until omega leaves [w_lo, w_hi], ``max_points``
-    are taken, the corrector fails, or ``on_step(u_prev, u)`` returns False (u = (q, q',
-    omega)). The points only seed Newton at fixed omega, so the corrector is loose (``tol``)
-    and the derivative in omega is a forward difference (one map per corrector iteration more
-    instead of two, and none of kernels.continuation's records), until the corrector stalls
-    (its steps shrink but do not reach ``tol`` in its iterations); from then on, a central
-    difference. Returns the points taken.
-
-    Why the switch: the forward difference's error grows with the map's curvature in omega,
-    which grows with the period. On a stable 16T orbit met by the census (studies/fine_map.toml,
-    sigma 0.939, omega 1.167) the corrector converged only linearly, the steps shrank and the
-    path spent its whole point budget (2,400 points each way; tests/study/solve/test_line.py
-    follows that path); with the switch the line's search takes a twelfth of the time
-    (``benchmarks/search_ab.py --vs REV --study studies/fine_map.toml --every 250 --offset
-    233`` against a revision without it). Paths that never stall keep the forward difference.
-
-    The steps grow (by 1.5 after a corrector of at most 2 iterations) to 4 ds times
-    max(1, |x|): in arc length the state dominates, and the long-flight orbits the census
-    meets (|x| ~ 10-40) took steps of 4 ds along branches 25 long in q."""
-    central = False
-
-    def residual(u):
-        phi, M, code = system.map(u[:2], u[2], sigma, period)
-        if code != st.CONVERGED or not np.all(np.isfinite(M)):
-            return None, None
-        dw = 1e-6 * (1.0 + abs(u[2]))
-        phi_w, _, code = system.map(u[:2], u[2] + dw, sigma, period)
-        if code != st.CONVERGED:
-            return None, None
-        J = np.empty((2, 3))
-        J[:, :2] = M - np.eye(2)
-        if central:
-            phi_m, _, code = system.map(u[:2], u[2] - dw, sigma, period)
-            if code != st.CONVERGED:
-                return None, None
-            J[:, 2] = (phi_w - phi_m) / (2.0 * dw)
-        else:
-            J[:, 2] = (phi_w - phi) / dw
-        return phi - u[:2], J
-
-    def tangent(J, t_prev):
-        t = np.linalg.svd(J)[2][-1]
-        return t * (np.sign(t @ t_prev) or 1.0)
-
-    u = np.array([x0[0], x0[1], omega], float)
-    F, J = residual(u)
-    if F is None:
-        return 0
-    t = np.linalg.svd(J)[2][-1]
-    t *= np.sign(t[2] * direction) or 1.0
-    h = ds
-    taken = 1
-    while taken < max_points and w_lo <= u[2] <= w_hi:
-        if abs(t[2]) * h > dp_max:
-            h = dp_max / abs(t[2])
-        accepted = None
-        while h > 1e-7 * ds and accepted is None:
-            pred = u + h * t
-            v = pred.copy()
-            step_prev = shrinking = None
-            for it in range(1, CORRECTOR_ITERATIONS + 1):
-                F, J = residual(v)
-                if F is None:
-                    break
-                A = np.vstack([J, t])
-                try:
-                    dv = np.linalg.solve(A, -np.concatenate([F, [t @ (v - pred)]]))
-                except np.linalg.LinAlgError:
-                    break
-                v = v + dv
-                step = np.linalg.norm(dv)
-                if step <= tol * (1.0 + np.linalg.norm(v)):
-                    t_new = tangent(J, t)
-                    if t_new @ t > 0.9 and np.linalg.norm(v - pred) <= 0.5 * h:
-                        accepted = (v, t_new, it)
-                    break
-                shrinking, step_prev = step_prev is not None and step < step_prev, step
-            else:
-                if shrinking and not central:
-                    central = True      # stalled: the same step again, the better derivative
-                    continue
-            if accepted is None:
-                h *= 0.5
-        if accepted is None:
-            break
-        u_prev = u
-        u, t, it = accepted
-        taken += 1
-        if not on_step(u_prev, u):
-            break
-        h = min(4.0 * ds * max(1.0, float(np.hypot(u[0], u[1]))), 1.5 * h) if it <= 2 else h
-    return taken
 
 
 def path_crossings(path: np.ndarray, omega_grid) -> list[tuple[int, tuple]]:

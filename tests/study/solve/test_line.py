@@ -126,37 +126,15 @@ def orbit_16t():
     return sol
 
 
-def test_arc_path_follows_a_long_period_branch_with_full_steps(orbit_16t):
-    """On this 16T map the forward difference in omega leaves the corrector converging only
-    linearly: with it alone, 150 points reached omega 1.173 (this test fails there). With the
-    central difference arc_path switches to, they go beyond the branch's end (omega 1.247),
-    each a fixed point of the 16T map."""
-    from hertzmap.kernels.continuation import System
-    from hertzmap.study.solve.line import arc_path
-    system = System(0.01, 1.5, "hertz", 1e-10)
-    h = FINE_OMEGA[1] - FINE_OMEGA[0]
-    points = []
-    arc_path(system, np.asarray(orbit_16t["x0"]), FINE_OMEGA[FINE_I], FINE_SIGMA, 16, 1.0,
-             0.5 - h, 2.5 + h, ds=2 * h, dp_max=h, max_points=150,
-             on_step=lambda a, b: points.append(b.copy()) or True)
-    U = np.array(points)
-    assert U[:, 2].max() > 1.25
-    for u in U[::15]:
-        # the corrector's tolerance is loose (1e-7 relative, the points only seed Newton)
-        phi, _, code = system.map(u[:2], u[2], FINE_SIGMA, 16)
-        assert code == st.CONVERGED
-        assert np.hypot(*(phi - u[:2])) < 1e-5 * (1 + np.hypot(*u[:2]))
-
-
 def test_a_trace_stops_where_its_path_joins_the_lower_period_branch(orbit_16t, monkeypatch):
     """Beyond omega 1.247 the 16T branch ends on the 8T orbit it doubled from; a path that
     goes on follows the 8T branch (a closed loop, traced as a double cover: 2,400 points, the
     whole budget, before). The trace stops there, having kept the 16T orbits of the grid
     points the branch crosses."""
-    import hertzmap.study.solve.line as line
+    from hertzmap.kernels import continuation as cont
     taken = []
-    arc_path = line.arc_path
-    monkeypatch.setattr(line, "arc_path", lambda *a, **k: taken.append(arc_path(*a, **k))
+    arc_path = cont.arc_path
+    monkeypatch.setattr(cont, "arc_path", lambda *a, **k: taken.append(arc_path(*a, **k))
                         or taken[-1])
     ls = LineSearch(FINE_OMEGA, FINE_SIGMA, 0.01, (1, 2), OPTIONS)
     ls.per_point[FINE_I].append(dict(orbit_16t, omega=FINE_OMEGA[FINE_I]))
