@@ -289,3 +289,44 @@ ATTRACTOR = Record("attractor", (
         ("strobe_count", "stroboscopic points written to the strobe array"),
     ),
 ))
+
+
+def _vertex(name, long_name, description, stored=True):
+    return Field(name, long_name, "1", description, output="curves" if stored else None)
+
+
+#: A vertex of a traced fold, flip or grazing curve (kernels.continuation.trace_curve): the
+#: kernel's record (VERTEX_FIELDS) and, where ``output`` is set, a variable of dim ``vertex`` of
+#: the stored traced curves (study.products.traced_curves).
+VERTEX = Record("vertex", (
+    _vertex("omega", "excitation frequency", "omega of the vertex (paper Eq. 8)"),
+    _vertex("sigma", "excitation amplitude",
+            "sigma of the vertex (force amplitude / static preload)"),
+    _vertex("zeta", "damping ratio", "zeta of the vertex"),
+    _vertex("q0", "displacement at tau = 0",
+            "start point q(0) of the periodic orbit at the vertex"),
+    _vertex("v0", "velocity at tau = 0", "start point dq/dtau(0) of the periodic orbit"),
+    Field("monodromy", "monodromy matrix", "1", "M over the orbit's period, row by row",
+          columns=("m11", "m12", "m21", "m22"), dim=("monodromy_entry", 4)),
+    _vertex("min_q", "minimum displacement over the orbit",
+            "min q over one period (-n on a grazing curve; below -n the orbit loses contact)"),
+    _vertex("max_q", "maximum displacement over the orbit",
+            "max q over one period (with min q: the invariants a grid cell's orbits are "
+            "matched to the curve by)"),
+    _vertex("fold", "fold test function", "1 - tr M + det M of the orbit at the vertex"),
+    _vertex("flip", "flip test function", "1 + tr M + det M of the orbit at the vertex"),
+    _vertex("grazing", "grazing test function", "min q + n (Hertz) or min q - q_c (Taylor, Eq. 12)"),
+    _vertex("asym", "distance of the orbit from its T-shift",
+            "|Phi_T(x0) - x0| of a 2T orbit: 0 on the 1T orbit", stored=False),
+    _vertex("step", "continuation step",
+            "distance from the previous vertex of the curve in (q0, v0, a, b), (a, b) the "
+            "curve's parameters (0 at a curve's first vertex)"),
+    _vertex("residual", "residual of the extended system",
+            "max |(Phi(x) - x, g)| at the vertex, g the curve's test function (~1e-12: the "
+            "vertex solves the curve's equations to the integrator's accuracy)"),
+    _vertex("iterations", "corrector iterations", "chord iterations of the vertex",
+            stored=False),
+    _vertex("arclength", "arclength", "cumulated step from the curve's first vertex"),
+    _vertex("flag", "vertex flags", "why the vertex is there (bit mask; the product's "
+            "flag_masks, kernels.continuation.VERTEX_FLAGS)", stored=False),
+))

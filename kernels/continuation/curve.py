@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from hertzmap.kernels.records import VERTEX
 from hertzmap.kernels.continuation.codim2 import (Codim2Point, end_on_1t_orbit,
                                                   locate_extremum, locate_zero)
 from hertzmap.kernels.continuation.core import (BOUNDARY, BRANCH_POINT, BRANCH_STATUS, CLOSED,
@@ -45,9 +46,8 @@ VERTEX_FLAGS = ((VERTEX_SEED, "seed"), (VERTEX_EXTREMUM, "parameter_extremum"),
 # vertices further out (codim2.end_on_1t_orbit)
 MEET_1T_ASYM = 3e-2
 
-VERTEX_FIELDS = ("omega", "sigma", "zeta", "q0", "v0", "m11", "m12", "m21", "m22", "min_q",
-                 "max_q", "fold", "flip", "grazing", "asym", "step", "residual", "iterations",
-                 "arclength", "flag")
+#: a vertex's fields, from the vertex record (kernels.records.VERTEX)
+VERTEX_FIELDS = VERTEX.columns
 
 
 @dataclass

@@ -22,6 +22,7 @@ import xarray as xr
 
 from hertzmap.kernels.continuation import (BRANCH_STATUS, CODIM2_KINDS, VERTEX_END, VERTEX_EXTREMUM,
                                   VERTEX_FLAGS)
+from hertzmap.kernels.records import VERTEX
 from hertzmap.study.products.results import var_attrs
 from hertzmap.study.schema import BIFURCATION_KINDS
 
@@ -51,12 +52,9 @@ _OUTCOME_ATTRS = dict(flag_values=np.array(sorted(SEED_OUTCOMES), np.int8),
 #: The variables of the product, defined once: name -> (dim(s), dtype, fill, attrs).
 TRACED_VARIABLES: dict[str, tuple[tuple[str, ...], str, object, dict]] = {
     # -- vertices --------------------------------------------------------------------------
-    "omega": (("vertex",), "float64", np.nan, var_attrs(
-        "excitation frequency", "1", "omega of the vertex (paper Eq. 8)")),
-    "sigma": (("vertex",), "float64", np.nan, var_attrs(
-        "excitation amplitude", "1", "sigma of the vertex (force amplitude / static preload)")),
-    "zeta": (("vertex",), "float64", np.nan, var_attrs(
-        "damping ratio", "1", "zeta of the vertex")),
+    # the vertex record's stored fields (kernels.records.VERTEX)
+    **{f.name: (("vertex",), f.dtype, f.fill, var_attrs(f.long_name, f.units, f.description))
+       for f in VERTEX.stored()},
     "kind": (("vertex",), "int8", 0, var_attrs(
         "kind of curve", "1", _KIND_DOC, **_KIND_ATTRS)),
     "period": (("vertex",), "int8", 0, var_attrs(
@@ -68,34 +66,9 @@ TRACED_VARIABLES: dict[str, tuple[tuple[str, ...], str, object, dict]] = {
     "curve_id": (("vertex",), "int32", -1, var_attrs(
         "curve id", "1", "index of the vertex's curve along dim curve; vertices of a curve are "
         "consecutive and in order along it")),
-    "q0": (("vertex",), "float64", np.nan, var_attrs(
-        "displacement at tau = 0", "1", "start point q(0) of the periodic orbit at the vertex")),
-    "v0": (("vertex",), "float64", np.nan, var_attrs(
-        "velocity at tau = 0", "1", "start point dq/dtau(0) of the periodic orbit")),
     "multipliers": (("vertex", "multiplier"), "complex128", complex(np.nan, np.nan), var_attrs(
         "Floquet multipliers", "1", "eigenvalues of the monodromy over the orbit's period, "
         "largest modulus first (one is +1 on a fold curve, -1 on a flip curve)")),
-    "min_q": (("vertex",), "float64", np.nan, var_attrs(
-        "minimum displacement over the orbit", "1", "min q over one period (-n on a grazing "
-        "curve; below -n the orbit loses contact)")),
-    "max_q": (("vertex",), "float64", np.nan, var_attrs(
-        "maximum displacement over the orbit", "1", "max q over one period (with min q: the "
-        "invariants a grid cell's orbits are matched to the curve by)")),
-    "fold": (("vertex",), "float64", np.nan, var_attrs(
-        "fold test function", "1", "1 - tr M + det M of the orbit at the vertex")),
-    "flip": (("vertex",), "float64", np.nan, var_attrs(
-        "flip test function", "1", "1 + tr M + det M of the orbit at the vertex")),
-    "grazing": (("vertex",), "float64", np.nan, var_attrs(
-        "grazing test function", "1", "min q + n (Hertz) or min q - q_c (Taylor, Eq. 12)")),
-    "step": (("vertex",), "float64", np.nan, var_attrs(
-        "continuation step", "1", "distance from the previous vertex of the curve in "
-        "(q0, v0, a, b), (a, b) the curve's parameters (0 at a curve's first vertex)")),
-    "arclength": (("vertex",), "float64", np.nan, var_attrs(
-        "arclength", "1", "cumulated step from the curve's first vertex")),
-    "residual": (("vertex",), "float64", np.nan, var_attrs(
-        "residual of the extended system", "1", "max |(Phi(x) - x, g)| at the vertex, g the "
-        "curve's test function (~1e-12: the vertex solves the curve's equations to the "
-        "integrator's accuracy)")),
     "flag": (("vertex",), "int8", 0, var_attrs(
         "vertex flags", "1", "why the vertex is there (bit mask): seed, a refined extremum of "
         "a parameter along the curve, on the window's edge, the extrapolated end on the 1T "
@@ -206,6 +179,10 @@ TRACED_VARIABLES: dict[str, tuple[tuple[str, ...], str, object, dict]] = {
 CURVE_VARIABLES = {name: spec for name, spec in TRACED_VARIABLES.items() if spec[0] != ("seed",)}
 
 
+#: the vertex record's fields the product stores as they are
+_VERTEX_STORED = tuple(f.name for f in VERTEX.stored())
+
+
 def _status_code(name: str) -> int:
     return _STATUS_CODE.get(name, 5)
 
@@ -222,8 +199,7 @@ def traced_curves_dataset(results: list[dict], attrs: dict | None = None) -> xr.
         n = len(V.get("omega", ()))
         plane = PLANE_CODES[tuple(s["plane"])]
         kcode = BIFURCATION_KINDS[s["kind"]]
-        for name in ("omega", "sigma", "zeta", "q0", "v0", "min_q", "max_q", "fold", "flip",
-                     "grazing", "step", "arclength", "residual"):
+        for name in _VERTEX_STORED:
             cols[name].append(np.asarray(V[name], float) if n else np.zeros(0))
         cols["multipliers"].append(np.asarray(V["multipliers"], complex).reshape(n, 2) if n
                                    else np.zeros((0, 2), complex))
