@@ -21,6 +21,7 @@ from typing import Any, TextIO
 from hertzmap.kernels.status import TIME_LIMIT
 from hertzmap.scheduler.cluster import (JOBQUEUE, ClusterSpec, WorkerJobsEnded, close_quietly,
                                make_client, wait_for_first_worker, worker_count)
+from hertzmap.scheduler.atlas_tasks import AtlasRun
 from hertzmap.scheduler.curve_tasks import DEFAULT_TRACER, CurveRun
 from hertzmap.scheduler.dry_run import plan_for
 from hertzmap.scheduler.defaults import DEFAULT_TASK_SECONDS, DEFAULT_TASK_TIMEOUT, ERROR_SAMPLE
@@ -188,6 +189,9 @@ class StudyRun:
         self.warming = warming
         self.summary: dict[str, Any] = {"store": str(store.path), "tasks_total": len(self.plan.tasks),
                                         "tasks_done_before": 0, "tasks_run": 0, "failed": []}
+        # the atlas, after the grid and before the curves
+        self.atlas = AtlasRun(study, store, out, err, self.interrupt, opts.command,
+                              enabled=opts.solver == DEFAULT_SOLVER)
         # the traced curves of a study with the "curves" output, after its grid
         self.curves = CurveRun(study, store, out, err, self.interrupt, opts.command,
                                opts.curve_tracer)
@@ -241,8 +245,8 @@ class StudyRun:
             print(f"{self.store.path}: all {len(self.plan.tasks)} tasks done, nothing to compute",
                   file=self.out)
             self.summary.update(complete=True, wall=0.0)
-            if self.curves.pending():
-                return self.curves_only(client, early)
+            if self.atlas.pending() or self.curves.pending():
+                return self.stages_only(client, early)
             if early is not None:
                 close_quietly(*early)
             return self.summary
@@ -391,13 +395,28 @@ class StudyRun:
             summary["error"] = {"n": 0, "failed": f"{type(exc).__name__}: {exc}"}
         record_error_estimate(store, summary)
         print_summary(summary, self.out)
-        if summary["complete"] and self.curves.pending():
-            summary["curves"] = self.curves.run(client, n_workers)
+        if summary["complete"]:
+            self.after_grid(client, n_workers)
         return summary
 
-    # -- traced curves --------------------------------------------------------------------
-    def curves_only(self, client, early) -> dict[str, Any]:
-        """The grid is complete but its curves are not: trace (or resume) them."""
+    def after_grid(self, client, n_workers: int) -> None:
+        """The stages that read the complete grid: the atlas, then the traced curves (whose
+        seeds see the atlas's orbits)."""
+        if self.atlas.pending():
+            self.summary["atlas"] = self.atlas.run(client, n_workers)
+            grid = self.summary.get("compute")
+            if grid:
+                print(f"atlas cost: {self.summary['atlas']['compute'] / grid:.0%} of the "
+                      "grid's compute", file=self.out, flush=True)
+        elif self.atlas.enabled and not self.atlas.applies():
+            print("atlas: not run (it matches orbits by min_q, max_q and ptp: add the "
+                  "\"measures\" output)", file=self.out, flush=True)
+        if self.curves.pending():
+            self.summary["curves"] = self.curves.run(client, n_workers)
+
+    # -- the stages after the grid ---------------------------------------------------------
+    def stages_only(self, client, early) -> dict[str, Any]:
+        """The grid is complete but its atlas or curves are not: run (or resume) them."""
         own_client = client is None
         cluster = None
         if own_client:
@@ -405,11 +424,11 @@ class StudyRun:
         try:
             with self.interrupt:
                 client.wait_for_workers(1)
-                self.summary["curves"] = self.curves.run(client, worker_count(client))
+                self.after_grid(client, worker_count(client))
         except KeyboardInterrupt as exc:
             with contextlib.suppress(Exception):
-                self.store.add_history(f"{self.opts.command}: interrupted while tracing curves")
-            print(f"\nhertzmap: interrupted: the curves committed so far are kept in "
+                self.store.add_history(f"{self.opts.command}: interrupted after the grid")
+            print(f"\nhertzmap: interrupted: the atlas rounds and curves committed so far are kept in "
                   f"{self.store.path}; to resume, run again: {self.opts.command}", file=self.err,
                   flush=True)
             exc.reported = True

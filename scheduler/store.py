@@ -556,3 +556,67 @@ def finish_traced_curves(store: str | Path, product: xr.Dataset) -> str:
     group = write_product(store, TRACED_CURVES, product, lock=False)
     shutil.rmtree(_parts_dir(store), ignore_errors=True)
     return group
+
+
+# -- the atlas's rounds (scheduler.atlas_tasks) ---------------------------------------------------
+ATLAS_ATTR = "hertzmap_atlas"
+ATLAS_STAGE = "atlas_stage"
+
+
+def read_region(path: str | Path, where: dict[str, tuple[slice, ...]]) -> dict[str, np.ndarray]:
+    """{name: array[where[name]]} of a store's main group, every read in one call into zarr's
+    event loop (one round trip per variable cost more than the reads). Read only: a worker's."""
+    group = zarr.open_group(zarr.storage.LocalStore(path), mode="r", zarr_format=3,
+                            use_consolidated=False)
+    arrays = {n: group[n] for n in where}
+
+    async def read_all():
+        return await asyncio.gather(*(arrays[n].async_array.getitem(
+            tuple(where[n]) + (slice(None),) * (arrays[n].ndim - len(where[n]))) for n in where))
+
+    return dict(zip(where, zarr_sync(read_all())))
+
+
+def _stage_dir(store: str | Path, round_: int) -> Path:
+    return Path(store) / ATLAS_STAGE / f"round_{int(round_):04d}"
+
+
+def write_atlas_tile(store: str | Path, round_: int, index: tuple[int, int, int],
+                     arrays: dict[str, np.ndarray] | None) -> Path:
+    """Stage one tile's result of an atlas round (its arrays, or None when the round added
+    nothing there) as one .npz file, written whole or not at all: a killed round keeps the
+    tiles staged so far, and the main group is written only when the round commits. The caller
+    holds the store's lock."""
+    root = _stage_dir(store, round_)
+    root.mkdir(parents=True, exist_ok=True)
+    name = "-".join(str(int(i)) for i in index)
+    final = root / f"{name}.npz"
+    building = root / f".{name}.writing.npz"
+    with open(building, "wb") as f:
+        np.savez(f, **(arrays or {}))
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(building, final)
+    return final
+
+
+def staged_atlas_tiles(store: str | Path, round_: int) -> set[tuple[int, int, int]]:
+    """The tiles of ``round_`` staged so far."""
+    root = _stage_dir(store, round_)
+    if not root.is_dir():
+        return set()
+    return {tuple(int(i) for i in p.stem.split("-")) for p in root.iterdir()
+            if p.suffix == ".npz" and not p.name.startswith(".")}
+
+
+def read_atlas_tile(store: str | Path, round_: int, index: tuple[int, int, int]
+                    ) -> dict[str, np.ndarray]:
+    """A staged tile's arrays ({} when the round added nothing there)."""
+    name = "-".join(str(int(i)) for i in index)
+    with np.load(_stage_dir(store, round_) / f"{name}.npz", allow_pickle=False) as z:
+        return {k: z[k] for k in z.files}
+
+
+def remove_atlas_stage(store: str | Path) -> None:
+    """Remove every staged round (after its commit)."""
+    shutil.rmtree(Path(store) / ATLAS_STAGE, ignore_errors=True)

@@ -4,20 +4,23 @@ probes fell (an orbit exists on a connected region of parameter space bounded by
 flips and the window; continuing it point to point fills that region).
 
 Jacobi rounds over tiles (the grid's task blocks): round r reads the stored orbits as they were
-after round r - 1 (the snapshot; round 1 reads the grid's) and, at every point of a tile, shoots
-from each orbit that round r - 1 added at a neighbour (round 1: every grid orbit) the orbit at
-this point: natural continuation, Newton shooting at the point's (omega, sigma, zeta) from the
-neighbour's start point, at the orbit's period (study.solve.point.shoot_seeds_minimal). An
-orbit of the neighbour that the continuity rule already pairs with one of the point's
-(study.orbits.match_neighbours) is not shot. A converged orbit new by the identity rule
-(study.orbits.same_orbit) joins the point with ``atlas_round = r``; the point's slots are
-ordered again (stable ones first where they overflow: study.solve.block.slot_order), its census
-attractors keep their orbits (``attractor_solution`` follows them) and the crossings of its line
-are found again (the traced curves' seeds see the new orbits).
+after round r - 1 (the snapshot; round 1 reads the grid's). At a tile, each orbit on offer (round
+1: every grid orbit of the tile and its one-point halo; later: the halo's orbits that round
+r - 1 added) is continued into its neighbours in the tile: natural continuation, Newton shooting
+at the neighbour's (omega, sigma, zeta) from the orbit's start point, at its period
+(study.solve.point.shoot_seeds_minimal). An orbit that the continuity rule already pairs with
+one of the neighbour's (study.orbits.match_neighbours) is not shot. A converged orbit new there
+by the identity rule (study.orbits.same_orbit) joins the point with ``atlas_round = r`` and is
+offered in turn to its neighbours in the tile, until the tile gains nothing more; the halo gets
+it next round. The point's slots are ordered again (stable ones first where they overflow:
+study.solve.block.slot_order), its census attractors keep their orbits (``attractor_solution``
+follows them) and the crossings of its line are found again (the traced curves' seeds see the
+new orbits).
 
-Sources are taken in a fixed order (omega, sigma, zeta; lower neighbour first; slot order), so a
-tile's result depends on the snapshot only: the same for any worker count or task order. The
-rounds stop when one adds nothing (a fixed point). scheduler.atlas_tasks runs them, resumably.
+Orbits are offered in a fixed order (source points sorted, their orbits in slot order, the
+neighbours lower first along omega, sigma, zeta), so a tile's result depends on the snapshot
+only: the same for any worker count or task order. The rounds stop when one adds nothing (a
+fixed point). scheduler.atlas_tasks runs them, resumably.
 
 Pure: numpy over the kernels (no Dask, no I/O).
 """
@@ -69,6 +72,7 @@ def stored_orbits(arrays: dict[str, np.ndarray], idx: tuple[int, int, int]) -> l
                 d[n] = int(d[n])
         if "stable" in d:
             d["stable"] = bool(d["stable"])
+        d.setdefault("atlas_round", 0)
         d["x0"] = np.array([float(d["q0"]), float(d["v0"])])
         out.append(d)
     return out
@@ -109,35 +113,48 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
     lo = tuple(s.start for s in own)
     own_shape = tuple(s.stop - s.start for s in own)
     result = TileResult(out, np.zeros(own_shape, bool))
-    for local in np.ndindex(own_shape):
-        idx = tuple(a + b for a, b in zip(local, lo))
-        before = orbits[idx]
-        known = _converged(before)
-        added: list[dict] = []
-        for nb in neighbours(idx, shape):
-            there = _converged(orbits[nb])
-            if not any(o.get("atlas_round", 0) == round_ - 1 for o in there):
-                continue
-            paired = {ia for ia, _ in match_neighbours(there, known + added)}
-            for ia, o in enumerate(there):
-                if ia in paired or o.get("atlas_round", 0) != round_ - 1:
+    mine = {tuple(a + b for a, b in zip(local, lo)) for local in np.ndindex(own_shape)}
+    current = {idx: _converged(o) for idx, o in orbits.items()}
+    added: dict[tuple, list[dict]] = {idx: [] for idx in mine}
+    # what is offered to the neighbours first: round 1, every grid orbit; later, the halo's
+    # orbits of the last round (the tile's own were offered inside it when they were added)
+    fresh = {idx: [o for o in current[idx] if o["atlas_round"] == round_ - 1
+                   and (round_ == 1 or idx not in mine)] for idx in current}
+    fresh = {idx: f for idx, f in fresh.items() if f}
+    # the tile to its own fixed point: an orbit added here is offered to its neighbours in the
+    # tile at once (those beyond it get it next round)
+    while fresh:
+        gained: dict[tuple, list[dict]] = {}
+        for src in sorted(fresh):
+            for p in neighbours(src, shape):
+                if p not in mine:
                     continue
-                result.shots += 1
-                sol = shoot_seeds_minimal(float(omega[idx[0]]), float(sigma[idx[1]]),
-                                          float(zeta[idx[2]]), int(o["period"]),
-                                          [tuple(o["x0"])], options)[0]
-                if sol["status"] != st.CONVERGED or sol["period"] < 1 \
-                        or any(same_orbit(sol, k) for k in known + added):
-                    continue
-                sol["atlas_round"] = round_
-                added.append(sol)
-        if not added:
+                paired = {ia for ia, _ in match_neighbours(current[src], current[p])}
+                for ia, o in enumerate(current[src]):
+                    if ia in paired or not any(o is f for f in fresh[src]):
+                        continue
+                    result.shots += 1
+                    sol = shoot_seeds_minimal(float(omega[p[0]]), float(sigma[p[1]]),
+                                              float(zeta[p[2]]), int(o["period"]),
+                                              [tuple(o["x0"])], options)[0]
+                    if sol["status"] != st.CONVERGED or sol["period"] < 1 \
+                            or any(same_orbit(sol, k) for k in current[p]):
+                        continue
+                    sol["atlas_round"] = round_
+                    current[p].append(sol)
+                    added[p].append(sol)
+                    gained.setdefault(p, []).append(sol)
+        fresh = gained
+    for idx in sorted(mine):
+        if not added[idx]:
             continue
+        local = tuple(a - b for a, b in zip(idx, lo))
         result.changed[local] = True
-        result.added += len(added)
-        for o in added:
+        result.added += len(added[idx])
+        for o in added[idx]:
             result.by_period[o["period"]] = result.by_period.get(o["period"], 0) + 1
-        _rewrite_point(out, local, before, known + added, len(added), max_solutions, periods)
+        _rewrite_point(out, local, orbits[idx], current[idx], len(added[idx]), max_solutions,
+                       periods)
     if result.changed.any() and "crossing_kind" in out:
         _recount_crossings(out, own_shape, result.changed, omega[own[0]], level, periods)
     return result

@@ -1,0 +1,213 @@
+"""The atlas as Dask tasks of the same study, after its grid and before its curves
+(study.solve.atlas: every stored orbit continued into its grid neighbours, round after round,
+until a round adds nothing).
+
+A round's tasks are the grid's tiles (its task blocks) that hold, or touch, an orbit the last
+round added (round 1: every tile). A task reads its tile and a one-point halo from the store
+(the snapshot: nothing is written to the main group during a round) and returns the tile's
+arrays where it gained orbits. The client stages each result as it comes
+(scheduler.store.write_atlas_tile), and once every tile of the round is staged, commits them
+(region writes of whole chunks) and records the round in the store's attrs
+(``hertzmap_atlas``). A run killed during a round keeps the staged tiles and computes the rest
+from the same snapshot; killed during a commit, it commits the staged round again: either way
+the store ends as an undisturbed run leaves it, whatever the worker count or the task order.
+"""
+from __future__ import annotations
+
+import os
+import time
+from typing import Any, TextIO
+
+import numpy as np
+
+from hertzmap.kernels.model import contact_loss_level
+from hertzmap.scheduler.plan import make_plan
+from hertzmap.scheduler.store import (ATLAS_ATTR, Store, read_atlas_tile, read_region,
+                                      remove_atlas_stage, staged_atlas_tiles, write_atlas_tile)
+from hertzmap.study.schema import CROSSING_VARIABLES, ORBIT_VARIABLES, stored_variables
+from hertzmap.study.solve.atlas import POINT_NAMES, atlas_names, propagate_tile
+from hertzmap.study.spec import Study
+
+#: the stored variables the atlas needs (the orbits' identity and continuity invariants)
+NEEDS = ("min_q", "max_q", "ptp")
+
+
+def _region(tile: tuple[slice, slice, slice], shape: tuple[int, int, int]):
+    """The tile grown by one point along every axis (clipped to the grid), and the tile's
+    cells within it."""
+    grown, own = [], []
+    for s, n in zip(tile, shape):
+        lo, hi = max(s.start - 1, 0), min(s.stop + 1, n)
+        grown.append(slice(lo, hi))
+        own.append(slice(s.start - lo, s.stop - lo))
+    return tuple(grown), tuple(own)
+
+
+def atlas_task(spec: dict[str, Any]) -> dict[str, Any]:
+    """One tile of one atlas round. Runs on a worker: reads the tile and its halo from the
+    store (read only), continues the neighbours' orbits into the tile. ``spec``: store, round,
+    index, slices (the tile), shape (the grid's), chunk_omega, axes (omega, sigma, zeta of the
+    grid), names (what the store holds), options, max_solutions, level, periods."""
+    t0 = time.perf_counter()
+    region, own = _region(tuple(slice(*s) for s in spec["slices"]), tuple(spec["shape"]))
+    names = spec["names"]
+    tile = tuple(slice(*s) for s in spec["slices"])
+    ib = tile[0].start // int(spec["chunk_omega"])
+    # the slots and counts over the region; the census's attractors and the lines over the
+    # tile only; all read in one call into zarr's event loop
+    where = {n: region for n in names if n in ORBIT_VARIABLES
+             or n in ("orbits_found", "orbits_dropped")}
+    if "attractor_solution" in names:
+        where["attractor_solution"] = tile
+    where.update({n: (slice(ib, ib + 1), tile[1], tile[2]) for n in names
+                  if n in CROSSING_VARIABLES})
+    read = read_region(spec["store"], where)
+    slot = {n: read[n] for n in where if n not in CROSSING_VARIABLES
+            and n != "attractor_solution"}
+    if "attractor_solution" in read:
+        a = read["attractor_solution"]
+        slot["attractor_solution"] = np.full(
+            tuple(r.stop - r.start for r in region) + a.shape[3:], -1, a.dtype)
+        slot["attractor_solution"][own] = a
+    lines = {n: read[n] for n in where if n in CROSSING_VARIABLES}
+    axes = [np.asarray(spec["axes"][a], float)[r] for a, r in zip(("omega", "sigma", "zeta"),
+                                                                 region)]
+    result = propagate_tile(slot, lines, own, *axes, int(spec["round"]), spec["options"],
+                            int(spec["max_solutions"]), float(spec["level"]),
+                            tuple(spec["periods"]))
+    return {"index": spec["index"], "changed": bool(result.changed.any()),
+            "arrays": result.arrays if result.changed.any() else None,
+            "shots": result.shots, "added": result.added,
+            "seconds": time.perf_counter() - t0, "pid": os.getpid()}
+
+
+class AtlasRun:
+    """The atlas stage of one run of a study into its (locked) store."""
+
+    def __init__(self, study: Study, store: Store, out: TextIO, err: TextIO, interrupt,
+                 command: str = "hertzmap run", enabled: bool = True):
+        #: False with another block solver than hertzmap's (a test's stand-in): the atlas
+        #: continues real orbits, which such a grid does not hold
+        self.enabled = enabled
+        self.study = study
+        self.store = store
+        self.out = out
+        self.err = err
+        self.interrupt = interrupt
+        self.command = command
+        kw = study.solver_kwargs()
+        self.options = {"exponent": kw["exponent"], "model": kw["model"], "rtol": kw["rtol"],
+                        "harmonics": "force_harmonics" in study.outputs}
+        self.level = contact_loss_level(kw["model"], kw["exponent"])
+        self.stored = stored_variables(study)
+        self.names = atlas_names(self.stored)
+
+    def applies(self) -> bool:
+        """The atlas matches orbits by their invariants: it runs on studies that store them."""
+        return all(n in self.stored for n in NEEDS)
+
+    def state(self) -> dict[str, Any]:
+        return dict(self.store.attrs.get(ATLAS_ATTR) or {"round": 1, "phase": "computing",
+                                                          "rounds": []})
+
+    def pending(self) -> bool:
+        return self.enabled and self.applies() and self.state()["phase"] != "done"
+
+    def _active_tiles(self, plan, round_: int) -> list:
+        """Round 1: every tile; later: the tiles holding or touching an orbit the last round
+        added."""
+        if round_ == 1:
+            return list(plan.tasks)
+        every = (slice(None),) * 3
+        fresh = (read_region(self.store.path, {"atlas_round": every})["atlas_round"]
+                 == round_ - 1).any(axis=-1)
+        # a point next to a fresh orbit is touched: grow the mask by one along each axis
+        touched = fresh.copy()
+        for axis in range(3):
+            lo = [slice(None)] * 3
+            hi = [slice(None)] * 3
+            lo[axis], hi[axis] = slice(1, None), slice(None, -1)
+            touched[tuple(lo)] |= fresh[tuple(hi)]
+            touched[tuple(hi)] |= fresh[tuple(lo)]
+        return [t for t in plan.tasks if touched[t.slices].any()]
+
+    def _spec(self, task, round_: int) -> dict[str, Any]:
+        st = self.study
+        return {"store": str(self.store.path), "round": round_, "index": task.index,
+                "slices": [(s.start, s.stop) for s in task.slices], "shape": st.shape,
+                "chunk_omega": self.store.chunks[0],
+                "axes": {a: np.asarray(st.axis(a), float) for a in ("omega", "sigma", "zeta")},
+                "names": self.names, "options": self.options,
+                "max_solutions": st.max_solutions, "level": self.level,
+                "periods": tuple(st.periods)}
+
+    def run(self, client, n_workers: int) -> dict[str, Any]:
+        """Run (or resume) the rounds to the fixed point. Returns the atlas summary (also
+        printed)."""
+        from distributed import as_completed
+
+        plan = make_plan(self.study, self.store.chunks)
+        by_index = {t.index: t for t in plan.tasks}
+        state = self.state()
+        summary = {"rounds": 0, "added": 0, "shots": 0, "compute": 0.0, "tiles": 0,
+                   "by_period": {}}
+        t0 = time.perf_counter()
+        while state["phase"] != "done":
+            r = int(state["round"])
+            if state["phase"] == "computing":
+                active = self._active_tiles(plan, r)
+                staged = staged_atlas_tiles(self.store.path, r)
+                todo = [t for t in active if t.index not in staged]
+                futures = client.map(atlas_task, [self._spec(t, r) for t in todo],
+                                     key=[f"hertzmap-atlas-{self.study.hash[:12]}-{r}-"
+                                          + "-".join(map(str, t.index)) for t in todo],
+                                     pure=False)
+                for fut in as_completed(futures):
+                    res = fut.result()
+                    with self.interrupt.critical():
+                        write_atlas_tile(self.store.path, r, tuple(res["index"]), res["arrays"])
+                    fut.release()
+                    summary["shots"] += res["shots"]
+                    summary["compute"] += res["seconds"]
+                    summary["tiles"] += 1
+                state["phase"] = "committing"
+                state["active"] = [list(t.index) for t in active]
+                with self.interrupt.critical():
+                    self.store.set_attrs(**{ATLAS_ATTR: state})
+            # commit: idempotent, from the staged tiles of the round's active set
+            added = 0
+            with self.interrupt.critical():
+                for index in map(tuple, state.get("active", [])):
+                    arrays = read_atlas_tile(self.store.path, r, index)
+                    if not arrays:
+                        continue
+                    new = arrays["atlas_round"] == r
+                    added += int(new.sum())
+                    for p, n in zip(*np.unique(arrays["period"][new], return_counts=True)):
+                        summary["by_period"][int(p)] = summary["by_period"].get(int(p), 0) + int(n)
+                    self.store.write_block(by_index[index].slices, arrays, self.names)
+                state["rounds"] = list(state.get("rounds", [])) + [{"round": r, "added": added}]
+                state.pop("active", None)
+                if added:
+                    state.update(round=r + 1, phase="computing")
+                else:
+                    state.update(phase="done")
+                self.store.set_attrs(**{ATLAS_ATTR: state})
+                remove_atlas_stage(self.store.path)
+            summary["rounds"] += 1
+            summary["added"] += added
+        summary["wall"] = time.perf_counter() - t0
+        summary["total_added"] = sum(x["added"] for x in state.get("rounds", []))
+        summary["total_rounds"] = len(state.get("rounds", []))
+        self.store.add_history(f"{self.command}: atlas: {summary['total_added']} orbits added "
+                               f"in {summary['total_rounds']} rounds")
+        print(atlas_line(summary), file=self.out, flush=True)
+        return summary
+
+
+def atlas_line(s: dict[str, Any]) -> str:
+    periods = ", ".join(f"{n} of period {p}" for p, n in sorted(s["by_period"].items()))
+    return (f"atlas: {s['total_added']} orbits continued into neighbouring grid points "
+            f"({periods or 'none new'}) in {s['total_rounds']} rounds to the fixed point; "
+            f"{s['shots']} shots over {s['tiles']} tiles, {s['compute']:.1f} s compute, "
+            f"{s['wall']:.1f} s wall")
