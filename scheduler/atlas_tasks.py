@@ -25,11 +25,13 @@ from hertzmap.scheduler.plan import make_plan
 from hertzmap.scheduler.store import (ATLAS_ATTR, Store, read_atlas_tile, read_region,
                                       remove_atlas_stage, staged_atlas_tiles, write_atlas_tile)
 from hertzmap.study.schema import CROSSING_VARIABLES, ORBIT_VARIABLES, stored_variables
-from hertzmap.study.solve.atlas import POINT_NAMES, atlas_names, propagate_tile
+from hertzmap.study.solve.atlas import atlas_names
 from hertzmap.study.spec import Study
 
 #: the stored variables the atlas needs (the orbits' identity and continuity invariants)
 NEEDS = ("min_q", "max_q", "ptp")
+#: what computes one tile of a round (module:function, imported on the worker by name)
+DEFAULT_ATLAS_TILE = "hertzmap.study.solve.atlas:propagate_tile"
 
 
 def _region(tile: tuple[slice, slice, slice], shape: tuple[int, int, int]):
@@ -72,7 +74,10 @@ def atlas_task(spec: dict[str, Any]) -> dict[str, Any]:
     lines = {n: read[n] for n in where if n in CROSSING_VARIABLES}
     axes = [np.asarray(spec["axes"][a], float)[r] for a, r in zip(("omega", "sigma", "zeta"),
                                                                  region)]
-    result = propagate_tile(slot, lines, own, *axes, int(spec["round"]), spec["options"],
+    from hertzmap.scheduler.worker import load_solver
+
+    propagate = load_solver(spec.get("tile_function", DEFAULT_ATLAS_TILE))
+    result = propagate(slot, lines, own, *axes, int(spec["round"]), spec["options"],
                             int(spec["max_solutions"]), float(spec["level"]),
                             tuple(spec["periods"]))
     return {"index": spec["index"], "changed": bool(result.changed.any()),
@@ -85,10 +90,12 @@ class AtlasRun:
     """The atlas stage of one run of a study into its (locked) store."""
 
     def __init__(self, study: Study, store: Store, out: TextIO, err: TextIO, interrupt,
-                 command: str = "hertzmap run", enabled: bool = True):
+                 command: str = "hertzmap run", enabled: bool = True,
+                 tile: str = DEFAULT_ATLAS_TILE):
         #: False with another block solver than hertzmap's (a test's stand-in): the atlas
         #: continues real orbits, which such a grid does not hold
         self.enabled = enabled
+        self.tile = tile
         self.study = study
         self.store = store
         self.out = out
@@ -139,7 +146,7 @@ class AtlasRun:
                 "axes": {a: np.asarray(st.axis(a), float) for a in ("omega", "sigma", "zeta")},
                 "names": self.names, "options": self.options,
                 "max_solutions": st.max_solutions, "level": self.level,
-                "periods": tuple(st.periods)}
+                "periods": tuple(st.periods), "tile_function": self.tile}
 
     def run(self, client, n_workers: int) -> dict[str, Any]:
         """Run (or resume) the rounds to the fixed point. Returns the atlas summary (also

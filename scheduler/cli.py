@@ -77,6 +77,8 @@ def _run_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--solver", default=None, help=argparse.SUPPRESS)
     # developer hook: another curve tracer with trace_seed's contract (module:function)
     p.add_argument("--curve-tracer", default=None, help=argparse.SUPPRESS)
+    # developer hook: another atlas tile function with propagate_tile's contract
+    p.add_argument("--atlas-tile", default=None, help=argparse.SUPPRESS)
 
 
 def run_command_line(args: argparse.Namespace) -> str:
@@ -137,6 +139,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     )
     if args.curve_tracer:
         opts.curve_tracer = args.curve_tracer
+    if args.atlas_tile:
+        opts.atlas_tile = args.atlas_tile
     try:
         if args.dry_run:
             print(describe(study, opts.store, opts.task_seconds, opts.cluster))

@@ -21,7 +21,7 @@ from typing import Any, TextIO
 from hertzmap.kernels.status import TIME_LIMIT
 from hertzmap.scheduler.cluster import (JOBQUEUE, ClusterSpec, WorkerJobsEnded, close_quietly,
                                make_client, wait_for_first_worker, worker_count)
-from hertzmap.scheduler.atlas_tasks import AtlasRun
+from hertzmap.scheduler.atlas_tasks import DEFAULT_ATLAS_TILE, AtlasRun
 from hertzmap.scheduler.curve_tasks import DEFAULT_TRACER, CurveRun
 from hertzmap.scheduler.dry_run import plan_for
 from hertzmap.scheduler.defaults import DEFAULT_TASK_SECONDS, DEFAULT_TASK_TIMEOUT, ERROR_SAMPLE
@@ -51,6 +51,8 @@ class RunOptions:
     command: str = "hertzmap run"
     #: what traces a curve (the "curves" output), module:function
     curve_tracer: str = DEFAULT_TRACER
+    #: what computes one tile of an atlas round, module:function
+    atlas_tile: str = DEFAULT_ATLAS_TILE
 
 
 def default_store_path(study: Study) -> Path:
@@ -191,7 +193,7 @@ class StudyRun:
                                         "tasks_done_before": 0, "tasks_run": 0, "failed": []}
         # the atlas, after the grid and before the curves
         self.atlas = AtlasRun(study, store, out, err, self.interrupt, opts.command,
-                              enabled=opts.solver == DEFAULT_SOLVER)
+                              enabled=opts.solver == DEFAULT_SOLVER, tile=opts.atlas_tile)
         # the traced curves of a study with the "curves" output, after its grid
         self.curves = CurveRun(study, store, out, err, self.interrupt, opts.command,
                                opts.curve_tracer)

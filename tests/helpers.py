@@ -370,3 +370,17 @@ def slow_trace_seed(seed, bounds, **kwargs):
 
     time.sleep(float(os.environ.get("HERTZMAP_CURVE_DELAY", "1")))
     return trace_seed(seed, bounds, **kwargs)
+
+
+# -- a slow atlas tile (the atlas's developer hook --atlas-tile) ---------------------------------
+
+SLOW_ATLAS_TILE = "tests.helpers:slow_propagate_tile"
+
+
+def slow_propagate_tile(*args, **kwargs):
+    """study.solve.atlas.propagate_tile after a pause ($HERTZMAP_ATLAS_DELAY s, default 1): an
+    atlas round slow enough for a test to kill it between two staged tiles."""
+    from hertzmap.study.solve.atlas import propagate_tile
+
+    time.sleep(float(os.environ.get("HERTZMAP_ATLAS_DELAY", "1")))
+    return propagate_tile(*args, **kwargs)

@@ -1,0 +1,134 @@
+"""study.solve.atlas: an orbit known at one grid point is continued into points that lack it,
+each continued orbit checked by the oracle (scipy's period map, benchmarks/oracle.py); what the
+continuity rule already pairs is not shot again; a full point keeps its stable orbits and
+counts what it dropped; the result depends on the snapshot only."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from benchmarks import oracle
+from hertzmap.kernels import shoot
+from hertzmap.study.schema import ORBIT_VARIABLES, empty_arrays
+from hertzmap.study.solve.atlas import neighbours, propagate_tile
+from hertzmap.study.solve.block import slot_order
+from hertzmap.study.solve.point import shoot_seeds_minimal
+
+OPTIONS = {"exponent": 1.5, "model": "hertz", "rtol": 1e-10, "harmonics": False}
+ZETA = 0.01
+
+
+def _region(omega, sigma, orbits_at, max_solutions=4):
+    """Block arrays over (omega, sigma, one zeta) holding, at each (i, j), the orbits solved
+    from orbits_at[(i, j)] = [(period, guess), ...] (grid orbits, atlas_round 0)."""
+    names = ORBIT_VARIABLES + ("orbits_found", "orbits_dropped")
+    a = empty_arrays((len(omega), len(sigma), 1), max_solutions, names)
+    a["orbits_found"][...] = 0
+    a["orbits_dropped"][...] = 0
+    for (i, j), wanted in orbits_at.items():
+        sols = []
+        for period, guess in wanted:
+            s = shoot_seeds_minimal(omega[i], sigma[j], ZETA, period, [guess], OPTIONS)[0]
+            assert s["status"] == 0
+            sols.append(s)
+        for slot, s in enumerate(slot_order(sols, max_solutions)):
+            for n in ORBIT_VARIABLES:
+                a[n][i, j, 0, slot] = s["x0"][0] if n == "q0" else s["x0"][1] if n == "v0" \
+                    else s[n]
+        a["orbits_found"][i, j, 0] = len(sols)
+    return a
+
+
+def _orbits(arrays, i, j):
+    ok = arrays["status"][i, j, 0] == 0
+    return [(int(arrays["period"][i, j, 0, s]), float(arrays["q0"][i, j, 0, s]),
+             float(arrays["v0"][i, j, 0, s]), int(arrays["atlas_round"][i, j, 0, s]))
+            for s in np.flatnonzero(ok)]
+
+
+def test_neighbours_are_along_the_swept_axes_lower_first():
+    assert list(neighbours((1, 0, 0), (3, 1, 1))) == [(0, 0, 0), (2, 0, 0)]
+    assert list(neighbours((0, 1, 0), (2, 3, 1))) == [(1, 1, 0), (0, 0, 0), (0, 2, 0)]
+
+
+def test_a_2t_orbit_known_at_one_sigma_is_continued_along_the_line_and_checked():
+    """The stable 2T orbit at (2.0, 0.5) continued across sigma 0.46..0.58 (points that only
+    hold their 1T orbit): every continued orbit is a fixed point of scipy's own period map,
+    and its invariants change little from point to point."""
+    omega = np.array([2.0])
+    sigma = np.array([0.46, 0.5, 0.54, 0.58])
+    o2 = shoot(2.0, 0.5, ZETA, 2, guess=(-0.6, 0.5))
+    assert o2.converged and o2.period == 2 and o2.minimal_period == 2
+    one_t = (1, (0.0, 0.0))
+    region = _region(omega, sigma, {(0, 0): [one_t], (0, 1): [one_t, (2, tuple(o2.x0))],
+                                    (0, 2): [one_t], (0, 3): [one_t]})
+    own = (slice(0, 1), slice(0, 4), slice(0, 1))
+    r = propagate_tile(region, {}, own, omega, sigma, np.array([ZETA]), 1, OPTIONS, 4, -1.5,
+                       (1, 2))
+    assert r.changed[0, :, 0].tolist() == [True, False, True, True]
+    for j in (0, 2, 3):
+        found = [o for o in _orbits(r.arrays, 0, j) if o[0] == 2]
+        assert len(found) == 1 and found[0][3] == 1          # added by round 1
+        x = np.array(found[0][1:3])
+        phi = oracle.period_map(x, 2.0, float(sigma[j]), ZETA, 2)
+        assert np.max(np.abs(phi - x)) < 1e-7 * (1 + np.hypot(*x))
+        assert r.arrays["orbits_found"][0, j, 0] == 2
+        assert r.arrays["orbits_dropped"][0, j, 0] == 0
+    # the grid's orbits are kept as stored
+    assert _orbits(r.arrays, 0, 1) == _orbits(region, 0, 1)
+    # a second round has nothing to offer: the fixed point
+    again = {n: region[n].copy() for n in region}
+    for n, v in r.arrays.items():
+        again[n][own] = v
+    r2 = propagate_tile(again, {}, own, omega, sigma, np.array([ZETA]), 2, OPTIONS, 4, -1.5,
+                        (1, 2))
+    assert not r2.changed.any() and r2.shots == 0
+
+
+def test_orbits_the_continuity_rule_pairs_are_not_shot():
+    """Two points holding the same branches: nothing to continue, no shot."""
+    omega = np.array([2.0])
+    sigma = np.array([0.5, 0.51])
+    o2 = shoot(2.0, 0.5, ZETA, 2, guess=(-0.6, 0.5))
+    o2b = shoot(2.0, 0.51, ZETA, 2, guess=tuple(o2.x0))
+    region = _region(omega, sigma, {(0, 0): [(1, (0.0, 0.0)), (2, tuple(o2.x0))],
+                                    (0, 1): [(1, (0.0, 0.0)), (2, tuple(o2b.x0))]})
+    own = (slice(0, 1), slice(0, 2), slice(0, 1))
+    r = propagate_tile(region, {}, own, omega, sigma, np.array([ZETA]), 1, OPTIONS, 4, -1.5,
+                       (1, 2))
+    assert r.shots == 0 and not r.changed.any()
+
+
+def test_a_full_point_keeps_its_stable_orbits_and_counts_the_dropped_one():
+    """One slot: the stable 2T orbit arriving at a point whose slot holds the 1T orbit, unstable
+    there (past its flip): the stable one is kept, one orbit is counted dropped."""
+    omega = np.array([2.0])
+    sigma = np.array([0.5, 0.54])
+    o2 = shoot(2.0, 0.5, ZETA, 2, guess=(-0.6, 0.5))
+    region = _region(omega, sigma, {(0, 0): [(2, tuple(o2.x0))], (0, 1): [(1, (0.0, 0.0))]},
+                     max_solutions=1)
+    own = (slice(0, 1), slice(1, 2), slice(0, 1))
+    r = propagate_tile(region, {}, own, omega, sigma, np.array([ZETA]), 1, OPTIONS, 1, -1.5,
+                       (1, 2))
+    assert not shoot(2.0, 0.54, ZETA, 1).stable
+    assert r.changed.all() and r.added == 1
+    assert [o[0] for o in _orbits(r.arrays, 0, 0)] == [2] and r.arrays["stable"][0, 0, 0, 0]
+    assert r.arrays["orbits_found"][0, 0, 0] == 2 and r.arrays["orbits_dropped"][0, 0, 0] == 1
+
+
+@pytest.mark.parametrize("order", [(0, 1, 2, 3), (3, 2, 1, 0)])
+def test_the_result_depends_on_the_snapshot_only(order):
+    """The same tile from the same snapshot, its arrays built in another order: the same
+    bits."""
+    omega = np.array([2.0])
+    sigma = np.array([0.46, 0.5, 0.54, 0.58])
+    o2 = shoot(2.0, 0.5, ZETA, 2, guess=(-0.6, 0.5))
+    wanted = {(0, j): [(1, (0.0, 0.0))] for j in order}
+    wanted[(0, 1)] = [(1, (0.0, 0.0)), (2, tuple(o2.x0))]
+    own = (slice(0, 1), slice(0, 4), slice(0, 1))
+    a = propagate_tile(_region(omega, sigma, wanted), {}, own, omega, sigma,
+                       np.array([ZETA]), 1, OPTIONS, 4, -1.5, (1, 2))
+    b = propagate_tile(_region(omega, sigma, dict(sorted(wanted.items()))), {}, own, omega,
+                       sigma, np.array([ZETA]), 1, OPTIONS, 4, -1.5, (1, 2))
+    for n in a.arrays:
+        np.testing.assert_array_equal(a.arrays[n], b.arrays[n], err_msg=n)
