@@ -32,13 +32,18 @@ import numpy as np
 
 from hertzmap.kernels import status as st
 from hertzmap.study.orbits import match_neighbours, same_orbit
-from hertzmap.study.schema import CROSSING_SLOTS, CROSSING_VARIABLES, ORBIT_VARIABLES, VARIABLES
+from hertzmap.study.schema import (BIFURCATION_KINDS, CROSSING_SLOTS, CROSSING_VARIABLES,
+                                   ORBIT_VARIABLES, VARIABLES)
 from hertzmap.study.solve.block import record_line, slot_order
 from hertzmap.study.solve.curves import line_crossings
 from hertzmap.study.solve.point import shoot_seeds_minimal
 
 #: The per-point variables the atlas rewrites besides the orbit slots (when stored).
 POINT_NAMES = ("orbits_found", "orbits_dropped", "attractor_solution")
+#: Newton iterations of a continuation into a neighbour: one that exists there converges from
+#: the neighbour's start point in a few; most shots that fail are at orbits that end between
+#: the two points (past a fold or a flip), and a long Newton only spent time there
+MAX_ITER = 10
 
 
 def atlas_names(stored: tuple[str, ...]) -> tuple[str, ...]:
@@ -106,6 +111,7 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
     (exponent, model, rtol, harmonics); ``level``: the contact-loss level (the crossings'
     grazing test); ``periods``: the periods the study searches. Returns the tile's arrays
     (atlas_names) with the orbits this round adds."""
+    options = dict(options, max_iter=MAX_ITER)
     shape = region["status"].shape[:3]
     orbits = {idx: stored_orbits(region, idx) for idx in np.ndindex(shape)}
     out = {n: region[n][own].copy() for n in region if n in ORBIT_VARIABLES + POINT_NAMES}
@@ -156,7 +162,9 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
         _rewrite_point(out, local, orbits[idx], current[idx], len(added[idx]), max_solutions,
                        periods)
     if result.changed.any() and "crossing_kind" in out:
-        _recount_crossings(out, own_shape, result.changed, omega[own[0]], level, periods)
+        before = {idx: _converged(orbits[idx]) for idx in mine}
+        _recount_crossings(out, own_shape, lo, result.changed, before, current,
+                           omega[own[0]], level, periods)
     return result
 
 
@@ -188,14 +196,37 @@ def _rewrite_point(out, local, before, orbits, n_added, max_solutions, periods):
                 slots[a] = next((k for k, o in enumerate(kept) if o is before[s]), -1)
 
 
-def _recount_crossings(out, own_shape, changed, omega, level, periods):
-    """The crossings of every (sigma, zeta) line of the tile that gained an orbit, from the
-    line's orbits as the round leaves them (as the grid finds them:
-    study.solve.curves.line_crossings)."""
-    slots = {n: out[n] for n in ORBIT_VARIABLES if n in out}
+def _crossing_records(out, j, k) -> list[dict]:
+    """The crossings stored for line (j, k) of the tile, as records (line_crossings')."""
+    kinds = {code: name for name, code in BIFURCATION_KINDS.items()}
+    fields = [n.removeprefix("crossing_") for n in CROSSING_VARIABLES
+              if n not in ("crossing_count", "crossing_kind")]
+    return [dict(kind=kinds[int(code)], **{f: out[f"crossing_{f}"][0, j, k, c].item()
+                                           for f in fields})
+            for c, code in enumerate(out["crossing_kind"][0, j, k]) if code > 0]
+
+
+def _same_crossing(a, b) -> bool:
+    return (a["kind"] == b["kind"] and a["period"] == b["period"]
+            and abs(a["omega"] - b["omega"]) <= 1e-9 * (1.0 + abs(a["omega"])))
+
+
+def _recount_crossings(out, own_shape, lo, changed, before, now, omega, level, periods):
+    """The crossings of every (sigma, zeta) line of the tile that gained an orbit: those the
+    grid recorded (found with every orbit it met, stored or not), and those that the line's
+    orbits as the round leaves them add (study.solve.curves.line_crossings, before and after:
+    only the new ones join). A line whose crossings were not recorded (-1) stays so."""
+    w = np.asarray(omega, float)
     for j, k in sorted({(int(j), int(k)) for _, j, k in zip(*np.nonzero(changed))}):
-        per_point = [_converged(stored_orbits(slots, (i, j, k))) for i in range(own_shape[0])]
+        if out["crossing_count"][0, j, k] < 0:
+            continue
+        pts = [(lo[0] + i, lo[1] + j, lo[2] + k) for i in range(own_shape[0])]
+        was = line_crossings(w, [before[p] for p in pts], level, periods)
+        new = [r for r in line_crossings(w, [now[p] for p in pts], level, periods)
+               if not any(_same_crossing(r, q) for q in was)]
+        records = _crossing_records(out, j, k)
+        records += [r for r in new if not any(_same_crossing(r, q) for q in records)]
+        records.sort(key=lambda d: (d["omega"], BIFURCATION_KINDS[d["kind"]], d["period"]))
         for n in CROSSING_VARIABLES:
             out[n][0, j, k] = VARIABLES[n].fill
-        record_line(out, CROSSING_VARIABLES, CROSSING_SLOTS, j, k,
-                    line_crossings(np.asarray(omega, float), per_point, level, periods))
+        record_line(out, CROSSING_VARIABLES, CROSSING_SLOTS, j, k, records)
