@@ -82,7 +82,7 @@ def atlas_task(spec: dict[str, Any]) -> dict[str, Any]:
                             tuple(spec["periods"]))
     return {"index": spec["index"], "changed": bool(result.changed.any()),
             "arrays": result.arrays if result.changed.any() else None,
-            "shots": result.shots, "added": result.added,
+            "shots": result.shots, "skipped": result.skipped, "added": result.added,
             "seconds": time.perf_counter() - t0, "pid": os.getpid()}
 
 
@@ -156,7 +156,7 @@ class AtlasRun:
         plan = make_plan(self.study, self.store.chunks)
         by_index = {t.index: t for t in plan.tasks}
         state = self.state()
-        summary = {"rounds": 0, "added": 0, "shots": 0, "compute": 0.0, "tiles": 0,
+        summary = {"rounds": 0, "added": 0, "shots": 0, "skipped": 0, "compute": 0.0, "tiles": 0,
                    "by_period": {}}
         t0 = time.perf_counter()
         while state["phase"] != "done":
@@ -175,6 +175,7 @@ class AtlasRun:
                         write_atlas_tile(self.store.path, r, tuple(res["index"]), res["arrays"])
                     fut.release()
                     summary["shots"] += res["shots"]
+                    summary["skipped"] += res["skipped"]
                     summary["compute"] += res["seconds"]
                     summary["tiles"] += 1
                 state["phase"] = "committing"
@@ -216,5 +217,6 @@ def atlas_line(s: dict[str, Any]) -> str:
     periods = ", ".join(f"{n} of period {p}" for p, n in sorted(s["by_period"].items()))
     return (f"atlas: {s['total_added']} orbits continued into neighbouring grid points "
             f"({periods or 'none new'}) in {s['total_rounds']} rounds to the fixed point; "
-            f"{s['shots']} shots over {s['tiles']} tiles, {s['compute']:.1f} s compute, "
+            f"{s['shots']} shots over {s['tiles']} tiles ({s['skipped']} not shot into full "
+            f"points), {s['compute']:.1f} s compute, "
             f"{s['wall']:.1f} s wall")

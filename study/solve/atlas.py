@@ -60,6 +60,7 @@ class TileResult:
     arrays: dict[str, np.ndarray]
     changed: np.ndarray
     shots: int = 0
+    skipped: int = 0
     added: int = 0
     by_period: dict[int, int] = field(default_factory=dict)
 
@@ -136,8 +137,14 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
                 if p not in mine:
                     continue
                 paired = {ia for ia, _ in match_neighbours(current[src], current[p])}
+                full = _full_rank(current[p], max_solutions)
                 for ia, o in enumerate(current[src]):
                     if ia in paired or not any(o is f for f in fresh[src]):
+                        continue
+                    if full is not None and not o["stable"] and _rank(o) > full:
+                        # the point's slots are full of orbits ranked before it (stable ones,
+                        # lower periods): it would be dropped there, as the grid dropped it
+                        result.skipped += 1
                         continue
                     result.shots += 1
                     sol = shoot_seeds_minimal(float(omega[p[0]]), float(sigma[p[1]]),
@@ -166,6 +173,18 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
         _recount_crossings(out, own_shape, lo, result.changed, before, current,
                            omega[own[0]], level, periods)
     return result
+
+
+def _rank(orbit) -> tuple:
+    """An orbit's place in the slot order (study.solve.block.slot_order)."""
+    return (not orbit["stable"], orbit["period"], orbit["ptp"])
+
+
+def _full_rank(orbits, max_solutions):
+    """The rank of the last orbit a full point keeps (None when it has a free slot)."""
+    if len(orbits) < max_solutions:
+        return None
+    return sorted(_rank(o) for o in orbits)[max_solutions - 1]
 
 
 def _rewrite_point(out, local, before, orbits, n_added, max_solutions, periods):
