@@ -230,6 +230,17 @@ ATTRACTOR = Record("attractor", (
           "fraction of the study's initial states whose transient ends on this attractor "
           "(a measure of the basin over the box of initial states)",
           output="attractors", columns=()),
+    Field("unsettled_reason", "why an attractor is unsettled", "1",
+          "an unsettled attractor's transients, continued in longer passes (each 4 times the "
+          "last) from where they stopped: 1 period_limit (they ran search.max_transient_periods "
+          "periods in all without settling, and are not shown chaotic), 2 work_budget "
+          "(search.point_steps ran out first); 0 otherwise",
+          output="attractors", dtype="int8", fill=0, columns=(),
+          flags=((0, "none"), (1, "period_limit"), (2, "work_budget"))),
+    Field("attractor_periods_run", "forcing periods the transient ran", "1",
+          "periods the attractor's representative transient was integrated from its initial "
+          "state, the longer passes included (an unsettled or non-periodic attractor), or "
+          "until it settled (a periodic one)", output="attractors", columns=("periods_run",)),
     Field("lyapunov_exponent", "largest Lyapunov exponent", "1",
           "per unit dimensionless time tau: Benettin's method with the variational equations "
           "(exact across contact loss) over the record window (non-periodic and unsettled "

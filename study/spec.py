@@ -68,6 +68,10 @@ RECORD_PERIODS_RANGE = (32, 10_000)
 DEFAULT_INITIAL_STATES = 16
 DEFAULT_TRANSIENT_PERIODS = 500
 DEFAULT_RECORD_PERIODS = 128
+MAX_TRANSIENT_PERIODS_RANGE = (10, 1_000_000)
+DEFAULT_MAX_TRANSIENT_PERIODS = 20_000
+POINT_STEPS_RANGE = (10_000, 10_000_000_000)
+DEFAULT_POINT_STEPS = 2_000_000
 CONTACTS = ("double", "single")
 
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$")
@@ -121,6 +125,8 @@ class Study:
     initial_states: int = DEFAULT_INITIAL_STATES
     transient_periods: int = DEFAULT_TRANSIENT_PERIODS
     record_periods: int = DEFAULT_RECORD_PERIODS
+    max_transient_periods: int = DEFAULT_MAX_TRANSIENT_PERIODS
+    point_steps: int = DEFAULT_POINT_STEPS
     outputs: tuple[str, ...] = DEFAULT_OUTPUTS
     rig: tuple[tuple[str, Any], ...] | None = None
     source_text: str = field(default="", compare=False, repr=False)
@@ -169,6 +175,8 @@ class Study:
             kw["initial_states"] = int(self.initial_states)
             kw["transient_periods"] = int(self.transient_periods)
             kw["record_periods"] = int(self.record_periods)
+            kw["max_transient_periods"] = int(self.max_transient_periods)
+            kw["point_steps"] = int(self.point_steps)
         return kw
 
     def to_dict(self) -> dict[str, Any]:
@@ -194,7 +202,9 @@ class Study:
         if self.attractors != "never":
             out.update(initial_states=int(self.initial_states),
                        transient_periods=int(self.transient_periods),
-                       record_periods=int(self.record_periods))
+                       record_periods=int(self.record_periods),
+                       max_transient_periods=int(self.max_transient_periods),
+                       point_steps=int(self.point_steps))
         return out
 
     def canonical_json(self) -> str:
@@ -415,7 +425,8 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
     # [search]
     se = _table(doc, "search")
     _refuse_unknown(se, "search", ("periods", "discover", "transients", "attractors",
-                                   "initial_states", "transient_periods", "record_periods"))
+                                   "initial_states", "transient_periods", "record_periods",
+                                   "max_transient_periods", "point_steps"))
     discover = se.get("discover", False)
     if not isinstance(discover, bool):
         raise StudyError("search.discover", f"expected true or false, got {_r(discover)}")
@@ -448,7 +459,13 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
             ("transient_periods", TRANSIENT_PERIODS_RANGE, DEFAULT_TRANSIENT_PERIODS,
              "forcing periods a transient may run before it counts as unsettled"),
             ("record_periods", RECORD_PERIODS_RANGE, DEFAULT_RECORD_PERIODS,
-             "forcing periods of the window the exponent and measures are taken over")):
+             "forcing periods of the window the exponent and measures are taken over"),
+            ("max_transient_periods", MAX_TRANSIENT_PERIODS_RANGE, DEFAULT_MAX_TRANSIENT_PERIODS,
+             "forcing periods the transients of a point that did not settle may run in all, "
+             "in longer passes, before it is called unsettled"),
+            ("point_steps", POINT_STEPS_RANGE, DEFAULT_POINT_STEPS,
+             "integration steps the longer passes of one point may take, summed over its "
+             "transients")):
         value = se.get(key, default)
         if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
             raise StudyError(f"search.{key}", f"expected an integer {lo}..{hi} ({what}), "
@@ -457,6 +474,10 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
             raise StudyError(f"search.{key}", 'only meaningful with search.attractors other '
                              'than "never"')
         census[key] = value
+    if census.get("max_transient_periods", DEFAULT_MAX_TRANSIENT_PERIODS) < census.get(
+            "transient_periods", DEFAULT_TRANSIENT_PERIODS):
+        raise StudyError("search.max_transient_periods", "must be at least "
+                         "search.transient_periods")
 
     # [products]
     pr = _table(doc, "products")

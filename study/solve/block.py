@@ -110,8 +110,8 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
                 max_solutions=4, discover=False, transients=16, locate=False, crossings=False,
                 harmonics=True, time_budget=None, seeds=(), turn_folds=True,
                 attractors="never", initial_states=16, transient_periods=500,
-                record_periods=128, seed_strides=(LINEAR_SEED_STRIDE, MMS_SEED_STRIDE)
-                ) -> dict[str, np.ndarray]:
+                record_periods=128, max_transient_periods=None, point_steps=2_000_000,
+                seed_strides=(LINEAR_SEED_STRIDE, MMS_SEED_STRIDE)) -> dict[str, np.ndarray]:
     """Every periodic response at each point of the block omega x sigma x zeta.
 
     ``seeds``: more initial guesses ``(period, q0, q'0)``, shot at every point of the block on
@@ -186,7 +186,9 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
             if turn_folds:
                 search.turn_folds()
             search.run_census(attractors, int(initial_states), int(transient_periods),
-                              int(record_periods))
+                              int(record_periods),
+                              int(max_transient_periods or transient_periods),
+                              int(point_steps))
             per_point = search.per_point
             line = None
             if discover and (deadline is None or time.monotonic() <= deadline):

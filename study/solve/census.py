@@ -21,6 +21,15 @@ x_{k+m} ~ x_k (m = 1..8); each is a Newton seed of period m: a stable orbit foun
 point into "unsettled" (the chaotic-looking transients are transients), an unstable one is a
 periodic response of the point like any other (an orbit embedded in the chaotic set).
 
+Unsettled: a point whose open transients are not shown chaotic gets longer passes, each
+``LONGER`` times the last, from where they stopped, up to the study's search.max_transient_periods
+periods in all and within its search.point_steps (integration steps summed over its open
+transients: work, not wall time, so that the results do not depend on the machine): a
+transient that settles then counts with
+its periodic attractor; one that ran all its periods with a positive exponent is chaotic (a
+chaotic attractor beside a stable orbit: its transients are no longer "long"); the others stay
+unsettled with the reason (``unsettled_reason``: the period limit, or the work budget).
+
 Basin fractions: the share of the initial states ending on each attractor. Where none of the
 first FULL_BUDGET_STATES transients settles within the whole budget, the others run for a fifth
 of it, to screen for a periodic attractor with a quick transient; those that have not settled
@@ -69,6 +78,12 @@ RECURRENCE_SHARE = 0.2
 LYAPUNOV_SIGMAS = 3.0
 #: ... and the two halves of the window agree to this share of it
 LYAPUNOV_HALVES_SHARE = 0.5
+#: each longer pass of a point that did not settle runs this many times the last one
+LONGER = 4
+#: why a point is unsettled (``unsettled_reason``): its transients ran the study's
+#: search.max_transient_periods without settling, or its search.point_steps ran out first
+PERIOD_LIMIT = 1
+WORK_BUDGET = 2
 
 
 @dataclass
@@ -81,6 +96,7 @@ class Attractor:
     orbit: dict | None = None
     row: np.ndarray | None = None            # the kernel row of a representative transient
     strobe: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
+    reason: int = 0                          # unsettled: why (PERIOD_LIMIT, WORK_BUDGET)
 
     @property
     def period(self) -> int:
@@ -109,12 +125,16 @@ def recurrence_seeds(strobe: np.ndarray, periods=RECURRENCE_PERIODS) -> list[tup
 
 
 def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options: dict,
-           n_states: int, transient_periods: int, record_periods: int
+           n_states: int, transient_periods: int, record_periods: int,
+           max_transient_periods: int | None = None, point_steps: int = 2_000_000
            ) -> tuple[list[Attractor], list[dict]]:
     """The attractors at (omega, sigma, zeta) from ``n_states`` initial states, and the orbits
     the census found that ``orbits`` (the point's known orbits, not changed here) lacks.
 
-    ``options``: the solver's (exponent, model, rtol, harmonics). Dimensionless inputs.
+    ``options``: the solver's (exponent, model, rtol, harmonics). Dimensionless inputs. A point
+    whose transients did not settle and are not shown chaotic gets longer passes (module
+    docstring, "Unsettled") up to ``max_transient_periods`` periods in all, within
+    ``point_steps`` integration steps summed over its open transients.
     """
     states = np.array(initial_states(n_states), float)
     k = states.shape[0]
@@ -153,25 +173,85 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
     new: list[dict] = []
     periodic: list[Attractor] = []
     open_runs, failed = [], []
+
+    def settle(r) -> bool:
+        """Run r's transient ended on a stable orbit: count it with that orbit's attractor."""
+        sol = solutions_from_rows(orbit_rows[r:r + 1], int(rows[r, A["period"]]))[0]
+        sol["omega"] = omega
+        if sol["status"] != st.CONVERGED:
+            return False
+        match = next((s for s in known if same_orbit(sol, s)), None)
+        if match is None:
+            known.append(sol)
+            new.append(sol)
+            match = sol
+        a = next((a for a in periodic if a.orbit is match), None)
+        if a is None:
+            a = Attractor("periodic", orbit=match, row=rows[r].copy(),
+                          strobe=_strobe(strobes[r], rows[r]))
+            periodic.append(a)
+        a.count += 1
+        return True
+
+    def representative(runs, window=int(record_periods)):
+        """The run with the longest record window, its exponent by Benettin over ``window``
+        periods from its last state."""
+        rep = max(runs, key=lambda r: (np.nan_to_num(rows[r, A["window_periods"]]), -r))
+        lyap = np.empty(N_LYAPUNOV_FIELDS)
+        lyapunov_into(float(omega), float(sigma), float(zeta), float(rows[rep, A["q_end"]]),
+                      float(rows[rep, A["v_end"]]), n_exp, model, int(window),
+                      LYAPUNOV_DISCARD, t_rtol, t_rtol, 200_000, lyap)
+        row = rows[rep].copy()
+        if int(lyap[LYAPUNOV_FIELDS.index("status")]) == st.CONVERGED:
+            for name in ("lyapunov", "lyapunov_error", "lyapunov_halves"):
+                row[A[name]] = lyap[LYAPUNOV_FIELDS.index(name)]
+            row[A["lyapunov_periods"]] = lyap[LYAPUNOV_FIELDS.index("periods")]
+        return rep, row
+
+    def longer_passes(runs, limit):
+        """Continue the runs that did not settle from their last states, each pass LONGER
+        times the last, until they settle, ``limit`` periods are run in all (PERIOD_LIMIT), or
+        the point's work budget is spent (WORK_BUDGET). Returns the runs still open and why."""
+        left = float(point_steps)
+        budget = int(transient_periods)
+        run_so_far = float(np.nanmax(rows[runs, A["periods_run"]]))
+        while True:
+            if run_so_far >= limit:
+                return runs, PERIOD_LIMIT
+            # a pass the point's work budget still affords, at the steps per period its runs
+            # took so far (steps, not seconds: the same block gives the same arrays on any
+            # worker, loaded or not)
+            per_period = max(float(np.nanmax(rows[runs, A["steps"]] / rows[runs, A["periods_run"]])),
+                             1.0)
+            affordable = int(left / (len(runs) * per_period)) - record_periods
+            if affordable < transient_periods:
+                return runs, WORK_BUDGET
+            budget = int(min(LONGER * budget, limit - run_so_far, affordable))
+            idx = np.array(runs)
+            sub_rows = np.empty((idx.size, N_ATTRACTOR_FIELDS))
+            sub_orbits = np.empty((idx.size, N_FIELDS))
+            sub_strobes = np.empty((idx.size, int(record_periods), 2))
+            attractor_batch_into(float(omega), float(sigma), float(zeta),
+                                 np.ascontiguousarray(rows[idx, A["q_end"]]),
+                                 np.ascontiguousarray(rows[idx, A["v_end"]]), n_exp, model,
+                                 budget, int(record_periods), False, 0, 0, CYCLE_TOL,
+                                 CYCLE_REPEATS, t_rtol, t_rtol, rtol, 200_000, harmonics,
+                                 sub_rows, sub_orbits, sub_strobes)
+            sub_rows[:, A["periods_run"]] += rows[idx, A["periods_run"]]
+            left -= float(np.nansum(sub_rows[:, A["steps"]]))
+            sub_rows[:, A["steps"]] += rows[idx, A["steps"]]
+            rows[idx], orbit_rows[idx], strobes[idx] = sub_rows, sub_orbits, sub_strobes
+            run_so_far = float(np.nanmax(rows[idx, A["periods_run"]]))
+            runs = [r for r in runs if not (int(rows[r, A["status"]]) == st.CONVERGED
+                                             and settle(r))]
+            if not runs:
+                return runs, 0
+
     for r in range(k):
         status = int(rows[r, A["status"]])
         if status == st.CONVERGED:
-            sol = solutions_from_rows(orbit_rows[r:r + 1], int(rows[r, A["period"]]))[0]
-            sol["omega"] = omega
-            if sol["status"] != st.CONVERGED:
+            if not settle(r):
                 open_runs.append(r)
-                continue
-            match = next((s for s in known if same_orbit(sol, s)), None)
-            if match is None:
-                known.append(sol)
-                new.append(sol)
-                match = sol
-            a = next((a for a in periodic if a.orbit is match), None)
-            if a is None:
-                a = Attractor("periodic", orbit=match, row=rows[r].copy(),
-                              strobe=_strobe(strobes[r], rows[r]))
-                periodic.append(a)
-            a.count += 1
         elif status in (st.UNSETTLED, st.UNCONFIRMED):
             open_runs.append(r)
         else:
@@ -194,22 +274,25 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
                             known.append(sol)
                             new.append(sol)
             has_stable = has_stable_orbit(known)
-        # the representative: the run with the longest record window; its exponent by
-        # Benettin over a record window from its last state
-        rep = max(open_runs, key=lambda r: (np.nan_to_num(rows[r, A["window_periods"]]), -r))
-        lyap = np.empty(N_LYAPUNOV_FIELDS)
-        lyapunov_into(float(omega), float(sigma), float(zeta), float(rows[rep, A["q_end"]]),
-                      float(rows[rep, A["v_end"]]), n_exp, model, int(record_periods),
-                      LYAPUNOV_DISCARD, t_rtol, t_rtol, 200_000, lyap)
-        row = rows[rep].copy()
-        if int(lyap[LYAPUNOV_FIELDS.index("status")]) == st.CONVERGED:
-            for name in ("lyapunov", "lyapunov_error", "lyapunov_halves"):
-                row[A[name]] = lyap[LYAPUNOV_FIELDS.index(name)]
-            row[A["lyapunov_periods"]] = lyap[LYAPUNOV_FIELDS.index("periods")]
+        rep, row = representative(open_runs)
         chaotic = (not has_stable) and _chaotic(row) and any(
             int(rows[r, A["status"]]) == st.UNSETTLED for r in open_runs)
-        others.append(Attractor("non_periodic" if chaotic else "unsettled", count=len(open_runs),
-                                row=row, strobe=_strobe(strobes[rep], rows[rep])))
+        reason = 0
+        limit = int(max_transient_periods or transient_periods)
+        if not chaotic and limit > transient_periods:
+            open_runs, reason = longer_passes(open_runs, limit)
+            if open_runs:
+                rep, row = representative(open_runs, LONGER * int(record_periods))
+                # a motion that still does not repeat, with a positive exponent over a longer
+                # window: chaotic where no stable orbit is known, and beside one only after the
+                # longest transients allowed (then it is not a long transient)
+                chaotic = (not has_stable or reason == PERIOD_LIMIT) and _chaotic(row) and any(
+                    int(rows[r, A["status"]]) == st.UNSETTLED for r in open_runs)
+        if open_runs:
+            others.append(Attractor("non_periodic" if chaotic else "unsettled",
+                                    count=len(open_runs), row=row,
+                                    strobe=_strobe(strobes[rep], rows[rep]),
+                                    reason=0 if chaotic else reason))
     if failed:
         others.append(Attractor("failed", count=len(failed), row=rows[failed[0]].copy()))
     # largest basin first; at most ATTRACTOR_SLOTS (the smallest basins merge into the last)
@@ -253,6 +336,8 @@ def record_attractors(arrays: dict, i: int, j: int, k: int, omega: float,
     for a_slot, a in enumerate(found[:ATTRACTOR_SLOTS]):
         cell = (i, j, k, a_slot)
         arrays["attractor_kind"][cell] = ATTRACTOR_KINDS[a.kind]
+        if "unsettled_reason" in arrays:
+            arrays["unsettled_reason"][cell] = a.reason
         arrays["attractor_period"][cell] = a.period
         arrays["attractor_solution"][cell] = slot_of(a.orbit) if a.orbit is not None else -1
         arrays["basin_fraction"][cell] = a.count / n_states

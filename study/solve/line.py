@@ -333,7 +333,8 @@ class LineSearch:
         return {int(self.order[r]) for r in ranks}
 
     def run_census(self, mode: str, n_states: int, transient_periods: int,
-                   record_periods: int) -> None:
+                   record_periods: int, max_transient_periods: int | None = None,
+                   point_steps: int = 2_000_000) -> None:
         """Transients from ``n_states`` initial states at the points ``mode`` names
         ("where-none-stable": those with no stable orbit when their turn comes, and the
         probe points spread along the line; "always": every point), in omega order. Orbits
@@ -356,7 +357,8 @@ class LineSearch:
                     and any(s["stable"] for s in self.per_point[i]):
                 continue
             found, new = census(self.omega[i], self.sigma, self.zeta, self.per_point[i],
-                                self.options, n_states, transient_periods, record_periods)
+                                self.options, n_states, transient_periods, record_periods,
+                                max_transient_periods, point_steps)
             self.attractors[int(i)] = found
             for sol in new:
                 sol["omega"] = self.omega[i]

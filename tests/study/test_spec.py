@@ -124,7 +124,8 @@ def test_minimal_study_defaults():
     assert s.solver_kwargs() == {"periods": (1, 2), "exponent": 1.5, "model": "hertz",
                                  "rtol": 1e-10, "max_solutions": 4, "harmonics": False,
                                  "attractors": "where-none-stable", "initial_states": 16,
-                                 "transient_periods": 500, "record_periods": 128}
+                                 "transient_periods": 500, "record_periods": 128,
+                                 "max_transient_periods": 20_000, "point_steps": 2_000_000}
 
 
 def test_full_study():

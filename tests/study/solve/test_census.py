@@ -1,0 +1,63 @@
+"""study.solve.census's longer passes: a point whose transients did not settle within the first
+budget is continued from where they stopped. Points of the vibro-impact scene (zeta 0.01) that
+its first budget left unsettled: one whose transients settle on a 2T orbit later (checked as a
+fixed point of the oracle's own period map), one whose motion is chaotic (the oracle's Benettin
+exponent positive), the work budget's reason, and the same result twice (no wall clock)."""
+from __future__ import annotations
+
+import numpy as np
+
+from benchmarks import oracle
+from hertzmap.kernels.attractors import A
+from hertzmap.study.solve.census import PERIOD_LIMIT, WORK_BUDGET, census
+
+OPTIONS = {"exponent": 1.5, "model": "hertz", "rtol": 1e-10, "harmonics": False}
+ZETA = 0.01
+
+
+def _kinds(found):
+    return [(a.kind, a.count, a.period, a.reason) for a in found]
+
+
+def test_a_long_transient_settles_in_a_longer_pass():
+    """(1.075, 1.85): 11 of 16 transients still open after 500 periods (5 on a stable 2T
+    orbit); longer passes bring the 11 onto the same orbit."""
+    first, _ = census(1.075, 1.85, ZETA, [], OPTIONS, 16, 500, 128, 500, 2_000_000)
+    assert _kinds(first) == [("unsettled", 11, 0, 0), ("periodic", 5, 2, 0)]
+    found, new = census(1.075, 1.85, ZETA, [], OPTIONS, 16, 500, 128, 20_000, 2_000_000)
+    assert _kinds(found) == [("periodic", 16, 2, 0)]
+    x = np.asarray(found[0].orbit["x0"], float)
+    phi = oracle.period_map(x, 1.075, 1.85, ZETA, 2)
+    assert np.max(np.abs(phi - x)) < 1e-7 * (1 + np.hypot(*x))
+    assert found[0].orbit["stable"] and new and new[0] is found[0].orbit
+
+
+def test_a_motion_that_never_repeats_is_chaotic_after_the_longer_passes():
+    """(0.75, 3.05), no stable orbit known: unsettled after the first budget, chaotic once the
+    longer passes give its exponent a longer window; the oracle's own Benettin exponent from
+    the census's last state agrees it is positive."""
+    first, _ = census(0.75, 3.05, ZETA, [], OPTIONS, 16, 500, 128, 500, 2_000_000)
+    assert [a.kind for a in first] == ["unsettled"]
+    found, _ = census(0.75, 3.05, ZETA, [], OPTIONS, 16, 500, 128, 20_000, 2_000_000)
+    assert [a.kind for a in found] == ["non_periodic"] and found[0].count == 16
+    row = found[0].row
+    lam = row[A["lyapunov"]]
+    ref, err, _ = oracle.lyapunov_benettin((row[A["q_end"]], row[A["v_end"]]), 0.75, 3.05,
+                                           ZETA, periods=200, rtol=1e-8)
+    assert lam > 0 and ref > 3 * err
+    assert abs(lam - ref) < 0.3 * ref + 5 * err
+
+
+def test_the_reason_and_the_same_answer_twice():
+    """A tiny work budget stops the longer passes at once (WORK_BUDGET: the 11 open transients
+    of (1.075, 1.85) stay unsettled beside the stable 2T orbit the others found); a budget in
+    steps, not seconds, gives the same rows on a second call."""
+    tight, _ = census(1.075, 1.85, ZETA, [], OPTIONS, 16, 500, 128, 20_000, 10_000)
+    assert _kinds(tight) == [("unsettled", 11, 0, WORK_BUDGET), ("periodic", 5, 2, 0)]
+    a, _ = census(0.75, 3.05, ZETA, [], OPTIONS, 16, 500, 128, 4_000, 2_000_000)
+    b, _ = census(0.75, 3.05, ZETA, [], OPTIONS, 16, 500, 128, 4_000, 2_000_000)
+    assert _kinds(a) == _kinds(b)
+    for x, y in zip(a, b):
+        if x.row is not None:
+            np.testing.assert_array_equal(x.row, y.row)
+    assert all(k.reason in (0, PERIOD_LIMIT, WORK_BUDGET) for k in a)
