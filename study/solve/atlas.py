@@ -141,9 +141,10 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
                 for ia, o in enumerate(current[src]):
                     if ia in paired or not any(o is f for f in fresh[src]):
                         continue
-                    if full is not None and not o["stable"] and _rank(o) > full:
+                    if full is not None and _rank(o) > full:
                         # the point's slots are full of orbits ranked before it (stable ones,
-                        # lower periods): it would be dropped there, as the grid dropped it
+                        # lower periods): it would be dropped there (and found again, and
+                        # counted again, from each neighbour of each round)
                         result.skipped += 1
                         continue
                     result.shots += 1
