@@ -123,3 +123,124 @@ def diagram_line(diagrams: xr.Dataset, line: int) -> xr.Dataset:
                      sigma=float(diagrams["line_sigma"].values[line]),
                      zeta=float(diagrams["line_zeta"].values[line]))
     return one
+
+
+#: Two chaotic (or unsettled) attractors at neighbouring points are one when each stroboscopic
+#: cloud's mean distance to the other's nearest point is below this share of their extent.
+CLOUD_SHARE = 0.15
+
+
+def _cloud_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """Symmetric mean nearest-point distance of two clouds of (q, q') points, relative to their
+    joint extent (Attractors.jl's set-distance matching, averaged instead of worst-case: a few
+    points of a short record window are allowed to lie off the other's)."""
+    if a.shape[0] == 0 or b.shape[0] == 0:
+        return np.inf
+    d = np.hypot(a[:, None, 0] - b[None, :, 0], a[:, None, 1] - b[None, :, 1])
+    both = np.vstack([a, b])
+    extent = float(np.hypot(*(both.max(axis=0) - both.min(axis=0)))) + 1e-12
+    return 0.5 * (d.min(axis=1).mean() + d.min(axis=0).mean()) / extent
+
+
+def attractor_ids(ds: xr.Dataset) -> xr.Dataset:
+    """An identity for the census's attractors across the grid: two attractors of neighbouring
+    grid points (one step along omega, sigma or zeta) are one when both are periodic and their
+    orbits lie on one branch (study.orbits.match_neighbours: the same period, invariants close,
+    no fold between them), or both are chaotic or unsettled and their stroboscopic clouds
+    overlap (:data:`CLOUD_SHARE`); an id is a connected set of such attractors (numbered in grid
+    order, so the same store gives the same ids). ``attractor_id`` (omega, sigma, zeta,
+    attractor), and per id its kind, period, points and mean basin fraction."""
+    from hertzmap.study.orbits import match_neighbours
+
+    if "computed" not in ds:
+        ds = open_store(ds)
+    dims = ("omega", "sigma", "zeta", "attractor")
+    kind = ds["attractor_kind"].transpose(*dims).values
+    sol = ds["attractor_solution"].transpose(*dims).values
+    basin = ds["basin_fraction"].transpose(*dims).values
+    period = ds["attractor_period"].transpose(*dims).values
+    sq = ds["strobe_q"].transpose(*dims, "strobe").values
+    sv = ds["strobe_v"].transpose(*dims, "strobe").values
+    slots = {n: ds[n].transpose("omega", "sigma", "zeta", "solution", ...).values
+             for n in ("period", "min_q", "max_q", "ptp", "multipliers")}
+    shape = kind.shape
+    parent = np.arange(kind.size)
+
+    def find(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    def union(i, j):
+        ri, rj = find(i), find(j)
+        if ri != rj:
+            parent[max(ri, rj)] = min(ri, rj)
+
+    def orbit(idx, a):
+        s = int(sol[idx + (a,)])
+        return {n: slots[n][idx + (s,)] for n in slots}
+
+    def cloud(idx, a):
+        q, v = sq[idx + (a,)], sv[idx + (a,)]
+        keep = np.isfinite(q) & np.isfinite(v)
+        return np.column_stack([q[keep], v[keep]])
+
+    flat = np.arange(kind.size).reshape(shape)
+    for idx in np.ndindex(shape[:3]):
+        for axis in range(3):
+            nb = list(idx)
+            nb[axis] += 1
+            if nb[axis] >= shape[axis]:
+                continue
+            nb = tuple(nb)
+            here = [a for a in range(shape[3]) if kind[idx + (a,)] > 0]
+            there = [b for b in range(shape[3]) if kind[nb + (b,)] > 0]
+            per_a = [a for a in here if kind[idx + (a,)] == 1 and sol[idx + (a,)] >= 0]
+            per_b = [b for b in there if kind[nb + (b,)] == 1 and sol[nb + (b,)] >= 0]
+            if per_a and per_b:
+                for ia, ib in match_neighbours([orbit(idx, a) for a in per_a],
+                                               [orbit(nb, b) for b in per_b]):
+                    union(flat[idx + (per_a[ia],)], flat[nb + (per_b[ib],)])
+            for a in (a for a in here if kind[idx + (a,)] in (2, 3)):
+                for b in (b for b in there if kind[nb + (b,)] in (2, 3)):
+                    if _cloud_distance(cloud(idx, a), cloud(nb, b)) <= CLOUD_SHARE:
+                        union(flat[idx + (a,)], flat[nb + (b,)])
+    ids = np.full(kind.size, -1, np.int32)
+    number: dict[int, int] = {}
+    for i in np.flatnonzero(kind.ravel() > 0):
+        ids[i] = number.setdefault(find(i), len(number))
+    ids = ids.reshape(shape)
+    n = len(number)
+    id_kind = np.zeros(n, np.int8)
+    id_period = np.zeros(n, np.int8)
+    id_points = np.zeros(n, np.int32)
+    id_basin = np.zeros(n)
+    for i in np.flatnonzero(ids.ravel() >= 0):
+        k = ids.ravel()[i]
+        id_kind[k] = kind.ravel()[i]
+        id_period[k] = period.ravel()[i]
+        id_points[k] += 1
+        id_basin[k] += basin.ravel()[i]
+    flags = np.array(sorted(ATTRACTOR_KINDS.values()), np.int8)
+    meanings = " ".join(sorted(ATTRACTOR_KINDS, key=ATTRACTOR_KINDS.get))
+    out = xr.Dataset(
+        {"attractor_id": (dims, ids, var_attrs(
+            "attractor identity across the grid", "1", "the same number for the census's "
+            "attractors of neighbouring grid points that are one attractor (a periodic one: "
+            "its orbit continued, on one branch; a chaotic or unsettled one: overlapping "
+            "stroboscopic clouds); -1 empty slot")),
+         "id_kind": ("id", id_kind, var_attrs("kind of the attractor", "1", "as attractor_kind",
+                                              flag_values=flags, flag_meanings=meanings)),
+         "id_period": ("id", id_period, var_attrs("period of a periodic attractor", "1",
+                                                  "m (its orbit has period m T), 0 otherwise")),
+         "id_points": ("id", id_points, var_attrs("grid points holding the attractor", "1",
+                                                  "how many grid points the id spans")),
+         "id_basin": ("id", id_basin / np.maximum(id_points, 1), var_attrs(
+             "mean basin fraction", "1", "the attractor's basin_fraction averaged over its "
+             "points"))},
+        coords={d: ds[d] for d in dims[:3]} | {"attractor": ("attractor", np.arange(shape[3]),
+                                                             var_attrs("attractor slot", "1",
+                                                                       "as in the store"))})
+    out.attrs = source_attrs(ds, "attractors identified across the grid")
+    return out

@@ -24,7 +24,7 @@ from typing import Callable, Mapping, Sequence
 
 import xarray as xr
 
-from hertzmap.study.products.attractors import stroboscopic_diagrams
+from hertzmap.study.products.attractors import attractor_ids, stroboscopic_diagrams
 from hertzmap.study.products.classes import orbit_classes
 from hertzmap.study.products.curves import bifurcation_curves, located_curves
 from hertzmap.study.products.maps import loss_of_contact_map
@@ -142,6 +142,9 @@ PRODUCTS: tuple[Product, ...] = (
             lambda ds: stroboscopic_diagrams(ds, sigma_lines=STROBE_SIGMA_LINES,
                                              zeta_lines=STROBE_ZETA_LINES),
             (Figure("strobe", "plot_bifurcation_diagram"),)),
+    Product("attractor_ids", "an identity for the census's attractors across the grid "
+            "(continued orbits, overlapping stroboscopic clouds), with each one's extent",
+            _stored("attractor_kind", "strobe_q"), attractor_ids),
     Product("time_histories", "F_exp of every stable orbit over 4 forcing cycles (scenes of at "
             f"most {NAMED_FREQUENCIES} omega values, or asked for)",
             _histories_wanted, lambda ds: time_histories(ds, rig=rig_of(ds)),

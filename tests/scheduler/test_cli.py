@@ -32,7 +32,8 @@ def test_cli_plot(hand, tmp_path):
 #: (docs/products.md: all of them)
 EVERY_PRODUCT = {"orbit_classes", "loss_of_contact_map", "bifurcation_curves",
                  "located_bifurcations", "mms_curves", "frequency_response", "mms_response",
-                 "force_harmonics", "stroboscopic_diagram", "time_histories", "isola_boundary"}
+                 "force_harmonics", "stroboscopic_diagram", "attractor_ids", "time_histories",
+                 "isola_boundary"}
 
 
 @pytest.fixture()

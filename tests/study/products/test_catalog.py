@@ -15,7 +15,8 @@ from tests.helpers import (EVERY_OUTPUT_STUDY, blank_results, fake_traced_curves
 #: every product of docs/products.md that hertzmap plot computes (traced_curves: the run's)
 EVERY_PRODUCT = {"orbit_classes", "loss_of_contact_map", "bifurcation_curves",
                  "located_bifurcations", "mms_curves", "frequency_response", "mms_response",
-                 "force_harmonics", "stroboscopic_diagram", "time_histories", "isola_boundary"}
+                 "force_harmonics", "stroboscopic_diagram", "attractor_ids", "time_histories",
+                 "isola_boundary"}
 
 
 @pytest.fixture(scope="module")
