@@ -208,7 +208,7 @@ class AtlasRun:
         summary["total_added"] = sum(x["added"] for x in state.get("rounds", []))
         summary["total_rounds"] = len(state.get("rounds", []))
         self.store.add_history(f"{self.command}: atlas: {summary['total_added']} orbits added "
-                               f"in {summary['total_rounds']} rounds")
+                               f"in {summary['total_rounds']} round(s)")
         print(atlas_line(summary), file=self.out, flush=True)
         return summary
 
@@ -216,7 +216,7 @@ class AtlasRun:
 def atlas_line(s: dict[str, Any]) -> str:
     periods = ", ".join(f"{n} of period {p}" for p, n in sorted(s["by_period"].items()))
     return (f"atlas: {s['total_added']} orbits continued into neighbouring grid points "
-            f"({periods or 'none new'}) in {s['total_rounds']} rounds to the fixed point; "
+            f"({periods or 'none new'}) in {s['total_rounds']} round(s) to the fixed point; "
             f"{s['shots']} shots over {s['tiles']} tiles ({s['skipped']} not shot into full "
             f"points), {s['compute']:.1f} s compute, "
             f"{s['wall']:.1f} s wall")

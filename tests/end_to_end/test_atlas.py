@@ -53,7 +53,7 @@ def reference(tmp_path_factory):
 
 def test_the_atlas_adds_orbits_that_the_oracle_confirms(reference):
     d, ref, out = reference
-    assert "atlas:" in out and "rounds to the fixed point" in out, out
+    assert "atlas:" in out and "round(s) to the fixed point" in out, out
     ds = xr.open_zarr(ref).load()
     assert len(Store(ref).done_mask().ravel()) > 1                       # several tiles
     state = read_attrs(ref)[ATLAS_ATTR]
