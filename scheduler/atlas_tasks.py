@@ -20,8 +20,8 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from hertzmap.kernels.model import contact_loss_level
 from hertzmap.scheduler.plan import make_plan
+from hertzmap.scheduler.stage import Stage
 from hertzmap.scheduler.store import (ATLAS_ATTR, Store, read_atlas_tile, read_region,
                                       remove_atlas_stage, staged_atlas_tiles, write_atlas_tile)
 from hertzmap.study.schema import CROSSING_VARIABLES, ORBIT_VARIABLES, stored_variables
@@ -86,26 +86,18 @@ def atlas_task(spec: dict[str, Any]) -> dict[str, Any]:
             "seconds": time.perf_counter() - t0, "pid": os.getpid()}
 
 
-class AtlasRun:
+class AtlasRun(Stage):
     """The atlas stage of one run of a study into its (locked) store."""
 
     def __init__(self, study: Study, store: Store, out: TextIO, err: TextIO, interrupt,
                  command: str = "hertzmap run", enabled: bool = True,
                  tile: str = DEFAULT_ATLAS_TILE):
+        super().__init__(study, store, out, err, interrupt, command)
         #: False with another block solver than hertzmap's (a test's stand-in): the atlas
         #: continues real orbits, which such a grid does not hold
         self.enabled = enabled
         self.tile = tile
-        self.study = study
-        self.store = store
-        self.out = out
-        self.err = err
-        self.interrupt = interrupt
-        self.command = command
-        kw = study.solver_kwargs()
-        self.options = {"exponent": kw["exponent"], "model": kw["model"], "rtol": kw["rtol"],
-                        "harmonics": "force_harmonics" in study.outputs}
-        self.level = contact_loss_level(kw["model"], kw["exponent"])
+        self.options["harmonics"] = "force_harmonics" in study.outputs
         self.stored = stored_variables(study)
         self.names = atlas_names(self.stored)
 

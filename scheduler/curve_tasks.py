@@ -31,12 +31,12 @@ import xarray as xr
 from hertzmap.scheduler.store import (Store, finish_traced_curves, has_traced_curves, read_curve_parts,
                              write_curve_part)
 from hertzmap.study.products.results import quiet
-from hertzmap.kernels.model import contact_loss_level
 from hertzmap.study.products.traced_curves import (combine_traced_curves, part_attrs, trace_from_part,
                                           traced_curves_dataset)
 from hertzmap.study.schema import CROSSING_VARIABLES
 from hertzmap.study.solve.curves import SEED_SOURCES, Seed, SeedBook, curve_seeds, window
 from hertzmap.study.spec import Study
+from hertzmap.scheduler.stage import Stage
 
 IN_FLIGHT_PER_WORKER = 2
 #: what traces one seed's curve (module:function, imported on the worker by name)
@@ -79,21 +79,13 @@ def seed_dataset(store: Store) -> xr.Dataset:
         return ds[names].load()
 
 
-class CurveRun:
+class CurveRun(Stage):
     """The curve stage of one run of a study into its (locked) store."""
 
     def __init__(self, study: Study, store: Store, out: TextIO, err: TextIO, interrupt,
                  command: str = "hertzmap run", tracer: str = DEFAULT_TRACER):
+        super().__init__(study, store, out, err, interrupt, command)
         self.tracer = tracer
-        self.study = study
-        self.store = store
-        self.out = out
-        self.err = err
-        self.interrupt = interrupt
-        self.command = command
-        kw = study.solver_kwargs()
-        self.options = {"exponent": kw["exponent"], "model": kw["model"], "rtol": kw["rtol"]}
-        self.level = contact_loss_level(kw["model"], kw["exponent"])
         self.axes = {n: study.axis(n) for n in ("omega", "sigma", "zeta")}
 
     def pending(self) -> bool:
