@@ -72,6 +72,17 @@ class Record:
     name: str
     fields: tuple[Field, ...]
 
+    def __post_init__(self):
+        seen: set[str] = set()
+        for f in self.fields:
+            for c in f.kernel_columns:
+                if c in seen:     # two fields on one column: the row would hold it twice
+                    raise ValueError(f"{self.name}: kernel column {c!r} declared twice")
+                seen.add(c)
+        names = [f.name for f in self.fields]
+        if len(set(names)) != len(names):
+            raise ValueError(f"{self.name}: a field name declared twice")
+
     @property
     def columns(self) -> tuple[str, ...]:
         """The kernel result row's layout."""
@@ -281,7 +292,6 @@ ATTRACTOR = Record("attractor", (
     *_kernel_only(
         ("status", "kernels.status code"),
         ("period", "m of the detected cycle (0: none)"),
-        ("periods_run", "forcing periods integrated from the initial state"),
         ("settled_at", "period index of the confirmed detection (NaN: none)"),
         ("cycle_residual", "max |x_j - x_{j-m}| / (1 + |x_K|) over the detected cycle"),
         ("q_end", "last stroboscopic displacement (tau = 0 mod T)"),
