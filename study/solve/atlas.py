@@ -26,7 +26,7 @@ Pure: numpy over the kernels (no Dask, no I/O).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -34,7 +34,7 @@ from hertzmap.kernels import status as st
 from hertzmap.study.orbits import match_neighbours, same_orbit
 from hertzmap.study.schema import (BIFURCATION_KINDS, CROSSING_SLOTS, CROSSING_VARIABLES,
                                    ORBIT_VARIABLES, VARIABLES)
-from hertzmap.study.solve.block import record_line, slot_order
+from hertzmap.study.solve.block import record_line, slot_order, slot_rank
 from hertzmap.study.solve.curves import line_crossings
 from hertzmap.study.solve.point import shoot_seeds_minimal
 
@@ -62,7 +62,6 @@ class TileResult:
     shots: int = 0
     skipped: int = 0
     added: int = 0
-    by_period: dict[int, int] = field(default_factory=dict)
 
 
 def stored_orbits(arrays: dict[str, np.ndarray], idx: tuple[int, int, int]) -> list[dict]:
@@ -141,7 +140,7 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
                 for ia, o in enumerate(current[src]):
                     if ia in paired or not any(o is f for f in fresh[src]):
                         continue
-                    if full is not None and _rank(o) > full:
+                    if full is not None and slot_rank(o) > full:
                         # the point's slots are full of orbits ranked before it (stable ones,
                         # lower periods): it would be dropped there (and found again, and
                         # counted again, from each neighbour of each round)
@@ -165,8 +164,6 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
         local = tuple(a - b for a, b in zip(idx, lo))
         result.changed[local] = True
         result.added += len(added[idx])
-        for o in added[idx]:
-            result.by_period[o["period"]] = result.by_period.get(o["period"], 0) + 1
         _rewrite_point(out, local, orbits[idx], current[idx], len(added[idx]), max_solutions,
                        periods)
     if result.changed.any() and "crossing_kind" in out:
@@ -176,16 +173,11 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
     return result
 
 
-def _rank(orbit) -> tuple:
-    """An orbit's place in the slot order (study.solve.block.slot_order)."""
-    return (not orbit["stable"], orbit["period"], orbit["ptp"])
-
-
 def _full_rank(orbits, max_solutions):
     """The rank of the last orbit a full point keeps (None when it has a free slot)."""
     if len(orbits) < max_solutions:
         return None
-    return sorted(_rank(o) for o in orbits)[max_solutions - 1]
+    return sorted(slot_rank(o) for o in orbits)[max_solutions - 1]
 
 
 def _rewrite_point(out, local, before, orbits, n_added, max_solutions, periods):

@@ -53,11 +53,16 @@ def _record(arrays, points, j, k, slots, sols):
             arrays[name][cells] = np.array([s[name] for s in sols])
 
 
+def slot_rank(orbit) -> tuple:
+    """Which orbits a full point keeps first: stable ones, then by period and ptp."""
+    return (not orbit["stable"], orbit["period"], orbit["ptp"])
+
+
 def slot_order(orbits, max_solutions):
     """The orbits a point's slots hold, in slot order: where there are more orbits than slots,
     the stable ones are kept first (then by period and ptp); the kept ones are ordered by
     (period, ptp), so that slot 0 holds the 1T orbit of smallest ptp."""
-    kept = sorted(orbits, key=lambda s: (not s["stable"], s["period"], s["ptp"]))[:max_solutions]
+    kept = sorted(orbits, key=slot_rank)[:max_solutions]
     return sorted(kept, key=lambda s: (s["period"], s["ptp"]))
 
 
