@@ -198,6 +198,10 @@ def match_neighbours(A, B) -> list[tuple[int, int]]:
     in B) of the pairs on one branch, one to one, closest pairs first."""
     pairs = sorted((continuity_distance(x, y), ia, ib) for ia, x in enumerate(A)
                    for ib, y in enumerate(B) if x["period"] == y["period"])
+    if not pairs:
+        return []
+    fold_a = [fold_function(x) for x in A]
+    fold_b = [fold_function(y) for y in B]
     used_a, used_b = set(), set()
     out = []
     for d, ia, ib in pairs:
@@ -206,7 +210,7 @@ def match_neighbours(A, B) -> list[tuple[int, int]]:
         # along a branch the fold function (1 - mu1)(1 - mu2) changes sign only at a fold,
         # where the branch turns back: neighbours with opposite signs are two branches,
         # however close their invariants
-        ga, gb = fold_function(A[ia]), fold_function(B[ib])
+        ga, gb = fold_a[ia], fold_b[ib]
         if ga * gb < 0.0 and min(abs(ga), abs(gb)) > FOLD_SIGN_FLOOR:
             continue
         if d <= CONTINUITY_SHARE * (1.0 + max(A[ia]["ptp"], B[ib]["ptp"])):

@@ -225,15 +225,18 @@ def crossings(A: list, B: list, level: float, searched=None) -> list[dict]:
     return out
 
 
-def line_crossings(omega, per_point: list, level: float, searched=None) -> list[dict]:
+def line_crossings(omega, per_point: list, level: float, searched=None,
+                   edges=None) -> list[dict]:
     """The crossings (:func:`crossings`) between consecutive grid points of one omega line
     (``per_point``: the orbits at each point, omega in any order), as records: kind, period,
     omega (the estimated crossing), q0, v0 (the start point of the nearer orbit), min_q, max_q,
-    spread; ordered by omega, kind, period."""
+    spread; ordered by omega, kind, period. ``edges``: the indices e of the edges (between
+    the e-th and (e+1)-th points in omega order) to look at; every edge by default."""
     omega = np.asarray(omega, float)
     order = np.argsort(omega, kind="stable")
+    pairs = list(zip(order[:-1], order[1:]))
     out = []
-    for a, b in zip(order[:-1], order[1:]):
+    for a, b in (pairs if edges is None else [pairs[e] for e in sorted(edges)]):
         for c in crossings(per_point[a], per_point[b], level, searched):
             w = float(omega[a] + c["theta"] * (omega[b] - omega[a]))
             x = c["orbit"]["x0"]
