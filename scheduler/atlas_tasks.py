@@ -24,14 +24,19 @@ from hertzmap.scheduler.plan import make_plan
 from hertzmap.scheduler.stage import Stage
 from hertzmap.scheduler.store import (ATLAS_ATTR, Store, read_atlas_tile, read_region,
                                       remove_atlas_stage, staged_atlas_tiles, write_atlas_tile)
-from hertzmap.study.schema import CROSSING_VARIABLES, ORBIT_VARIABLES, stored_variables
-from hertzmap.study.solve.atlas import atlas_names
+from hertzmap.study.schema import (ATTRACTOR_VARIABLES, CROSSING_VARIABLES, ORBIT_VARIABLES,
+                                   stored_variables)
+from hertzmap.study.solve.atlas import atlas_names, census_points
 from hertzmap.study.spec import Study
 
 #: the stored variables the atlas needs (the orbits' identity and continuity invariants)
 NEEDS = ("min_q", "max_q", "ptp")
 #: what computes one tile of a round (module:function, imported on the worker by name)
 DEFAULT_ATLAS_TILE = "hertzmap.study.solve.atlas:propagate_tile"
+#: what computes one tile of a census round
+CENSUS_TILE = "hertzmap.study.solve.atlas:census_tile"
+#: what a census round reads of the grid to find its points
+CENSUS_NEEDS = ("attractor_kind", "attractor_periods_run", "stable", "status")
 
 
 def _region(tile: tuple[slice, slice, slice], shape: tuple[int, int, int]):
@@ -51,22 +56,29 @@ def atlas_task(spec: dict[str, Any]) -> dict[str, Any]:
     index, slices (the tile), shape (the grid's), chunk_omega, axes (omega, sigma, zeta of the
     grid), names (what the store holds), options, max_solutions, level, periods."""
     t0 = time.perf_counter()
-    region, own = _region(tuple(slice(*s) for s in spec["slices"]), tuple(spec["shape"]))
-    names = spec["names"]
     tile = tuple(slice(*s) for s in spec["slices"])
+    census = spec.get("census")
+    if census is None:
+        region, own = _region(tile, tuple(spec["shape"]))
+    else:
+        # a census round reads and writes its tile only
+        region, own = tile, tuple(slice(0, s.stop - s.start) for s in tile)
+    names = spec["names"]
     ib = tile[0].start // int(spec["chunk_omega"])
     # the slots and counts over the region; the census's attractors and the lines over the
     # tile only; all read in one call into zarr's event loop
     where = {n: region for n in names if n in ORBIT_VARIABLES
              or n in ("orbits_found", "orbits_dropped")}
-    if "attractor_solution" in names:
+    if census is not None:
+        where.update({n: tile for n in names if n in ATTRACTOR_VARIABLES})
+    elif "attractor_solution" in names:
         where["attractor_solution"] = tile
     where.update({n: (slice(ib, ib + 1), tile[1], tile[2]) for n in names
                   if n in CROSSING_VARIABLES})
     read = read_region(spec["store"], where)
     slot = {n: read[n] for n in where if n not in CROSSING_VARIABLES
-            and n != "attractor_solution"}
-    if "attractor_solution" in read:
+            and (census is not None or n != "attractor_solution")}
+    if "attractor_solution" in read and census is None:
         a = read["attractor_solution"]
         slot["attractor_solution"] = np.full(
             tuple(r.stop - r.start for r in region) + a.shape[3:], -1, a.dtype)
@@ -76,10 +88,13 @@ def atlas_task(spec: dict[str, Any]) -> dict[str, Any]:
                                                                  region)]
     from hertzmap.scheduler.worker import load_solver
 
-    propagate = load_solver(spec.get("tile_function", DEFAULT_ATLAS_TILE))
-    result = propagate(slot, lines, own, *axes, int(spec["round"]), spec["options"],
-                            int(spec["max_solutions"]), float(spec["level"]),
-                            tuple(spec["periods"]))
+    args = (slot, lines, own, *axes, int(spec["round"]), spec["options"],
+            int(spec["max_solutions"]), float(spec["level"]), tuple(spec["periods"]))
+    if census is None:
+        result = load_solver(spec.get("tile_function", DEFAULT_ATLAS_TILE))(
+            *args, offer_own=bool(spec.get("offer_own")))
+    else:
+        result = load_solver(CENSUS_TILE)(*args, census)
     return {"index": spec["index"], "changed": bool(result.changed.any()),
             "arrays": result.arrays if result.changed.any() else None,
             "shots": result.shots, "skipped": result.skipped, "added": result.added,
@@ -100,6 +115,17 @@ class AtlasRun(Stage):
         self.options["harmonics"] = "force_harmonics" in study.outputs
         self.stored = stored_variables(study)
         self.names = atlas_names(self.stored)
+        #: a census round (its attractors again where the atlas brought a stable orbit to a
+        #: point its census called chaotic) runs where the study stores the census
+        self.census = {k: v for k, v in study.solver_kwargs().items()
+                       if k in ("transient_periods", "record_periods", "max_transient_periods",
+                                "point_steps")}
+        if self.census and all(n in self.stored for n in CENSUS_NEEDS):
+            self.census["n_states"] = int(study.initial_states)
+            self.census_names = self.names + tuple(n for n in ATTRACTOR_VARIABLES
+                                                   if n in self.stored and n not in self.names)
+        else:
+            self.census = None
 
     def applies(self) -> bool:
         """The atlas matches orbits by their invariants: it runs on studies that store them."""
@@ -112,9 +138,19 @@ class AtlasRun(Stage):
     def pending(self) -> bool:
         return self.enabled and self.applies() and self.state()["phase"] != "done"
 
-    def _active_tiles(self, plan, round_: int) -> list:
+    def _census_tiles(self, plan) -> list:
+        """The tiles holding a point whose census must run again (census_points)."""
+        every = (slice(None),) * 3
+        read = read_region(self.store.path, {n: every for n in CENSUS_NEEDS})
+        need = census_points(read, self.census["transient_periods"],
+                             self.census["record_periods"])
+        return [t for t in plan.tasks if need[t.slices].any()]
+
+    def _active_tiles(self, plan, round_: int, kind: str = "continue") -> list:
         """Round 1: every tile; later: the tiles holding or touching an orbit the last round
-        added."""
+        added; a census round: _census_tiles."""
+        if kind == "census":
+            return self._census_tiles(plan)
         if round_ == 1:
             return list(plan.tasks)
         every = (slice(None),) * 3
@@ -130,13 +166,17 @@ class AtlasRun(Stage):
             touched[tuple(hi)] |= fresh[tuple(lo)]
         return [t for t in plan.tasks if touched[t.slices].any()]
 
-    def _spec(self, task, round_: int) -> dict[str, Any]:
+    def _spec(self, task, round_: int, state: dict) -> dict[str, Any]:
         st = self.study
+        census = state.get("kind") == "census"
         return {"store": str(self.store.path), "round": round_, "index": task.index,
+                "census": self.census if census else None,
+                "offer_own": state.get("after_census", False),
                 "slices": [(s.start, s.stop) for s in task.slices], "shape": st.shape,
                 "chunk_omega": self.store.chunks[0],
                 "axes": {a: np.asarray(st.axis(a), float) for a in ("omega", "sigma", "zeta")},
-                "names": self.names, "options": self.options,
+                "names": self.census_names if census else self.names,
+                "options": self.options,
                 "max_solutions": st.max_solutions, "level": self.level,
                 "periods": tuple(st.periods), "tile_function": self.tile}
 
@@ -148,16 +188,16 @@ class AtlasRun(Stage):
         plan = make_plan(self.study, self.store.chunks)
         by_index = {t.index: t for t in plan.tasks}
         state = self.state()
-        summary = {"rounds": 0, "added": 0, "shots": 0, "skipped": 0, "compute": 0.0, "tiles": 0,
-                   "by_period": {}}
+        summary = {"rounds": 0, "added": 0, "shots": 0, "censuses": 0, "skipped": 0,
+                   "compute": 0.0, "tiles": 0, "by_period": {}}
         t0 = time.perf_counter()
         while state["phase"] != "done":
             r = int(state["round"])
             if state["phase"] == "computing":
-                active = self._active_tiles(plan, r)
+                active = self._active_tiles(plan, r, state.get("kind", "continue"))
                 staged = staged_atlas_tiles(self.store.path, r)
                 todo = [t for t in active if t.index not in staged]
-                futures = client.map(atlas_task, [self._spec(t, r) for t in todo],
+                futures = client.map(atlas_task, [self._spec(t, r, state) for t in todo],
                                      key=[f"hertzmap-atlas-{self.study.hash[:12]}-{r}-"
                                           + "-".join(map(str, t.index)) for t in todo],
                                      pure=False)
@@ -166,7 +206,8 @@ class AtlasRun(Stage):
                     with self.interrupt.critical():
                         write_atlas_tile(self.store.path, r, tuple(res["index"]), res["arrays"])
                     fut.release()
-                    summary["shots"] += res["shots"]
+                    summary["censuses" if state.get("kind") == "census" else "shots"] += \
+                        res["shots"]
                     summary["skipped"] += res["skipped"]
                     summary["compute"] += res["seconds"]
                     summary["tiles"] += 1
@@ -185,11 +226,22 @@ class AtlasRun(Stage):
                     added += int(new.sum())
                     for p, n in zip(*np.unique(arrays["period"][new], return_counts=True)):
                         summary["by_period"][int(p)] = summary["by_period"].get(int(p), 0) + int(n)
-                    self.store.write_block(by_index[index].slices, arrays, self.names)
-                state["rounds"] = list(state.get("rounds", [])) + [{"round": r, "added": added}]
+                    self.store.write_block(by_index[index].slices, arrays,
+                                           tuple(n for n in self.census_names if n in arrays)
+                                           if self.census else self.names)
+                kind = state.get("kind", "continue")
+                state["rounds"] = list(state.get("rounds", [])) + [
+                    {"round": r, "added": added, "kind": kind}]
                 state.pop("active", None)
+                # continuation rounds to the fixed point; then a census round where the atlas
+                # brought a stable orbit to a chaotic point; the orbits it finds are continued
+                # in turn (the next round offers them from their own tiles too)
                 if added:
-                    state.update(round=r + 1, phase="computing")
+                    state.update(round=r + 1, phase="computing", kind="continue",
+                                 after_census=kind == "census")
+                elif kind == "continue" and self.census and self._census_tiles(plan):
+                    state.update(round=r + 1, phase="computing", kind="census",
+                                 after_census=False)
                 else:
                     state.update(phase="done")
                 self.store.set_attrs(**{ATLAS_ATTR: state})
@@ -207,8 +259,9 @@ class AtlasRun(Stage):
 
 def atlas_line(s: dict[str, Any]) -> str:
     periods = ", ".join(f"{n} of period {p}" for p, n in sorted(s["by_period"].items()))
+    census = (f"; the census run again at {s['censuses']} points where the atlas brought a "
+              f"stable orbit to transients called chaotic" if s.get("censuses") else "")
     return (f"atlas: {s['total_added']} orbits continued into neighbouring grid points "
             f"({periods or 'none new'}) in {s['total_rounds']} round(s) to the fixed point; "
             f"{s['shots']} shots over {s['tiles']} tiles ({s['skipped']} not shot into full "
-            f"points), {s['compute']:.1f} s compute, "
-            f"{s['wall']:.1f} s wall")
+            f"points){census}, {s['compute']:.1f} s compute, {s['wall']:.1f} s wall")

@@ -32,9 +32,11 @@ import numpy as np
 
 from hertzmap.kernels import status as st
 from hertzmap.study.orbits import match_neighbours, same_orbit
-from hertzmap.study.schema import (BIFURCATION_KINDS, CROSSING_SLOTS, CROSSING_VARIABLES,
-                                   ORBIT_VARIABLES, VARIABLES)
+from hertzmap.study.schema import (ATTRACTOR_KINDS, ATTRACTOR_VARIABLES, BIFURCATION_KINDS,
+                                   CROSSING_SLOTS, CROSSING_VARIABLES, ORBIT_VARIABLES,
+                                   VARIABLES)
 from hertzmap.study.solve.block import record_line, slot_order, slot_rank
+from hertzmap.study.solve.census import census, first_pass_only, record_attractors
 from hertzmap.study.solve.curves import line_crossings
 from hertzmap.study.solve.point import shoot_seeds_minimal
 
@@ -112,14 +114,16 @@ def neighbours(idx, shape):
 def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
                    own: tuple[slice, slice, slice], omega: np.ndarray, sigma: np.ndarray,
                    zeta: np.ndarray, round_: int, options: dict, max_solutions: int,
-                   level: float, periods: tuple[int, ...]) -> TileResult:
+                   level: float, periods: tuple[int, ...], offer_own: bool = False) -> TileResult:
     """One round at one tile. ``region``: the stored slot and point variables over the tile
     and its one-point halo, as read from the snapshot; ``lines``: the tile's stored crossing
     variables (dims omega_block (1), sigma, zeta, crossing), if any; ``own``: the tile's cells
     within the region; omega, sigma, zeta: the region's axes; ``options``: the solver's
     (exponent, model, rtol, harmonics); ``level``: the contact-loss level (the crossings'
-    grazing test); ``periods``: the periods the study searches. Returns the tile's arrays
-    (atlas_names) with the orbits this round adds."""
+    grazing test); ``periods``: the periods the study searches; ``offer_own``: the tile's own
+    orbits of the last round are offered too (after a census round: its orbits were not
+    offered where they were found). Returns the tile's arrays (atlas_names) with the orbits
+    this round adds."""
     options = dict(options, max_iter=MAX_ITER)
     shape = region["status"].shape[:3]
     orbits = region_orbits(region)
@@ -134,7 +138,7 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
     # what is offered to the neighbours first: round 1, every grid orbit; later, the halo's
     # orbits of the last round (the tile's own were offered inside it when they were added)
     fresh = {idx: [o for o in current[idx] if o["atlas_round"] == round_ - 1
-                   and (round_ == 1 or idx not in mine)] for idx in current}
+                   and (round_ == 1 or offer_own or idx not in mine)] for idx in current}
     fresh = {idx: f for idx, f in fresh.items() if f}
     # the tile to its own fixed point: an orbit added here is offered to its neighbours in the
     # tile at once (those beyond it get it next round)
@@ -182,6 +186,70 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
     return result
 
 
+def census_points(arrays: dict[str, np.ndarray], transient_periods: int,
+                  record_periods: int) -> np.ndarray:
+    """The points (bool over the arrays' omega, sigma, zeta) whose census must run again
+    (study.solve.census.needs_second_census's rule over stored arrays: the atlas continued a
+    stable orbit to a point whose census called transients chaotic after their first pass)."""
+    first_pass = ((arrays["attractor_kind"] == ATTRACTOR_KINDS["non_periodic"])
+                  & first_pass_only(arrays["attractor_periods_run"], transient_periods,
+                                    record_periods)).any(axis=-1)
+    stable = (arrays["stable"] & (arrays["status"] == st.CONVERGED)).any(axis=-1)
+    return first_pass & stable
+
+
+def census_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
+                own: tuple[slice, slice, slice], omega: np.ndarray, sigma: np.ndarray,
+                zeta: np.ndarray, round_: int, options: dict, max_solutions: int,
+                level: float, periods: tuple[int, ...], search: dict) -> TileResult:
+    """A census round at one tile (after the atlas's fixed point): the census
+    (study.solve.census.census) again at each census_points point, now knowing its orbits
+    (the stable ones the atlas brought; its longer passes tell a chaotic attractor beside
+    them from long transients). Its attractors replace the point's; an orbit it finds joins
+    the point with ``atlas_round = round_`` (the next round continues it). ``region``: the
+    tile's stored slot, point and attractor variables (``own`` covers it); ``search``: the
+    census's settings (n_states, transient_periods, record_periods, max_transient_periods,
+    point_steps). Returns the tile's arrays (atlas_names) where points were revisited."""
+    orbits = region_orbits(region)
+    names = ORBIT_VARIABLES + POINT_NAMES + ATTRACTOR_VARIABLES
+    out = {n: region[n][own].copy() for n in region if n in names}
+    out.update({n: a.copy() for n, a in lines.items()})
+    lo = tuple(s.start for s in own)
+    own_shape = tuple(s.stop - s.start for s in own)
+    result = TileResult(out, np.zeros(own_shape, bool))
+    need = census_points(out, search["transient_periods"], search["record_periods"])
+    current = {}
+    for local in map(tuple, np.argwhere(need)):
+        idx = tuple(int(a + b) for a, b in zip(local, lo))
+        known = _converged(orbits[idx])
+        w = float(omega[idx[0]])
+        found, new = census(w, float(sigma[idx[1]]), float(zeta[idx[2]]), known, options,
+                            **search)
+        for sol in new:
+            sol["atlas_round"] = round_
+        current[idx] = known + new
+        kept = _rewrite_point(out, region, local, orbits[idx], current[idx], len(new),
+                              max_solutions, periods)
+        for n in ATTRACTOR_VARIABLES:
+            if n in out:
+                out[n][local] = VARIABLES[n].fill
+        record_attractors(out, *local, w, found, int(search["n_states"]),
+                          lambda orbit: next((k for k, o in enumerate(kept) if o is orbit), -1))
+        result.changed[local] = True
+        result.shots += 1
+        result.added += len(new)
+    gained = np.zeros(own_shape, bool)
+    for idx, orbs in current.items():
+        gained[tuple(a - b for a, b in zip(idx, lo))] = len(orbs) > len(_converged(orbits[idx]))
+    if gained.any() and "crossing_kind" in out:
+        mine = {tuple(a + b for a, b in zip(local, lo)) for local in np.ndindex(own_shape)}
+        before = {idx: _converged(orbits[idx]) for idx in mine}
+        now = {idx: current.get(idx, before[idx]) for idx in mine}
+        _recount_crossings(out, own_shape, lo, gained, before, now, omega[own[0]], level,
+                           periods)
+    return result
+
+
 def _full_rank(orbits, max_solutions):
     """The rank of the last orbit a full point keeps (None when it has a free slot)."""
     if len(orbits) < max_solutions:
@@ -220,6 +288,7 @@ def _rewrite_point(out, region, local, before, orbits, n_added, max_solutions, p
             # slots are filled from 0: the orbit in slot s is the snapshot's s-th
             if 0 <= s < len(before):
                 slots[a] = next((k for k, o in enumerate(kept) if o is before[s]), -1)
+    return kept
 
 
 def _crossing_records(out, j, k) -> list[dict]:

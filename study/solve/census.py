@@ -12,8 +12,9 @@ into attractors:
   shooting, or found here) and their largest Lyapunov exponent over the record window is
   positive beyond three standard errors, with the two halves of the window agreeing: chaos;
 * **unsettled**: transients that did not settle otherwise (a period > 16, a transient longer
-  than the budget, or a stable orbit at the point these transients did not reach: a point with
-  a stable orbit is never called chaotic because a transient was long);
+  than the budget, or a stable orbit at the point these transients did not reach and that
+  the longer passes below did not tell apart: a point with a stable orbit is never called
+  chaotic because a transient was long);
 * **failed**: integration failures (never a crash).
 
 Before a point is called non-periodic, its stroboscopic points are searched for close returns
@@ -25,9 +26,12 @@ Unsettled: a point whose open transients are not shown chaotic gets longer passe
 ``LONGER`` times the last, from where they stopped, up to the study's search.max_transient_periods
 periods in all and within its search.point_steps (integration steps summed over its open
 transients: work, not wall time, so that the results do not depend on the machine): a
-transient that settles then counts with
-its periodic attractor; one that ran all its periods with a positive exponent is chaotic (a
-chaotic attractor beside a stable orbit: its transients are no longer "long"); the others stay
+transient that settles then counts with its periodic attractor. At a point with a stable
+orbit, open transients with a positive exponent are a chaotic attractor beside it once a
+longer pass ends with none of them escaping to the orbit (a chaotic transient leaks runs at
+its escape rate: with k runs and a pass of P periods none escaping, its mean lifetime is
+beyond about k P periods, and the contact is chaotic for that long) or once they ran all
+their periods; where no stable orbit is known, a positive exponent suffices. The others stay
 unsettled with the reason (``unsettled_reason``: the period limit, or the work budget).
 
 Basin fractions: the share of the initial states ending on each attractor. Where none of the
@@ -84,6 +88,8 @@ LONGER = 4
 #: search.max_transient_periods without settling, or its search.point_steps ran out first
 PERIOD_LIMIT = 1
 WORK_BUDGET = 2
+#: (not stored) a longer pass ended with none of its runs settled
+QUIET = -1
 
 
 @dataclass
@@ -208,12 +214,14 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
             row[A["lyapunov_periods"]] = lyap[LYAPUNOV_FIELDS.index("periods")]
         return rep, row
 
-    def longer_passes(runs, limit):
+    left = [float(point_steps)]
+    budget = [int(transient_periods)]
+
+    def longer_passes(runs, limit, until_quiet=False):
         """Continue the runs that did not settle from their last states, each pass LONGER
         times the last, until they settle, ``limit`` periods are run in all (PERIOD_LIMIT), or
-        the point's work budget is spent (WORK_BUDGET). Returns the runs still open and why."""
-        left = float(point_steps)
-        budget = int(transient_periods)
+        the point's work budget is spent (WORK_BUDGET); ``until_quiet``: or a pass ends in
+        which no run settled (QUIET). Returns the runs still open and why."""
         run_so_far = float(np.nanmax(rows[runs, A["periods_run"]]))
         while True:
             if run_so_far >= limit:
@@ -223,10 +231,10 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
             # worker, loaded or not)
             per_period = max(float(np.nanmax(rows[runs, A["steps"]] / rows[runs, A["periods_run"]])),
                              1.0)
-            affordable = int(left / (len(runs) * per_period)) - record_periods
+            affordable = int(left[0] / (len(runs) * per_period)) - record_periods
             if affordable < transient_periods:
                 return runs, WORK_BUDGET
-            budget = int(min(LONGER * budget, limit - run_so_far, affordable))
+            budget[0] = int(min(LONGER * budget[0], limit - run_so_far, affordable))
             idx = np.array(runs)
             sub_rows = np.empty((idx.size, N_ATTRACTOR_FIELDS))
             sub_orbits = np.empty((idx.size, N_FIELDS))
@@ -234,18 +242,21 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
             attractor_batch_into(float(omega), float(sigma), float(zeta),
                                  np.ascontiguousarray(rows[idx, A["q_end"]]),
                                  np.ascontiguousarray(rows[idx, A["v_end"]]), n_exp, model,
-                                 budget, int(record_periods), False, 0, 0, CYCLE_TOL,
+                                 budget[0], int(record_periods), False, 0, 0, CYCLE_TOL,
                                  CYCLE_REPEATS, t_rtol, t_rtol, rtol, 200_000, harmonics,
                                  sub_rows, sub_orbits, sub_strobes)
             sub_rows[:, A["periods_run"]] += rows[idx, A["periods_run"]]
-            left -= float(np.nansum(sub_rows[:, A["steps"]]))
+            left[0] -= float(np.nansum(sub_rows[:, A["steps"]]))
             sub_rows[:, A["steps"]] += rows[idx, A["steps"]]
             rows[idx], orbit_rows[idx], strobes[idx] = sub_rows, sub_orbits, sub_strobes
             run_so_far = float(np.nanmax(rows[idx, A["periods_run"]]))
-            runs = [r for r in runs if not (int(rows[r, A["status"]]) == st.CONVERGED
-                                             and settle(r))]
-            if not runs:
-                return runs, 0
+            still = [r for r in runs if not (int(rows[r, A["status"]]) == st.CONVERGED
+                                              and settle(r))]
+            if not still:
+                return still, 0
+            if until_quiet and len(still) == len(runs):
+                return still, QUIET
+            runs = still
 
     for r in range(k):
         status = int(rows[r, A["status"]])
@@ -280,14 +291,23 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
         reason = 0
         limit = int(max_transient_periods or transient_periods)
         if not chaotic and limit > transient_periods:
-            open_runs, reason = longer_passes(open_runs, limit)
+            open_runs, reason = longer_passes(open_runs, limit, until_quiet=has_stable)
             if open_runs:
                 rep, row = representative(open_runs, LONGER * int(record_periods))
                 # a motion that still does not repeat, with a positive exponent over a longer
-                # window: chaotic where no stable orbit is known, and beside one only after the
-                # longest transients allowed (then it is not a long transient)
-                chaotic = (not has_stable or reason == PERIOD_LIMIT) and _chaotic(row) and any(
-                    int(rows[r, A["status"]]) == st.UNSETTLED for r in open_runs)
+                # window: chaotic where no stable orbit is known; beside one, once a longer
+                # pass ended with none of the runs escaping to it (a chaotic transient leaks
+                # runs to the orbit: its lifetime is then beyond runs x pass periods) or after
+                # the longest transients allowed
+                chaotic = (not has_stable or reason in (QUIET, PERIOD_LIMIT)) and _chaotic(
+                    row) and any(int(rows[r, A["status"]]) == st.UNSETTLED for r in open_runs)
+                if reason == QUIET and not chaotic:
+                    # quiet but not chaotic (a long period, a slow drift): longer still
+                    open_runs, reason = longer_passes(open_runs, limit)
+                    if open_runs:
+                        rep, row = representative(open_runs, LONGER * int(record_periods))
+                        chaotic = reason == PERIOD_LIMIT and _chaotic(row) and any(
+                            int(rows[r, A["status"]]) == st.UNSETTLED for r in open_runs)
         if open_runs:
             others.append(Attractor("non_periodic" if chaotic else "unsettled",
                                     count=len(open_runs), row=row,
@@ -307,13 +327,21 @@ def has_stable_orbit(orbits: list[dict]) -> bool:
     return any(s["stable"] and s["status"] == st.CONVERGED for s in orbits)
 
 
-def settle_kinds(found: list[Attractor], orbits: list[dict]) -> None:
-    """The same rule for a census result whose point gained orbits after its census ran (a
-    trace from a later point of the line found a stable one there)."""
-    if has_stable_orbit(orbits):
-        for a in found:
-            if a.kind == "non_periodic":
-                a.kind = "unsettled"
+def first_pass_only(periods_run, transient_periods: int, record_periods: int):
+    """An attractor's transients (``periods_run``, scalar or array) ran their first pass only:
+    no longer pass tested them."""
+    return periods_run <= int(transient_periods) + int(record_periods)
+
+
+def needs_second_census(found: list[Attractor], orbits: list[dict], transient_periods: int,
+                        record_periods: int) -> bool:
+    """A census result that called transients chaotic after their first pass (no stable orbit
+    was known then) at a point that now has a stable orbit (a trace from a later point of the
+    line, or the atlas, found one): the census must run again, knowing it (module docstring:
+    beside a stable orbit, chaos needs the longer passes' evidence)."""
+    return has_stable_orbit(orbits) and any(
+        a.kind == "non_periodic" and first_pass_only(a.row[A["periods_run"]], transient_periods,
+                                                     record_periods) for a in found)
 
 
 def _strobe(strobe: np.ndarray, row: np.ndarray) -> np.ndarray:

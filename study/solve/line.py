@@ -31,7 +31,7 @@ from hertzmap.kernels import continuation as cont
 from hertzmap.kernels import status as st
 from hertzmap.study.orbits import (CONTINUITY_SHARE, continuity_distance, fold_function,
                           match_neighbours, same_orbit)
-from hertzmap.study.solve.census import census, settle_kinds
+from hertzmap.study.solve.census import census, needs_second_census
 from hertzmap.study.solve.point import merge_new_orbits, shoot_seeds_minimal, solve_point
 from hertzmap.study.solve.seeds import mms_seeds
 
@@ -371,9 +371,19 @@ class LineSearch:
                     self.trace(int(i), sol, direction,
                                past_fold=sol["period"] not in self.periods)
         # a trace from a later point may have found a stable orbit at a point whose census had
-        # none to compare with: the census's rule holds line-wide
-        for i, found in self.attractors.items():
-            settle_kinds(found, self.per_point[i])
+        # none to compare with and called its transients chaotic: the census again, knowing
+        # it (its longer passes tell a chaotic attractor beside the orbit from long transients)
+        for i, found in sorted(self.attractors.items()):
+            if not needs_second_census(found, self.per_point[i], transient_periods,
+                                       record_periods):
+                continue
+            found, new = census(self.omega[i], self.sigma, self.zeta, self.per_point[i],
+                                self.options, n_states, transient_periods, record_periods,
+                                max_transient_periods, point_steps)
+            self.attractors[i] = found
+            for sol in new:
+                sol["omega"] = self.omega[i]
+                self.per_point[i].append(sol)
         self.seconds["census"] = time.perf_counter() - t0
 
     # -- results --------------------------------------------------------------------------

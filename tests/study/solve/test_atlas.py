@@ -132,3 +132,37 @@ def test_the_result_depends_on_the_snapshot_only(order):
                        sigma, np.array([ZETA]), 1, OPTIONS, 4, -1.5, (1, 2))
     for n in a.arrays:
         np.testing.assert_array_equal(a.arrays[n], b.arrays[n], err_msg=n)
+
+
+def test_a_census_round_runs_the_census_again_where_a_stable_orbit_came():
+    """(0.95, 1.8), zeta 0.01: the grid's census called the transients chaotic after their
+    first pass (no stable orbit known); the atlas then brings the stable 5T orbit there
+    (checked by the oracle's period map). census_points flags the point; census_tile runs the
+    census again knowing the orbit (a longer pass, none of 16 transients escaping: chaotic
+    beside it), keeps the orbit in the slots, and leaves no point to run again."""
+    from hertzmap.study.schema import ATTRACTOR_VARIABLES
+    from hertzmap.study.solve.atlas import census_points, census_tile
+    from hertzmap.study.solve.census import census, record_attractors
+
+    w, s, guess = 0.95, 1.8, (-118.12574873, 2.24953184)
+    search = dict(n_states=16, transient_periods=500, record_periods=128,
+                  max_transient_periods=20_000, point_steps=2_000_000)
+    region = _region(np.array([w]), np.array([s]), {(0, 0): [(5, guess)]}, max_solutions=4)
+    x = np.array([region["q0"][0, 0, 0, 0], region["v0"][0, 0, 0, 0]])
+    assert np.max(np.abs(oracle.period_map(x, w, s, ZETA, 5) - x)) < 1e-7 * (1 + np.hypot(*x))
+    region["atlas_round"][0, 0, 0, 0] = 3           # brought by the atlas
+    region.update(empty_arrays((1, 1, 1), 4, ATTRACTOR_VARIABLES))
+    first, _ = census(w, s, ZETA, [], OPTIONS, **search)
+    record_attractors(region, 0, 0, 0, w, first, 16, lambda orbit: -1)
+    assert census_points(region, 500, 128).tolist() == [[[True]]]
+    own = (slice(0, 1),) * 3
+    r = census_tile(region, {}, own, np.array([w]), np.array([s]), np.array([ZETA]), 4,
+                    OPTIONS, 4, -1.5, (1, 2), search)
+    assert r.changed.tolist() == [[[True]]] and r.shots == 1 and r.added == 0
+    out = r.arrays
+    kinds = out["attractor_kind"][0, 0, 0]
+    assert kinds[0] == 2 and (kinds[1:] == 0).all()               # non_periodic
+    assert out["attractor_periods_run"][0, 0, 0, 0] > 500 + 128
+    assert out["basin_fraction"][0, 0, 0, 0] == 1.0
+    assert _orbits(out, 0, 0) == _orbits(region, 0, 0)
+    assert not census_points(out, 500, 128).any()
