@@ -1,15 +1,26 @@
-"""What two stores of one scene say the contact does, side by side: orbits by class and period,
-points holding a stable orbit of each period, the census's attractors by kind (and why the
-unsettled ones are), orbits the slots dropped, orbits the atlas added.
+"""What the contact does on a scene before and after the atlas, side by side: orbits by class and
+period, points holding a stable orbit of each period, the census's attractors by kind (and why
+the unsettled ones are), orbits the slots dropped, orbits the atlas added, and the cost.
 
+    .venv/bin/python benchmarks/map_completeness.py --run studies/default.toml [--workers 2]
     .venv/bin/python benchmarks/map_completeness.py BEFORE.zarr AFTER.zarr
 
-Counts only (the stores' own variables, nothing recomputed); the costs are the run summaries'.
+``--run``: the scene twice in this process's session, one run after the other on the same
+machine: "before" is the grid alone with the census's first pass only (no atlas, no longer
+passes: ``max_transient_periods = transient_periods``; ``hertzmap run --skip-atlas``), "after"
+the scene as it is; the costs are the two runs' summaries (task compute, atlas compute, wall).
+With two stores: their counts only (nothing recomputed).
 """
 from __future__ import annotations
 
+import re
+import subprocess
 import sys
+import tempfile
+import time
+import tomllib
 import warnings
+from pathlib import Path
 
 import numpy as np
 import xarray as xr
@@ -47,17 +58,64 @@ def counts(path: str) -> dict[str, int]:
     return out
 
 
-def main(argv: list[str]) -> int:
-    if len(argv) != 2:
-        print(__doc__.strip(), file=sys.stderr)
-        return 2
-    a, b = counts(argv[0]), counts(argv[1])
+def _before_study(scene: Path, folder: Path) -> Path:
+    """The scene's study file with no longer census passes (the first pass only)."""
+    text = scene.read_text()
+    study = tomllib.loads(text)
+    search = study.get("search", {})
+    if search.get("attractors", "never") != "never":
+        lines = [ln for ln in text.splitlines()
+                 if not ln.strip().startswith("max_transient_periods")]
+        at = next(i for i, ln in enumerate(lines) if ln.strip() == "[search]")
+        lines.insert(at + 1, f"max_transient_periods = {search.get('transient_periods', 500)}")
+        text = "\n".join(lines) + "\n"
+    out = folder / scene.name
+    out.write_text(text)
+    return out
+
+
+def _run(study: Path, store: Path, extra: list[str], workers: int) -> dict[str, float]:
+    """hertzmap run; the costs its summary prints."""
+    cmd = [str(Path(sys.executable).parent / "hertzmap"), "run", str(study),
+           "--store", str(store), "--workers", str(workers), *extra]
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=True)
+    cost = {"wall (s)": time.perf_counter() - t0}
+    m = re.search(r"task compute ([0-9.]+) s", proc.stdout)
+    cost["grid compute (s)"] = float(m.group(1)) if m else float("nan")
+    m = re.search(r"^atlas: .* ([0-9.]+) s compute", proc.stdout, re.M)
+    cost["atlas compute (s)"] = float(m.group(1)) if m else 0.0
+    return cost
+
+
+def _table(a: dict, b: dict) -> None:
     width = max(len(k) for k in a | b)
     print(f"{'':{width}}  {'before':>10}  {'after':>10}")
     for key in list(a) + [k for k in b if k not in a]:
-        print(f"{key:{width}}  {a.get(key, '-'):>10}  {b.get(key, '-'):>10}")
+        x, y = a.get(key, "-"), b.get(key, "-")
+        x, y = (f"{v:.1f}" if isinstance(v, float) else v for v in (x, y))
+        print(f"{key:{width}}  {x:>10}  {y:>10}")
+
+
+def main(argv: list[str]) -> int:
+    if len(argv) >= 2 and argv[0] == "--run":
+        scene = Path(argv[1])
+        workers = int(argv[argv.index("--workers") + 1]) if "--workers" in argv else 2
+        with tempfile.TemporaryDirectory() as tmp:
+            folder = Path(tmp)
+            before = _run(_before_study(scene, folder), folder / "before.zarr",
+                          ["--skip-atlas"], workers)
+            after = _run(scene, folder / "after.zarr", [], workers)
+            print(f"{scene}: before = grid, census first pass only; after = the scene as is")
+            _table(counts(str(folder / "before.zarr")) | before,
+                   counts(str(folder / "after.zarr")) | after)
+        return 0
+    if len(argv) != 2:
+        print(__doc__.strip(), file=sys.stderr)
+        return 2
+    _table(counts(argv[0]), counts(argv[1]))
     return 0
 
 
 if __name__ == "__main__":
-    raise SystemExit(main(sys.argv[1:]))
+    sys.exit(main(sys.argv[1:]))

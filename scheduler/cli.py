@@ -79,6 +79,8 @@ def _run_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--curve-tracer", default=None, help=argparse.SUPPRESS)
     # developer hook: another atlas tile function with propagate_tile's contract
     p.add_argument("--atlas-tile", default=None, help=argparse.SUPPRESS)
+    # developer hook: the grid without the atlas (benchmarks/map_completeness.py's "before")
+    p.add_argument("--skip-atlas", action="store_true", help=argparse.SUPPRESS)
 
 
 def run_command_line(args: argparse.Namespace) -> str:
@@ -141,6 +143,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         opts.curve_tracer = args.curve_tracer
     if args.atlas_tile:
         opts.atlas_tile = args.atlas_tile
+    opts.atlas = not args.skip_atlas
     try:
         if args.dry_run:
             print(describe(study, opts.store, opts.task_seconds, opts.cluster))

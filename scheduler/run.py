@@ -53,6 +53,8 @@ class RunOptions:
     curve_tracer: str = DEFAULT_TRACER
     #: what computes one tile of an atlas round, module:function
     atlas_tile: str = DEFAULT_ATLAS_TILE
+    #: False: the grid (and curves) without the atlas, a benchmark's baseline
+    atlas: bool = True
 
 
 def default_store_path(study: Study) -> Path:
@@ -193,7 +195,8 @@ class StudyRun:
                                         "tasks_done_before": 0, "tasks_run": 0, "failed": []}
         # the atlas, after the grid and before the curves
         self.atlas = AtlasRun(study, store, out, err, self.interrupt, opts.command,
-                              enabled=opts.solver == DEFAULT_SOLVER, tile=opts.atlas_tile)
+                              enabled=opts.solver == DEFAULT_SOLVER and opts.atlas,
+                              tile=opts.atlas_tile)
         # the traced curves of a study with the "curves" output, after its grid
         self.curves = CurveRun(study, store, out, err, self.interrupt, opts.command,
                                opts.curve_tracer)
