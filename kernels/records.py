@@ -224,11 +224,12 @@ ATTRACTOR = Record("attractor", (
     Field("attractor_kind", "kind of attractor", "1",
           "1 periodic (a stable orbit, stored in the slot attractor_solution), 2 non_periodic "
           "(no period <= 16 within the budget and a positive largest Lyapunov exponent beyond "
-          "three standard errors, with no stable orbit found at the point: chaotic), "
-          "3 unsettled (the transients did not settle within search.transient_periods and the "
+          "three standard errors: chaotic; beside a stable orbit of the point only once a "
+          "longer pass ended with none of its transients escaping to that orbit, or after "
+          "search.max_transient_periods), 3 unsettled (the transients did not settle and the "
           "response is not shown chaotic: a longer period, a long transient, or a point with "
-          "a stable orbit that these transients did not reach), 4 failed (integration "
-          "failure); 0 empty slot", output="attractors", dtype="int8", fill=0, columns=(),
+          "a stable orbit that the longer passes did not tell apart; unsettled_reason says "
+          "why), 4 failed (integration failure); 0 empty slot", output="attractors", dtype="int8", fill=0, columns=(),
           flags=ATTRACTOR_FLAGS),
     Field("attractor_period", "period of a periodic attractor", "1",
           "m of a periodic attractor (its orbit has period m T), 0 otherwise",
