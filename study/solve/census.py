@@ -1,7 +1,9 @@
 """The attractor census of a grid point: what the contact does in the long run, from a set of
 initial states.
 
-From each initial state (study.solve.seeds.initial_states) a transient runs on the stroboscopic
+From each initial state (study.solve.seeds.initial_states: a fixed box, and where the point's
+known orbits leave it, half of them in a box that covers those, seeds.reach_box, so that
+attractors with long flights are reached) a transient runs on the stroboscopic
 map (kernels.attractors): it settles on a stable periodic orbit of period m <= 16 (refined by
 shooting), or it does not within its period budget. The census groups the outcomes of one point
 into attractors:
@@ -55,7 +57,7 @@ from hertzmap.kernels.shooting import N_FIELDS
 from hertzmap.study.orbits import same_orbit
 from hertzmap.study.schema import ATTRACTOR_KINDS, ATTRACTOR_SLOTS, STROBE_POINTS
 from hertzmap.study.solve.point import shoot_seeds, solutions_from_rows
-from hertzmap.study.solve.seeds import initial_states
+from hertzmap.study.solve.seeds import initial_states, reach_box
 
 #: The transients' integrator tolerance: looser than the shooting's (a transient is refined by
 #: shooting at the study's rtol once it settles); the exponent and measures of a chaotic window
@@ -142,7 +144,10 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
     docstring, "Unsettled") up to ``max_transient_periods`` periods in all, within
     ``point_steps`` integration steps summed over its open transients.
     """
-    states = np.array(initial_states(n_states), float)
+    # half of the states where the largest known orbits go (long flights), when they leave
+    # the fixed box
+    states = np.array(initial_states(n_states, reach_box(
+        [o for o in orbits if o["status"] == st.CONVERGED and o["period"] > 0])), float)
     k = states.shape[0]
     rows = np.empty((k, N_ATTRACTOR_FIELDS))
     orbit_rows = np.empty((k, N_FIELDS))

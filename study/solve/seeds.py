@@ -32,13 +32,41 @@ def _halton(i, base):
     return r
 
 
-def initial_states(count: int) -> list[tuple[float, float]]:
-    """The static point and count - 1 Halton points (bases 2, 3) in TRANSIENT_BOX."""
-    (q0, q1), (v0, v1) = TRANSIENT_BOX
+def initial_states(count: int, reach=None) -> list[tuple[float, float]]:
+    """The static point and count - 1 Halton points (bases 2, 3) in TRANSIENT_BOX; with
+    ``reach`` (a box ((q_lo, q_hi), (v_lo, v_hi)) larger than TRANSIENT_BOX: reach_box), the
+    Halton points alternate between TRANSIENT_BOX and ``reach``, each box's points its own
+    Halton sequence (so both are evenly covered)."""
     out = [(0.0, 0.0)]
+    n = {0: 0, 1: 0}
     for i in range(1, count):
-        out.append((q0 + (q1 - q0) * _halton(i, 2), v0 + (v1 - v0) * _halton(i, 3)))
+        box = TRANSIENT_BOX if reach is None or i % 2 else reach
+        k = 0 if box is TRANSIENT_BOX else 1
+        n[k] += 1
+        (q0, q1), (v0, v1) = box
+        out.append((q0 + (q1 - q0) * _halton(n[k], 2), v0 + (v1 - v0) * _halton(n[k], 3)))
     return out[:max(count, 0)]
+
+
+#: the share of an orbit's q extent added on each side of the reach box
+REACH_MARGIN = 0.1
+
+
+def reach_box(orbits) -> tuple | None:
+    """Where the motion of a point can go, from the largest of its known orbits (mappings
+    with min_q, max_q; converged ones): TRANSIENT_BOX grown in q to cover them (with a
+    REACH_MARGIN share of their extent on each side), and in q' like the square root of the
+    q extent's growth (in a flight the speed grows like the square root of its height: the
+    force is bounded). None when the orbits fit in TRANSIENT_BOX (the box is the reach)."""
+    (q0, q1), (v0, v1) = TRANSIENT_BOX
+    lo = min((float(o["min_q"]) for o in orbits), default=q0)
+    hi = max((float(o["max_q"]) for o in orbits), default=q1)
+    if lo >= q0 and hi <= q1:
+        return None
+    pad = REACH_MARGIN * (hi - lo)
+    lo, hi = min(q0, lo - pad), max(q1, hi + pad)
+    grow = np.sqrt((hi - lo) / (q1 - q0))
+    return (lo, hi), (v0 * grow, v1 * grow)
 
 
 #: Distances d along the flip eigenvector at which 2T seeds are placed (both signs).
