@@ -97,6 +97,9 @@ class Attractor:
     row: np.ndarray | None = None            # the kernel row of a representative transient
     strobe: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
     reason: int = 0                          # unsettled: why (PERIOD_LIMIT, WORK_BUDGET)
+    # the indices of the initial states whose transients end here (the basin entropy of the
+    # census's states: study.solve.basins.record_basin_entropy)
+    states: list[int] = field(default_factory=list)
 
     @property
     def period(self) -> int:
@@ -191,6 +194,7 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
                           strobe=_strobe(strobes[r], rows[r]))
             periodic.append(a)
         a.count += 1
+        a.states.append(r)
         return True
 
     def representative(runs, window=int(record_periods)):
@@ -292,9 +296,10 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
             others.append(Attractor("non_periodic" if chaotic else "unsettled",
                                     count=len(open_runs), row=row,
                                     strobe=_strobe(strobes[rep], rows[rep]),
-                                    reason=0 if chaotic else reason))
+                                    reason=0 if chaotic else reason, states=list(open_runs)))
     if failed:
-        others.append(Attractor("failed", count=len(failed), row=rows[failed[0]].copy()))
+        others.append(Attractor("failed", count=len(failed), row=rows[failed[0]].copy(),
+                                states=list(failed)))
     # largest basin first; at most ATTRACTOR_SLOTS (the smallest basins merge into the last)
     found = sorted(periodic, key=lambda a: -a.count) + sorted(others, key=lambda a: -a.count)
     found.sort(key=lambda a: -a.count)
