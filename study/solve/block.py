@@ -33,6 +33,7 @@ from hertzmap.kernels.model import MODELS, contact_loss_level
 from hertzmap.study.schema import (ATTRACTOR_VARIABLES, BIFURCATION_KINDS, BIFURCATION_SLOTS,
                           BIFURCATION_VARIABLES, CROSSING_SLOTS, CROSSING_VARIABLES,
                           ORBIT_VARIABLES, empty_arrays)
+from hertzmap.study.solve.basins import record_basin_entropy
 from hertzmap.study.solve.census import record_attractors
 from hertzmap.study.solve.curves import line_crossings
 from hertzmap.study.solve.discovery import discover_line
@@ -233,6 +234,7 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
                     record_attractors(
                         arrays, i, j, k, float(omega[i]), search.attractors[i], initial_states,
                         lambda orbit: next((n for n, s in enumerate(stored) if s is orbit), -1))
+                    record_basin_entropy(arrays, i, j, k, search.attractors[i], initial_states)
             if recorded:
                 _record(arrays, points, j, k, slots, recorded)
             arrays["status"][~search.visited, j, k, 0] = st.TIME_LIMIT
