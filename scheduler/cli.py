@@ -1,5 +1,5 @@
-"""The ``hertzmap`` command line: ``run``, ``scenes``, ``status``, ``plot``, ``bench``,
-``explore``. The only place that parses arguments.
+"""The ``hertzmap`` command line: ``run``, ``scenes``, ``status``, ``plot``, ``basins``,
+``bench``, ``explore``. The only place that parses arguments.
 
 Subcommands register themselves in :data:`SUBCOMMANDS` (name -> (add_arguments, handler)),
 so ``plot``, ``bench``... can be added without touching the others.
@@ -277,6 +277,69 @@ def cmd_plot(args: argparse.Namespace) -> int:
         print(p)
     if args.store is not None and not args.no_products:
         print(f"products: {', '.join(list_products(args.store))} in {args.store}/products/")
+    return EXIT_OK
+
+
+# -- basins -----------------------------------------------------------------------------------
+
+def _basins_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("store", type=Path, help="a store written by hertzmap run")
+    p.add_argument("--omega", type=float, required=True, metavar="W",
+                   help="omega of the point: the store's nearest grid value is taken; it must "
+                   "lie within the store's omega axis")
+    p.add_argument("--sigma", type=float, required=True, metavar="S",
+                   help="sigma of the point (the nearest grid value, within the axis)")
+    p.add_argument("--zeta", type=float, default=None, metavar="Z",
+                   help="zeta of the point (the nearest grid value; needed when the store has "
+                   "more than one)")
+    p.add_argument("--grid", default="200x200", metavar="NQxNV",
+                   help="cells of the grid of initial states along q and along dq/dtau, each "
+                   "2..2000 (default 200x200)")
+    p.add_argument("--q-range", default=None, metavar="LO,HI",
+                   help="initial displacements q at tau = 0 (default -6,4: the census's box)")
+    p.add_argument("--v-range", default=None, metavar="LO,HI",
+                   help="initial velocities dq/dtau at tau = 0 (default -5,5)")
+    p.add_argument("--out", type=Path, default=None,
+                   help="folder for the PNG (default: the store's folder)")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                       help="run on an existing Dask scheduler (e.g. tcp://host:8786)")
+    where.add_argument("--workers", type=int, default=None, metavar="N",
+                       help="worker processes of the embedded local cluster (default one per "
+                       "core)")
+
+
+@subcommand("basins", "the basin map of a store's grid point on a grid of initial states, "
+            "with its basin entropy, as a product group and a PNG")(_basins_args)
+def cmd_basins(args: argparse.Namespace) -> int:
+    """The transients from every cell of the grid of initial states at the grid point, run in
+    row blocks on the cluster (scheduler.basins); the map is written into the store as
+    products/basin_map_omega<w>_sigma<s>_zeta<z> and drawn next to the store."""
+    from hertzmap.scheduler.basins import check_request, run_basins
+    from hertzmap.scheduler.cluster import ClusterError, ClusterSpec
+    from hertzmap.scheduler.errors import RefusedError
+
+    try:
+        req = check_request(args.store, args.omega, args.sigma, args.zeta, args.grid,
+                            args.q_range, args.v_range)
+        spec = (ClusterSpec(kind="address", address=args.scheduler) if args.scheduler
+                else ClusterSpec(kind="local", workers=args.workers))
+        spec.check()
+        result = run_basins(req, spec, args.out or Path(args.store).resolve().parent)
+    except (RefusedError, ClusterError) as exc:
+        return _error(f"basins: {exc}")
+    except KeyboardInterrupt:
+        print("\nhertzmap: interrupted; nothing written", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    print(f"basin map at omega = {req.point[0]:g}, sigma = {req.point[1]:g}, zeta = "
+          f"{req.point[2]:g} on {req.grid[0]}x{req.grid[1]} initial states: "
+          f"{result['seconds']:.1f} s")
+    for kind, period, count in result["attractors"]:
+        print(f"  {kind}{f' {period}T' if period else ''}: {count} cells")
+    print(f"  S_b = {result['basin_entropy']:.4f} nats, S_bb = "
+          f"{result['boundary_basin_entropy']:.4f} nats, uncertainty fraction "
+          f"{result['uncertainty_fraction']:.4f}")
+    print(f"{result['figure']}\nproduct: {result['group']} in {args.store}")
     return EXIT_OK
 
 

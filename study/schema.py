@@ -209,6 +209,23 @@ VARIABLES: dict[str, VarSpec] = {v.name: v for v in [
             "states (search.initial_states); -1: the census did not run at this point "
             "(search.attractors = where-none-stable and a stable orbit was found, or not "
             "computed)", layout="point"),
+    VarSpec("basin_entropy", "float64", math.nan, "basin entropy of the census's states",
+            "nats", "S_b (Daza et al., Sci. Rep. 6, 31416, 2016): the box of initial states "
+            "(the census's Halton points in study.solve.seeds.TRANSIENT_BOX: all of "
+            "search.initial_states, or half where a reach box takes the others) cut into "
+            "cells of about 4 states, each cell's Gibbs entropy -sum_i p_i log p_i over the "
+            "share p_i of its states ending on attractor i (every attractor the census tells "
+            "apart, unsettled and failed included), averaged over the cells holding 2 states or "
+            "more; 0: one attractor; at most log(attractor_count). Coarse: from 16 states (the "
+            "default) it tells a point with mixed basins from one without, not a basin's "
+            "geometry (hertzmap basins maps that); NaN: the census did not run",
+            layout="point"),
+    VarSpec("boundary_basin_entropy", "float64", math.nan,
+            "boundary basin entropy of the census's states", "nats",
+            "S_bb: the mean of the same cells' entropies over the cells that hold more than one "
+            "attractor (0 where none does); S_bb > log 2 is a sufficient condition for a "
+            "fractal basin boundary (Daza et al. 2016), as coarse as basin_entropy; NaN: the "
+            "census did not run", layout="point"),
     *(VarSpec(f.name, f.dtype, f.fill, f.long_name, f.units, f.description,
               extra=(("attractor", ATTRACTOR_SLOTS),) + ((f.dim,) if f.dim else ()),
               flags=f.flags, layout="point") for f in ATTRACTOR.stored()),

@@ -54,10 +54,11 @@ from hertzmap.kernels.attractors import (A, LYAPUNOV_FIELDS, N_ATTRACTOR_FIELDS,
 from hertzmap.kernels.model import MODELS
 from hertzmap.kernels.records import ATTRACTOR
 from hertzmap.kernels.shooting import N_FIELDS
+from hertzmap.study.basins import BasinEntropy, scattered_basin_entropy
 from hertzmap.study.orbits import same_orbit
 from hertzmap.study.schema import ATTRACTOR_KINDS, ATTRACTOR_SLOTS, STROBE_POINTS
 from hertzmap.study.solve.point import shoot_seeds, solutions_from_rows
-from hertzmap.study.solve.seeds import initial_states, reach_box
+from hertzmap.study.solve.seeds import TRANSIENT_BOX, initial_states, reach_box
 
 #: The transients' integrator tolerance: looser than the shooting's (a transient is refined by
 #: shooting at the study's rtol once it settles); the exponent and measures of a chaotic window
@@ -105,6 +106,8 @@ class Attractor:
     row: np.ndarray | None = None            # the kernel row of a representative transient
     strobe: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
     reason: int = 0                          # unsettled: why (PERIOD_LIMIT, WORK_BUDGET)
+    # the initial states (q, q') whose transients end here (the point's basin entropy)
+    states: list[tuple] = field(default_factory=list)
 
     @property
     def period(self) -> int:
@@ -202,6 +205,7 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
                           strobe=_strobe(strobes[r], rows[r]))
             periodic.append(a)
         a.count += 1
+        a.states.append(tuple(states[r]))
         return True
 
     def representative(runs, window=int(record_periods)):
@@ -317,9 +321,11 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
             others.append(Attractor("non_periodic" if chaotic else "unsettled",
                                     count=len(open_runs), row=row,
                                     strobe=_strobe(strobes[rep], rows[rep]),
-                                    reason=0 if chaotic else reason))
+                                    reason=0 if chaotic else reason,
+                                    states=[tuple(states[r]) for r in open_runs]))
     if failed:
-        others.append(Attractor("failed", count=len(failed), row=rows[failed[0]].copy()))
+        others.append(Attractor("failed", count=len(failed), row=rows[failed[0]].copy(),
+                                states=[tuple(states[r]) for r in failed]))
     # largest basin first; at most ATTRACTOR_SLOTS (the smallest basins merge into the last)
     found = sorted(periodic, key=lambda a: -a.count) + sorted(others, key=lambda a: -a.count)
     found.sort(key=lambda a: -a.count)
@@ -394,3 +400,20 @@ def record_attractors(arrays: dict, i: int, j: int, k: int, omega: float,
         # the smallest basins share the last slot's count
         last = (i, j, k, ATTRACTOR_SLOTS - 1)
         arrays["basin_fraction"][last] = sum(a.count for a in found[ATTRACTOR_SLOTS - 1:]) / n_states
+    if "basin_entropy" in arrays:
+        e = census_basin_entropy(found)
+        arrays["basin_entropy"][i, j, k] = e.basin_entropy
+        arrays["boundary_basin_entropy"][i, j, k] = e.boundary_basin_entropy
+
+
+def census_basin_entropy(found: list[Attractor]) -> BasinEntropy:
+    """The basin entropy of a census's initial states in TRANSIENT_BOX (those of a reach box
+    sample another density and are left out), each labelled by the attractor its transient
+    reached, the box cut into cells of about STATES_PER_BOX states
+    (study.basins.scattered_basin_entropy)."""
+    pts = [x for a in found for x in a.states]
+    labels = np.array([n for n, a in enumerate(found) for _ in a.states], int)
+    pts = np.array(pts, float).reshape(-1, 2)
+    (q0, q1), (v0, v1) = TRANSIENT_BOX
+    inside = (pts[:, 0] >= q0) & (pts[:, 0] <= q1) & (pts[:, 1] >= v0) & (pts[:, 1] <= v1)
+    return scattered_basin_entropy(pts[inside], labels[inside], TRANSIENT_BOX)

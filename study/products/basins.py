@@ -1,0 +1,103 @@
+"""The basin map product: a study.solve.basins.BasinMap as a Dataset, stored by ``hertzmap
+basins`` as the zarr group ``products/<basin_map_name(...)>`` of the store.
+
+It is not an entry of the registry (catalog.PRODUCTS): a registry product is a function of
+the stored results alone, computed by ``hertzmap plot`` for every store that supports it; a
+basin map is computed on demand, at a grid point and on a grid of initial states the user
+names (new transients, run on the cluster), and a store may hold several (one group per grid
+point).
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from hertzmap.kernels.records import ATTRACTOR_KINDS, STROBE_POINTS
+from hertzmap.study.schema import VARIABLES
+
+#: the group name's prefix (products/basin_map_omega<w>_sigma<s>_zeta<z>)
+BASIN_MAP_PREFIX = "basin_map"
+
+
+def basin_map_name(omega: float, sigma: float, zeta: float) -> str:
+    """The product group's name of the basin map at the grid point (omega, sigma, zeta)."""
+    return f"{BASIN_MAP_PREFIX}_omega{omega:.6g}_sigma{sigma:.6g}_zeta{zeta:.6g}"
+
+
+def _attrs(long_name: str, description: str, units: str = "1") -> dict[str, str]:
+    return {"long_name": long_name, "units": units, "description": description}
+
+
+def basin_map_dataset(bm, source: dict[str, Any]) -> xr.Dataset:
+    """The Dataset of a basin map ``bm`` (study.solve.basins.BasinMap); ``source``: the attrs
+    naming the store it was computed from (study.products.results.source_attrs)."""
+    k = len(bm.attractors)
+    strobe_q = np.full((k, STROBE_POINTS), np.nan)
+    strobe_v = np.full((k, STROBE_POINTS), np.nan)
+    for a_index, a in enumerate(bm.attractors):
+        pts = np.asarray(a["strobe"], float).reshape(-1, 2)[-STROBE_POINTS:]
+        if pts.size:
+            strobe_q[a_index, STROBE_POINTS - len(pts):] = pts[:, 0]
+            strobe_v[a_index, STROBE_POINTS - len(pts):] = pts[:, 1]
+    col = {name: np.array([a[name] for a in bm.attractors]) for name in ("period", "q0", "v0",
+                                                                         "count")}
+    kind = VARIABLES["attractor_kind"]
+    total = bm.labels.size
+    e = bm.entropy
+    ds = xr.Dataset(
+        {
+            "basin_label": (("v", "q"), bm.labels.astype(np.int16), _attrs(
+                "attractor of the initial state",
+                "index along the attractor dim of the attractor the transient from the cell's "
+                "initial state (q, v) at tau = 0 ends on (-1: not computed)")),
+            "attractor_kind": ("attractor", np.array([ATTRACTOR_KINDS[a["kind"]]
+                                                      for a in bm.attractors], np.int8),
+                               kind.attrs()),
+            "attractor_period": ("attractor", col["period"].astype(np.int8),
+                                 VARIABLES["attractor_period"].attrs()),
+            "attractor_q0": ("attractor", col["q0"].astype(float), _attrs(
+                "displacement at tau = 0 of a periodic attractor",
+                "start point q(0) of the stable orbit (refined by shooting); NaN otherwise")),
+            "attractor_v0": ("attractor", col["v0"].astype(float), _attrs(
+                "velocity at tau = 0 of a periodic attractor",
+                "start point dq/dtau(0) of the stable orbit; NaN otherwise")),
+            "attractor_cells": ("attractor", col["count"].astype(np.int64), _attrs(
+                "cells of the basin", "initial states of the grid ending on the attractor")),
+            "basin_fraction": ("attractor", col["count"] / total, _attrs(
+                "basin fraction", "share of the grid's initial states ending on the attractor "
+                "(a measure of its basin over the box q x v)")),
+            "strobe_q": (("attractor", "strobe"), strobe_q, VARIABLES["strobe_q"].attrs()),
+            "strobe_v": (("attractor", "strobe"), strobe_v, VARIABLES["strobe_v"].attrs()),
+            "basin_entropy": ((), e.basin_entropy, _attrs(
+                "basin entropy", "S_b (Daza et al., Sci. Rep. 6, 31416, 2016): the mean over "
+                f"boxes of {bm.box} x {bm.box} cells of -sum_i p_i log p_i, p_i the share of the "
+                "box's cells ending on attractor i", "nats")),
+            "boundary_basin_entropy": ((), e.boundary_basin_entropy, _attrs(
+                "boundary basin entropy", "S_bb: the same mean over the boxes holding more than "
+                "one attractor (0 where none does); S_bb > log 2: the boundary is fractal "
+                "(a sufficient condition)", "nats")),
+            "uncertainty_fraction": ((), bm.uncertainty, _attrs(
+                "uncertainty fraction", "share of the cells whose attractor differs from that "
+                "of a neighbouring cell (eps = one cell along q or v)")),
+        },
+        coords={
+            "q": ("q", bm.q, _attrs("initial displacement", "q at tau = 0 of the cell's "
+                                    "initial state (cell centre)")),
+            "v": ("v", bm.v, _attrs("initial velocity", "dq/dtau at tau = 0 of the cell's "
+                                    "initial state (cell centre)")),
+            "attractor": ("attractor", np.arange(k, dtype=np.int16), _attrs(
+                "attractor index", "periodic attractors by basin size, then the transients "
+                "that did not settle, then the failures")),
+            "strobe": ("strobe", np.arange(STROBE_POINTS, dtype=np.int16), _attrs(
+                "stroboscopic point index", "k-th of the last stroboscopic points of a "
+                "transient that reached the attractor, in time order")),
+        },
+        attrs={**source, "title": f"basin map at omega = {bm.omega:g}, sigma = {bm.sigma:g}, "
+                                  f"zeta = {bm.zeta:g}",
+               "omega": bm.omega, "sigma": bm.sigma, "zeta": bm.zeta,
+               "box_side": bm.box, "boxes": e.boxes, "boundary_boxes": e.boundary_boxes,
+               "transient_periods": bm.transient_periods, "record_periods": bm.record_periods},
+    )
+    return ds

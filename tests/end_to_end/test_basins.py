@@ -1,0 +1,94 @@
+"""``hertzmap basins`` end to end on a tiny real store (3 omega values around the bistable point
+omega 1.7, sigma 1.0, zeta 0.05 of tests/study/solve/test_basins.py): the map computed in row
+blocks on an embedded local cluster is the map computed in one process, stored as its product
+group with attrs on every variable, and drawn; bad input is refused, naming the option and what
+is allowed, with the store untouched."""
+from __future__ import annotations
+
+import contextlib
+import io
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from hertzmap.scheduler.cli import main
+from hertzmap.study.products.basins import basin_map_name
+from hertzmap.study.solve.basins import basin_map
+from tests.helpers import solved_results
+
+STUDY = """
+[grid]
+omega = [1.6, 1.7, 1.8]
+sigma = [0.8, 1.0]
+zeta = [0.05]
+[search]
+attractors = "never"
+"""
+
+
+@pytest.fixture(scope="module")
+def store(tmp_path_factory) -> Path:
+    return solved_results(STUDY, tmp_path_factory.mktemp("basins") / "bistable.zarr",
+                          "bistable")
+
+
+def _main(argv) -> tuple[int, str, str]:
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            rc = main([str(a) for a in argv])
+        except SystemExit as exc:           # argparse usage errors
+            rc = exc.code
+    return rc, out.getvalue(), err.getvalue()
+
+
+def _snapshot(root: Path) -> dict[str, tuple[int, int]]:
+    return {str(p.relative_to(root)): (p.stat().st_size, p.stat().st_mtime_ns)
+            for p in sorted(root.rglob("*"))}
+
+
+def test_the_command_stores_and_draws_the_map(store, tmp_path):
+    # 1.72 is not a grid value: the nearest, 1.7, is taken
+    rc, out, err = _main(["basins", store, "--omega", 1.72, "--sigma", 1.0, "--grid", "12x10",
+                          "--workers", 1, "--out", tmp_path, "--q-range=-4,2"])
+    assert rc == 0, err
+    name = basin_map_name(1.7, 1.0, 0.05)
+    png = tmp_path / f"bistable_{name}.png"
+    assert png.is_file() and png.stat().st_size > 10_000
+    ds = xr.open_zarr(store, group=f"products/{name}").load()
+    for v in list(ds.data_vars) + list(ds.coords):
+        assert ds[v].attrs.get("long_name") and "units" in ds[v].attrs, v
+    assert ds["basin_entropy"].attrs["units"] == "nats"
+    # the same map in one process (the store's solver options: Hertz, n = 1.5, rtol 1e-10)
+    ref = basin_map(1.7, 1.0, 0.05, (-4.0, 2.0), (-5.0, 5.0), (12, 10))
+    assert ds["basin_label"].shape == (10, 12)
+    assert (ds["basin_label"].values == ref.labels).all()
+    assert list(ds["attractor_period"].values) == [a["period"] for a in ref.attractors] == [1, 2]
+    assert float(ds["basin_entropy"]) == pytest.approx(ref.entropy.basin_entropy, abs=0)
+    assert np.allclose(ds["q"].values, ref.q) and np.allclose(ds["v"].values, ref.v)
+    assert "S_b = " in out and name in out
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["--grid", "12by12"], "--grid: expected NQxNV"),
+    (["--grid", "1x12"], "--grid: each side must be 2..2000"),
+    (["--q-range=4,-6"], "--q-range: expected finite LO < HI"),
+    (["--v-range", "a,b"], "--v-range: expected LO,HI"),
+    (["--omega", 2.5], "--omega 2.5 is outside the store's omega axis [1.6, 1.8]"),
+    (["--sigma", 0.1], "--sigma 0.1 is outside the store's sigma axis [0.8, 1]"),
+])
+def test_bad_input_is_refused_and_the_store_untouched(store, tmp_path, args, needle):
+    before = _snapshot(store)
+    argv = ["basins", store, "--omega", 1.7, "--sigma", 1.0, "--grid", "12x12", "--out",
+            tmp_path]
+    rc, _, err = _main(argv + args)
+    assert rc == 2 and needle in err, err
+    assert "Traceback" not in err
+    assert _snapshot(store) == before and not list(tmp_path.iterdir())
+
+
+def test_a_path_that_is_not_a_store_is_refused(tmp_path):
+    rc, _, err = _main(["basins", tmp_path, "--omega", 1.7, "--sigma", 1.0])
+    assert rc == 2 and "not a zarr store" in err
