@@ -2,13 +2,14 @@
 period, points holding a stable orbit of each period, the census's attractors by kind (and why
 the unsettled ones are), orbits the slots dropped, orbits the atlas added, and the cost.
 
-    .venv/bin/python benchmarks/map_completeness.py --run studies/default.toml [--workers 2]
+    .venv/bin/python benchmarks/map_completeness.py --run studies/default.toml [--workers 2] [--keep DIR]
     .venv/bin/python benchmarks/map_completeness.py BEFORE.zarr AFTER.zarr
 
 ``--run``: the scene twice in this process's session, one run after the other on the same
 machine: "before" is the grid alone with the census's first pass only (no atlas, no longer
 passes: ``max_transient_periods = transient_periods``; ``hertzmap run --skip-atlas``), "after"
-the scene as it is; the costs are the two runs' summaries (task compute, atlas compute, wall).
+the scene as it is; the costs are the two runs' summaries (task compute, atlas compute, wall); ``--keep DIR``
+writes the two stores (before.zarr, after.zarr) and the runs' output there.
 With two stores: their counts only (nothing recomputed).
 """
 from __future__ import annotations
@@ -80,6 +81,7 @@ def _run(study: Path, store: Path, extra: list[str], workers: int) -> dict[str, 
            "--store", str(store), "--workers", str(workers), *extra]
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True, check=True)
+    store.with_suffix(".log").write_text(proc.stdout)
     cost = {"wall (s)": time.perf_counter() - t0}
     m = re.search(r"task compute ([0-9.]+) s", proc.stdout)
     cost["grid compute (s)"] = float(m.group(1)) if m else float("nan")
@@ -101,8 +103,10 @@ def main(argv: list[str]) -> int:
     if len(argv) >= 2 and argv[0] == "--run":
         scene = Path(argv[1])
         workers = int(argv[argv.index("--workers") + 1]) if "--workers" in argv else 2
+        keep = argv[argv.index("--keep") + 1] if "--keep" in argv else None
         with tempfile.TemporaryDirectory() as tmp:
-            folder = Path(tmp)
+            folder = Path(keep or tmp)
+            folder.mkdir(parents=True, exist_ok=True)
             before = _run(_before_study(scene, folder), folder / "before.zarr",
                           ["--skip-atlas"], workers)
             after = _run(scene, folder / "after.zarr", [], workers)
