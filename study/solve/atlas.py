@@ -8,7 +8,8 @@ after round r - 1 (the snapshot; round 1 reads the grid's). At a tile, each orbi
 1: every grid orbit of the tile and its one-point halo; later: the halo's orbits that round
 r - 1 added) is continued into its neighbours in the tile: natural continuation, Newton shooting
 at the neighbour's (omega, sigma, zeta) from the orbit's start point, at its period
-(study.solve.point.shoot_seeds_minimal). An orbit that the continuity rule already pairs with
+(study.solve.point.shoot_targets: the shots of a pass in one kernel call). An orbit that the
+continuity rule already pairs with
 one of the neighbour's (study.orbits.match_neighbours) is not shot. A converged orbit new there
 by the identity rule (study.orbits.same_orbit) joins the point with ``atlas_round = r`` and is
 offered in turn to its neighbours in the tile, until the tile gains nothing more; the halo gets
@@ -38,7 +39,7 @@ from hertzmap.study.schema import (ATTRACTOR_KINDS, ATTRACTOR_VARIABLES, BIFURCA
 from hertzmap.study.solve.block import record_line, slot_order, slot_rank
 from hertzmap.study.solve.census import census, first_pass_only, record_attractors
 from hertzmap.study.solve.curves import line_crossings
-from hertzmap.study.solve.point import shoot_seeds_minimal
+from hertzmap.study.solve.point import shoot_targets
 
 #: The per-point variables the atlas rewrites besides the orbit slots (when stored).
 POINT_NAMES = ("orbits_found", "orbits_dropped", "attractor_solution")
@@ -140,18 +141,31 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
     fresh = {idx: [o for o in current[idx] if o["atlas_round"] == round_ - 1
                    and (round_ == 1 or offer_own or idx not in mine)] for idx in current}
     fresh = {idx: f for idx, f in fresh.items() if f}
+    # the continuity pairing of two neighbours, computed once for both directions (until one
+    # of them gains an orbit)
+    pairing: dict[tuple, tuple] = {}
+
+    def paired(src, p) -> set[int]:
+        lo_, hi_ = (src, p) if src < p else (p, src)
+        sizes = (len(current[lo_]), len(current[hi_]))
+        hit = pairing.get((lo_, hi_))
+        if hit is None or hit[0] != sizes:
+            hit = pairing[(lo_, hi_)] = (sizes, match_neighbours(current[lo_], current[hi_]))
+        return {pair[0 if src == lo_ else 1] for pair in hit[1]}
+
     # the tile to its own fixed point: an orbit added here is offered to its neighbours in the
     # tile at once (those beyond it get it next round)
     while fresh:
-        gained: dict[tuple, list[dict]] = {}
+        # the shots of this pass, in a fixed order, solved in one kernel call
+        shots: list[tuple[tuple, dict]] = []
         for src in sorted(fresh):
             for p in neighbours(src, shape):
                 if p not in mine:
                     continue
-                paired = {ia for ia, _ in match_neighbours(current[src], current[p])}
+                done = paired(src, p)
                 full = _full_rank(current[p], max_solutions)
                 for ia, o in enumerate(current[src]):
-                    if ia in paired or not any(o is f for f in fresh[src]):
+                    if ia in done or not any(o is f for f in fresh[src]):
                         continue
                     if full is not None and slot_rank(o) > full:
                         # the point's slots are full of orbits ranked before it (stable ones,
@@ -159,17 +173,19 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
                         # counted again, from each neighbour of each round)
                         result.skipped += 1
                         continue
-                    result.shots += 1
-                    sol = shoot_seeds_minimal(float(omega[p[0]]), float(sigma[p[1]]),
-                                              float(zeta[p[2]]), int(o["period"]),
-                                              [tuple(o["x0"])], options)[0]
-                    if sol["status"] != st.CONVERGED or sol["period"] < 1 \
-                            or any(same_orbit(sol, k) for k in current[p]):
-                        continue
-                    sol["atlas_round"] = round_
-                    current[p].append(sol)
-                    added[p].append(sol)
-                    gained.setdefault(p, []).append(sol)
+                    shots.append((p, o))
+        result.shots += len(shots)
+        solved = shoot_targets([(float(omega[p[0]]), float(sigma[p[1]]), float(zeta[p[2]]),
+                                 int(o["period"]), tuple(o["x0"])) for p, o in shots], options)
+        gained: dict[tuple, list[dict]] = {}
+        for (p, _), sol in zip(shots, solved):
+            if sol["status"] != st.CONVERGED or sol["period"] < 1 \
+                    or any(same_orbit(sol, k) for k in current[p]):
+                continue
+            sol["atlas_round"] = round_
+            current[p].append(sol)
+            added[p].append(sol)
+            gained.setdefault(p, []).append(sol)
         fresh = gained
     for idx in sorted(mine):
         if not added[idx]:

@@ -72,22 +72,50 @@ def shoot_seeds(omega, sigma, zeta, period, seeds, options):
     return solutions_from_rows(rows, period)
 
 
-def solutions_from_rows(rows: np.ndarray, period: int) -> list[dict]:
-    """Solution dicts from kernel result rows (kernels.shooting.FIELDS) of solves of ``period``:
-    the fields of :data:`_SOLUTION_FIELDS` by name, ``x0`` the start point and ``period``.
-    The rows are converted a field at a time for the whole batch (numpy indexing per row, for
-    each field, was most of the time spent outside the kernel)."""
+def solutions_from_rows(rows: np.ndarray, period) -> list[dict]:
+    """Solution dicts from kernel result rows (kernels.shooting.FIELDS) of solves of ``period``
+    (one for all rows, or one per row): the fields of :data:`_SOLUTION_FIELDS` by name, ``x0``
+    the start point and ``period``. The rows are converted a field at a time for the whole
+    batch (numpy indexing per row, for each field, was most of the time spent outside the
+    kernel)."""
     values = [(f.name, _field_values(rows, f)) for f in _SOLUTION_FIELDS]
     starts = rows.take(_START, axis=1)
+    periods = np.broadcast_to(np.asarray(period, int), (rows.shape[0],)).tolist()
     out = []
     for r, minimal in enumerate(rows[:, F["minimal_period"]].tolist()):
         sol = {name: v[r] for name, v in values}
         # a 2T solve whose orbit repeats after T is a 1T orbit (minimal period 1); its
         # multipliers are still those of the 2T map: callers re-solve it as 1T
-        sol["period"] = int(minimal) if math.isfinite(minimal) and minimal >= 1 else period
+        sol["period"] = int(minimal) if math.isfinite(minimal) and minimal >= 1 else periods[r]
         sol["x0"] = starts[r]
         sol["atlas_round"] = 0          # found by the grid's search (study.solve.atlas: >= 1)
         out.append(sol)
+    return out
+
+
+def shoot_targets(targets, options) -> list[dict]:
+    """One Newton solve per target (omega, sigma, zeta, period, (q, q') guess), all in one
+    kernel call (targets at different grid points and periods: the atlas's shots of a round),
+    each landing on a lower minimal period re-solved at it (as shoot_seeds_minimal); solution
+    dicts in the order of the targets."""
+    if not targets:
+        return []
+    w, s, z, m, x = zip(*targets)
+    inputs = np.array([w, s, z, [g[0] for g in x], [g[1] for g in x]], float)
+    periods = np.array(m, np.int64)
+    rtol = float(options.get("rtol", 1e-10))
+    rows = np.empty((len(targets), N_FIELDS))
+    shoot_batch_into(inputs[0], inputs[1], inputs[2], periods, inputs[3], inputs[4],
+                     float(options.get("exponent", 1.5)), MODELS[options.get("model", "hertz")],
+                     rtol, rtol, int(options.get("max_iter", DEFAULT_MAX_ITER)),
+                     DEFAULT_MAX_STEPS, bool(options.get("harmonics", True)), rows)
+    out = solutions_from_rows(rows, periods)
+    low = [i for i, sol in enumerate(out) if sol["period"] < targets[i][3]
+           and sol["status"] == st.CONVERGED]
+    again = shoot_targets([targets[i][:3] + (out[i]["period"], tuple(out[i]["x0"]))
+                           for i in low], options)
+    for i, sol in zip(low, again):
+        out[i] = sol
     return out
 
 
