@@ -72,12 +72,26 @@ RULE_FIELDS = ("period", "status", "stable", "atlas_round", "min_q", "max_q", "p
                "multipliers")
 
 
+class _Lazy(dict):
+    """A dict whose missing keys are made on first use by ``make(key)`` (a round after the
+    first touches few of a region's points: the others' orbits are never built)."""
+
+    def __init__(self, make):
+        super().__init__()
+        self.make = make
+
+    def __missing__(self, key):
+        value = self[key] = self.make(key)
+        return value
+
+
 def region_orbits(arrays: dict[str, np.ndarray]) -> dict[tuple, list[dict]]:
     """The slots of every point of ``arrays`` (dims omega, sigma, zeta, solution) as light
     solution dicts, in slot order: RULE_FIELDS, x0, and ``source`` (the point and slot they are
     stored in: the other variables are copied from there when a point is written again);
-    failed solves (status > 0) included, empty slots not. Read column by column: a dict per
-    stored value would cost more than the round's shots."""
+    failed solves (status > 0) included, empty slots not. Read column by column (a dict per
+    stored value would cost more than the round's shots), a point's dicts made when first
+    asked for."""
     status = arrays["status"]
     cells = np.argwhere(status != st.EMPTY)
     where = tuple(cells.T)
@@ -85,14 +99,21 @@ def region_orbits(arrays: dict[str, np.ndarray]) -> dict[tuple, list[dict]]:
     # Python scalars (complex multipliers too): the rules' arithmetic on them is the same
     # IEEE arithmetic as on numpy scalars, at a tenth of the cost
     cols = [arrays[n][where].tolist() for n in names[:-2]]
-    cols.append(zip(arrays["q0"][where].tolist(), arrays["v0"][where].tolist()))
-    cols.append(map(tuple, cells.tolist()))
-    out: dict[tuple, list[dict]] = {idx: [] for idx in np.ndindex(status.shape[:3])}
-    for values in zip(*cols):
-        d = dict(zip(names, values))
-        d.setdefault("atlas_round", 0)
-        out[d["source"][:3]].append(d)
-    return out
+    cols.append(list(zip(arrays["q0"][where].tolist(), arrays["v0"][where].tolist())))
+    cols.append(list(map(tuple, cells.tolist())))
+    rows: dict[tuple, list[int]] = {idx: [] for idx in np.ndindex(status.shape[:3])}
+    for r, cell in enumerate(cols[-1]):
+        rows[cell[:3]].append(r)
+
+    def make(idx):
+        out = []
+        for r in rows[idx]:
+            d = dict(zip(names, (c[r] for c in cols)))
+            d.setdefault("atlas_round", 0)
+            out.append(d)
+        return out
+
+    return _Lazy(make)
 
 
 def _converged(orbits: list[dict]) -> list[dict]:
@@ -134,13 +155,16 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
     own_shape = tuple(s.stop - s.start for s in own)
     result = TileResult(out, np.zeros(own_shape, bool))
     mine = {tuple(a + b for a, b in zip(local, lo)) for local in np.ndindex(own_shape)}
-    current = {idx: _converged(o) for idx, o in orbits.items()}
+    current = _Lazy(lambda idx: _converged(orbits[idx]))
     added: dict[tuple, list[dict]] = {idx: [] for idx in mine}
     # what is offered to the neighbours first: round 1, every grid orbit; later, the halo's
     # orbits of the last round (the tile's own were offered inside it when they were added)
-    fresh = {idx: [o for o in current[idx] if o["atlas_round"] == round_ - 1
-                   and (round_ == 1 or offer_own or idx not in mine)] for idx in current}
-    fresh = {idx: f for idx, f in fresh.items() if f}
+    last = ((region["status"] == st.CONVERGED) & (region["period"] > 0)
+            & (region["atlas_round"] == round_ - 1)).any(axis=-1)
+    fresh = {}
+    for idx in map(tuple, np.argwhere(last).tolist()):
+        if round_ == 1 or offer_own or idx not in mine:
+            fresh[idx] = [o for o in current[idx] if o["atlas_round"] == round_ - 1]
     # the continuity pairing of two neighbours, computed once for both directions (until one
     # of them gains an orbit)
     pairing: dict[tuple, tuple] = {}
@@ -196,7 +220,7 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
         _rewrite_point(out, region, local, orbits[idx], current[idx], len(added[idx]),
                        max_solutions, periods)
     if result.changed.any() and "crossing_kind" in out:
-        before = {idx: _converged(orbits[idx]) for idx in mine}
+        before = _Lazy(lambda idx: _converged(orbits[idx]))
         _recount_crossings(out, own_shape, lo, result.changed, before, current,
                            omega[own[0]], level, periods)
     return result
