@@ -2,8 +2,8 @@
 # Remake every figure the docs ship (docs/figures/): each scene is run into
 # results/make-figures/<scene>.zarr (git ignores results/; a rerun resumes there, delete the
 # folder to run afresh) and the figures the README and docs/gallery.md show are drawn into docs/figures/;
-# then the paper's analytic figures, and the explore page's screenshots (the browser test, when
-# chromium is there). Prints the wall time of each scene's run and plot.
+# then the paper's analytic figures, the explore page's screenshots (the browser test, when
+# chromium is there) and a basin map of the default scene (hertzmap basins). Prints the wall time of each scene's run and plot.
 #
 #   bash scripts/make-figures.sh              # everything (about 10 minutes on 2 cores)
 #   bash scripts/make-figures.sh fig06 fig08  # those scenes only
@@ -32,7 +32,7 @@ declare -A FIGURES=(
     [vibro_impact]="map lyapunov strobe"
 )
 ORDER="default fig03 fig06 fig07 fig08 fig09 fig10 fig12 fig13 fig14 fig15 vibro_impact"
-SCENES="${*:-$ORDER paper explore}"
+SCENES="${*:-$ORDER paper explore basins}"
 
 ms() { date +%s%3N; }
 STORES=results/make-figures
@@ -40,6 +40,10 @@ for scene in $SCENES; do
     case "$scene" in
     paper)
         "$HM" plot --paper fig02 fig03 fig04 fig05 --out "$OUT" ;;
+    basins)
+        # a basin map on the default scene's store (run above): README and docs/gallery.md
+        "$HM" basins "$STORES/default.zarr" --omega 1.95 --sigma 0.5 --grid 200x200 \
+            --workers "${WORKERS:-2}" --out "$OUT" ;;
     explore)
         HERTZMAP_SCREENSHOTS="$OUT/explore" .venv/bin/python -m pytest -q -p no:cacheprovider \
             tests/end_to_end/test_explore.py -k click_gives_the_orbits ;;

@@ -166,7 +166,12 @@ def test_shipped_figures_are_shown_and_remade_by_the_script():
         if rel.startswith("explore/") or rel == "bench.png":
             continue
         m = re.fullmatch(r"paper_(fig\d\d)\.png", rel)
-        if m:
+        basin = re.fullmatch(r"(\w+)_basin_map_omega([\d.]+)_sigma([\d.]+)_zeta[\d.]+\.png", rel)
+        if basin:                               # hertzmap basins STORE --omega W --sigma S
+            scene, w, s = basin.groups()
+            ok = re.search(rf'basins "\$STORES/{scene}\.zarr" --omega {re.escape(w)} '
+                           rf'--sigma {re.escape(s)}', script)
+        elif m:
             ok = re.search(rf"--paper [\w ]*{m.group(1)}", script)
         else:
             scene, _, fig = rel.removesuffix(".png").rpartition("_")
