@@ -259,6 +259,7 @@ def census_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
     result = TileResult(out, np.zeros(own_shape, bool))
     need = census_points(out, search["transient_periods"], search["record_periods"])
     current = {}
+    gained = np.zeros(own_shape, bool)
     for local in map(tuple, np.argwhere(need)):
         idx = tuple(int(a + b) for a, b in zip(local, lo))
         known = _converged(orbits[idx])
@@ -278,13 +279,10 @@ def census_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
         result.changed[local] = True
         result.shots += 1
         result.added += len(new)
-    gained = np.zeros(own_shape, bool)
-    for idx, orbs in current.items():
-        gained[tuple(a - b for a, b in zip(idx, lo))] = len(orbs) > len(_converged(orbits[idx]))
+        gained[local] = bool(new)
     if gained.any() and "crossing_kind" in out:
-        mine = {tuple(a + b for a, b in zip(local, lo)) for local in np.ndindex(own_shape)}
-        before = {idx: _converged(orbits[idx]) for idx in mine}
-        now = {idx: current.get(idx, before[idx]) for idx in mine}
+        before = _Lazy(lambda idx: _converged(orbits[idx]))
+        now = _Lazy(lambda idx: current.get(idx) or before[idx])
         _recount_crossings(out, own_shape, lo, gained, before, now, omega[own[0]], level,
                            periods)
     return result

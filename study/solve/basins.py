@@ -10,7 +10,7 @@ labels each cell by its outcome:
   study.orbits.same_orbit): one label per orbit, the largest basin first;
 * a transient that did not settle within the budget: one label, ``non_periodic`` when no stable
   orbit was reached from any cell and the largest Lyapunov exponent of a representative
-  (Benettin over record_periods, the census's test: study.solve.census._chaotic) is positive,
+  (Benettin over record_periods, the census's test: study.solve.census.is_chaotic) is positive,
   ``unsettled`` otherwise (the census's longer passes are not run: a long transient stays
   unsettled);
 * an integration failure: one label, ``failed``.
@@ -26,15 +26,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hertzmap.kernels import status as st
-from hertzmap.kernels.attractors import (A, LYAPUNOV_FIELDS, N_ATTRACTOR_FIELDS,
-                                         N_LYAPUNOV_FIELDS, attractor_batch_into, lyapunov_into)
-from hertzmap.kernels.model import MODELS
+from hertzmap.kernels.attractors import A, N_ATTRACTOR_FIELDS
 from hertzmap.kernels.records import STROBE_POINTS
 from hertzmap.kernels.shooting import N_FIELDS
 from hertzmap.study.basins import BOX_SIDE, BasinEntropy, basin_entropy, uncertainty_fraction
 from hertzmap.study.orbits import same_orbit
-from hertzmap.study.solve.census import (CYCLE_REPEATS, CYCLE_TOL, LYAPUNOV_DISCARD, TRANSIENT_RTOL,
-                                         _chaotic)
+from hertzmap.study.solve.census import (is_chaotic, run_transients, strobe_points,
+                                         window_exponent)
 from hertzmap.study.solve.point import solutions_from_rows
 from hertzmap.study.solve.seeds import TRANSIENT_BOX
 
@@ -86,12 +84,6 @@ def grid_axes(q_range, v_range, grid: tuple[int, int]) -> tuple[np.ndarray, np.n
             v0 + (np.arange(nv) + 0.5) * (v1 - v0) / nv)
 
 
-def _solver(options: dict) -> tuple[float, int, float, float]:
-    rtol = float(options.get("rtol", 1e-10))
-    return (float(options.get("exponent", 1.5)), MODELS[options.get("model", "hertz")],
-            max(TRANSIENT_RTOL, rtol), rtol)
-
-
 def basin_block(omega: float, sigma: float, zeta: float, q: np.ndarray, v: np.ndarray,
                 options: dict, transient_periods: int, record_periods: int) -> BasinBlock:
     """The transients from the cells (v[i], q[j]) of a row block (``v``: the block's rows) at
@@ -103,12 +95,9 @@ def basin_block(omega: float, sigma: float, zeta: float, q: np.ndarray, v: np.nd
     rows = np.empty((k, N_ATTRACTOR_FIELDS))
     orbit_rows = np.empty((k, N_FIELDS))
     strobes = np.empty((k, STROBE_POINTS, 2))
-    n_exp, model, t_rtol, rtol = _solver(options)
     # harmonics off: the refined orbit's force harmonics are not used here
-    attractor_batch_into(float(omega), float(sigma), float(zeta), qq.ravel().copy(),
-                         vv.ravel().copy(), n_exp, model, int(transient_periods),
-                         int(record_periods), False, 0, 0, CYCLE_TOL, CYCLE_REPEATS, t_rtol,
-                         t_rtol, rtol, 200_000, False, rows, orbit_rows, strobes)
+    run_transients(omega, sigma, zeta, qq.ravel(), vv.ravel(), dict(options, harmonics=False),
+                   transient_periods, record_periods, rows, orbit_rows, strobes)
     outcome = np.full(k, FAILED, np.int32)
     block = BasinBlock(outcome.reshape(qq.shape), [])
     for r in range(k):
@@ -121,7 +110,7 @@ def basin_block(omega: float, sigma: float, zeta: float, q: np.ndarray, v: np.nd
             idx = next((i for i, s in enumerate(block.orbits) if same_orbit(sol, s)), None)
             if idx is None:
                 idx = len(block.orbits)
-                sol.update(count=0, strobe=_last_strobe(strobes[r], rows[r]))
+                sol.update(count=0, strobe=strobe_points(strobes[r], rows[r]))
                 block.orbits.append(sol)
             block.orbits[idx]["count"] += 1
             outcome[r] = idx
@@ -131,14 +120,9 @@ def basin_block(omega: float, sigma: float, zeta: float, q: np.ndarray, v: np.nd
             if window > block.open_window:
                 block.open_window = window
                 block.open_end = (float(rows[r, A["q_end"]]), float(rows[r, A["v_end"]]))
-                block.open_strobe = _last_strobe(strobes[r], rows[r])
+                block.open_strobe = strobe_points(strobes[r], rows[r])
     block.outcome = outcome.reshape(qq.shape)
     return block
-
-
-def _last_strobe(strobe: np.ndarray, row: np.ndarray) -> np.ndarray:
-    n = int(np.nan_to_num(row[A["strobe_count"]]))
-    return np.array(strobe[:min(n, strobe.shape[0])])
 
 
 def merge_blocks(omega: float, sigma: float, zeta: float, q: np.ndarray, v: np.ndarray,
@@ -173,9 +157,9 @@ def merge_blocks(omega: float, sigma: float, zeta: float, q: np.ndarray, v: np.n
         rep = max(blocks, key=lambda b: b.open_window)
         kind = "unsettled"
         if not attractors and rep.open_end is not None:
-            kind = "non_periodic" if _chaotic(_exponent_row(omega, sigma, zeta, rep.open_end,
-                                                            options, record_periods)) \
-                else "unsettled"
+            row = window_exponent(omega, sigma, zeta, rep.open_end, options, record_periods,
+                                  np.full(N_ATTRACTOR_FIELDS, np.nan))
+            kind = "non_periodic" if is_chaotic(row) else "unsettled"
         labels[outcome == -1] = len(attractors)
         attractors.append(dict(kind=kind, period=0, q0=np.nan, v0=np.nan, count=n_open,
                                strobe=rep.open_strobe))
@@ -189,20 +173,6 @@ def merge_blocks(omega: float, sigma: float, zeta: float, q: np.ndarray, v: np.n
                     np.asarray(v, float), labels, attractors, basin_entropy(labels, box),
                     uncertainty_fraction(labels), box, int(transient_periods),
                     int(record_periods))
-
-
-def _exponent_row(omega, sigma, zeta, end, options, record_periods) -> np.ndarray:
-    """An attractor row holding Benettin's exponent from ``end`` over record_periods (the
-    fields the census's test reads)."""
-    n_exp, model, t_rtol, _ = _solver(options)
-    lyap = np.empty(N_LYAPUNOV_FIELDS)
-    lyapunov_into(float(omega), float(sigma), float(zeta), float(end[0]), float(end[1]), n_exp,
-                  model, int(record_periods), LYAPUNOV_DISCARD, t_rtol, t_rtol, 200_000, lyap)
-    row = np.full(N_ATTRACTOR_FIELDS, np.nan)
-    if int(lyap[LYAPUNOV_FIELDS.index("status")]) == st.CONVERGED:
-        for name in ("lyapunov", "lyapunov_error", "lyapunov_halves"):
-            row[A[name]] = lyap[LYAPUNOV_FIELDS.index(name)]
-    return row
 
 
 def row_blocks(rows: int, size: int) -> list[slice]:

@@ -114,7 +114,9 @@ class Attractor:
         return int(self.orbit["period"]) if self.orbit is not None else 0
 
 
-def _chaotic(row: np.ndarray) -> bool:
+def is_chaotic(row: np.ndarray) -> bool:
+    """The exponent of an attractor row is positive beyond LYAPUNOV_SIGMAS standard errors,
+    and its window's two halves agree (module docstring)."""
     lam, err, halves = row[A["lyapunov"]], row[A["lyapunov_error"]], row[A["lyapunov_halves"]]
     return (math.isfinite(lam) and math.isfinite(err) and lam > 0.0
             and lam > LYAPUNOV_SIGMAS * err
@@ -157,21 +159,10 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
     # the whole record window's points (close returns are searched on them); the store keeps
     # the last STROBE_POINTS
     strobes = np.empty((k, int(record_periods), 2))
-    rtol = float(options.get("rtol", 1e-10))
-    n_exp = float(options.get("exponent", 1.5))
-    model = MODELS[options.get("model", "hertz")]
-    t_rtol = max(TRANSIENT_RTOL, rtol)
-    harmonics = bool(options.get("harmonics", True))
 
     def transients(lo, hi, budget):
-        # without the tangent integration (2-D: a third of the work); the exponent of the ones
-        # that do not settle is computed once, below, from one of them
-        attractor_batch_into(float(omega), float(sigma), float(zeta),
-                             np.ascontiguousarray(states[lo:hi, 0]),
-                             np.ascontiguousarray(states[lo:hi, 1]), n_exp, model, int(budget),
-                             int(record_periods), False, 0, 0, CYCLE_TOL, CYCLE_REPEATS, t_rtol,
-                             t_rtol, rtol, 200_000, harmonics, rows[lo:hi], orbit_rows[lo:hi],
-                             strobes[lo:hi])
+        run_transients(omega, sigma, zeta, states[lo:hi, 0], states[lo:hi, 1], options, budget,
+                       record_periods, rows[lo:hi], orbit_rows[lo:hi], strobes[lo:hi])
 
     first = min(k, FULL_BUDGET_STATES)
     transients(0, first, transient_periods)
@@ -202,7 +193,7 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
         a = next((a for a in periodic if a.orbit is match), None)
         if a is None:
             a = Attractor("periodic", orbit=match, row=rows[r].copy(),
-                          strobe=_strobe(strobes[r], rows[r]))
+                          strobe=strobe_points(strobes[r], rows[r]))
             periodic.append(a)
         a.count += 1
         a.states.append(tuple(states[r]))
@@ -212,16 +203,9 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
         """The run with the longest record window, its exponent by Benettin over ``window``
         periods from its last state."""
         rep = max(runs, key=lambda r: (np.nan_to_num(rows[r, A["window_periods"]]), -r))
-        lyap = np.empty(N_LYAPUNOV_FIELDS)
-        lyapunov_into(float(omega), float(sigma), float(zeta), float(rows[rep, A["q_end"]]),
-                      float(rows[rep, A["v_end"]]), n_exp, model, int(window),
-                      LYAPUNOV_DISCARD, t_rtol, t_rtol, 200_000, lyap)
-        row = rows[rep].copy()
-        if int(lyap[LYAPUNOV_FIELDS.index("status")]) == st.CONVERGED:
-            for name in ("lyapunov", "lyapunov_error", "lyapunov_halves"):
-                row[A[name]] = lyap[LYAPUNOV_FIELDS.index(name)]
-            row[A["lyapunov_periods"]] = lyap[LYAPUNOV_FIELDS.index("periods")]
-        return rep, row
+        return rep, window_exponent(omega, sigma, zeta, (rows[rep, A["q_end"]],
+                                                         rows[rep, A["v_end"]]),
+                                    options, window, rows[rep])
 
     left = [float(point_steps)]
     budget = [int(transient_periods)]
@@ -248,12 +232,9 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
             sub_rows = np.empty((idx.size, N_ATTRACTOR_FIELDS))
             sub_orbits = np.empty((idx.size, N_FIELDS))
             sub_strobes = np.empty((idx.size, int(record_periods), 2))
-            attractor_batch_into(float(omega), float(sigma), float(zeta),
-                                 np.ascontiguousarray(rows[idx, A["q_end"]]),
-                                 np.ascontiguousarray(rows[idx, A["v_end"]]), n_exp, model,
-                                 budget[0], int(record_periods), False, 0, 0, CYCLE_TOL,
-                                 CYCLE_REPEATS, t_rtol, t_rtol, rtol, 200_000, harmonics,
-                                 sub_rows, sub_orbits, sub_strobes)
+            run_transients(omega, sigma, zeta, rows[idx, A["q_end"]], rows[idx, A["v_end"]],
+                           options, budget[0], record_periods, sub_rows, sub_orbits,
+                           sub_strobes)
             sub_rows[:, A["periods_run"]] += rows[idx, A["periods_run"]]
             left[0] -= float(np.nansum(sub_rows[:, A["steps"]]))
             sub_rows[:, A["steps"]] += rows[idx, A["steps"]]
@@ -284,7 +265,7 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
             # (from one of them: a second found the same stable orbits on the vibro-impact
             # scene's lines and cost as much again)
             for r in open_runs[:RECURRENCE_RUNS]:
-                strobe = _strobe(strobes[r], rows[r])
+                strobe = strobe_points(strobes[r], rows[r])
                 for m, x in recurrence_seeds(strobe):
                     for sol in shoot_seeds(omega, sigma, zeta, m, [x],
                                            dict(options, max_iter=15)):
@@ -295,7 +276,7 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
                             new.append(sol)
             has_stable = has_stable_orbit(known)
         rep, row = representative(open_runs)
-        chaotic = (not has_stable) and _chaotic(row) and any(
+        chaotic = (not has_stable) and is_chaotic(row) and any(
             int(rows[r, A["status"]]) == st.UNSETTLED for r in open_runs)
         reason = 0
         limit = int(max_transient_periods or transient_periods)
@@ -308,19 +289,19 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
                 # pass ended with none of the runs escaping to it (a chaotic transient leaks
                 # runs to the orbit: its lifetime is then beyond runs x pass periods) or after
                 # the longest transients allowed
-                chaotic = (not has_stable or reason in (QUIET, PERIOD_LIMIT)) and _chaotic(
+                chaotic = (not has_stable or reason in (QUIET, PERIOD_LIMIT)) and is_chaotic(
                     row) and any(int(rows[r, A["status"]]) == st.UNSETTLED for r in open_runs)
                 if reason == QUIET and not chaotic:
                     # quiet but not chaotic (a long period, a slow drift): longer still
                     open_runs, reason = longer_passes(open_runs, limit)
                     if open_runs:
                         rep, row = representative(open_runs, LONGER * int(record_periods))
-                        chaotic = reason == PERIOD_LIMIT and _chaotic(row) and any(
+                        chaotic = reason == PERIOD_LIMIT and is_chaotic(row) and any(
                             int(rows[r, A["status"]]) == st.UNSETTLED for r in open_runs)
         if open_runs:
             others.append(Attractor("non_periodic" if chaotic else "unsettled",
                                     count=len(open_runs), row=row,
-                                    strobe=_strobe(strobes[rep], rows[rep]),
+                                    strobe=strobe_points(strobes[rep], rows[rep]),
                                     reason=0 if chaotic else reason,
                                     states=[tuple(states[r]) for r in open_runs]))
     if failed:
@@ -355,7 +336,48 @@ def needs_second_census(found: list[Attractor], orbits: list[dict], transient_pe
                                                      record_periods) for a in found)
 
 
-def _strobe(strobe: np.ndarray, row: np.ndarray) -> np.ndarray:
+def transient_settings(options: dict) -> tuple[float, object, float, float]:
+    """(exponent, contact law, the transients' rtol, the shooting's rtol) of the solver's
+    options (exponent, model, rtol)."""
+    rtol = float(options.get("rtol", 1e-10))
+    return (float(options.get("exponent", 1.5)), MODELS[options.get("model", "hertz")],
+            max(TRANSIENT_RTOL, rtol), rtol)
+
+
+def run_transients(omega, sigma, zeta, q0, v0, options: dict, budget: int,
+                   record_periods: int, rows, orbit_rows, strobes) -> None:
+    """Transients from the states (q0, v0) for ``budget`` periods, then a record window of
+    ``record_periods``, into the kernel's rows, refined orbit rows and stroboscopic points
+    (kernels.attractors.attractor_batch_into), with the census's detection settings; without
+    the tangent integration (2-D: a third of the work: the exponent of the runs that do not
+    settle is computed once, from one of them: window_exponent)."""
+    n_exp, model, t_rtol, rtol = transient_settings(options)
+    attractor_batch_into(float(omega), float(sigma), float(zeta), np.ascontiguousarray(q0),
+                         np.ascontiguousarray(v0), n_exp, model, int(budget),
+                         int(record_periods), False, 0, 0, CYCLE_TOL, CYCLE_REPEATS, t_rtol,
+                         t_rtol, rtol, 200_000, bool(options.get("harmonics", True)), rows,
+                         orbit_rows, strobes)
+
+
+def window_exponent(omega, sigma, zeta, end, options: dict, window: int,
+                    row: np.ndarray) -> np.ndarray:
+    """A copy of the attractor ``row`` holding the largest Lyapunov exponent by Benettin over
+    ``window`` periods from the state ``end`` (q, q') (its error, the halves' difference and
+    the periods, where the kernel converged)."""
+    n_exp, model, t_rtol, _ = transient_settings(options)
+    lyap = np.empty(N_LYAPUNOV_FIELDS)
+    lyapunov_into(float(omega), float(sigma), float(zeta), float(end[0]), float(end[1]), n_exp,
+                  model, int(window), LYAPUNOV_DISCARD, t_rtol, t_rtol, 200_000, lyap)
+    row = np.array(row, float)
+    if int(lyap[LYAPUNOV_FIELDS.index("status")]) == st.CONVERGED:
+        for name in ("lyapunov", "lyapunov_error", "lyapunov_halves"):
+            row[A[name]] = lyap[LYAPUNOV_FIELDS.index(name)]
+        row[A["lyapunov_periods"]] = lyap[LYAPUNOV_FIELDS.index("periods")]
+    return row
+
+
+def strobe_points(strobe: np.ndarray, row: np.ndarray) -> np.ndarray:
+    """The stroboscopic points a transient's row says it recorded, of its ``strobe`` array."""
     n = int(np.nan_to_num(row[A["strobe_count"]]))
     return np.array(strobe[:min(n, strobe.shape[0])])
 

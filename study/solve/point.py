@@ -48,28 +48,30 @@ def _field_values(rows: np.ndarray, field) -> list:
     return list(block)
 
 
+def _solve(omega, sigma, zeta, periods, q_guess, v_guess, options) -> list[dict]:
+    """One Newton solve per row of the arrays (omega, sigma, zeta, period, guess), in one call
+    of the numba batch entry point with preallocated arrays (the generic kernels.shoot_batch
+    wrapper, broadcasting and a dict of arrays per call, cost ~15 % of a block)."""
+    inputs = np.array([omega, sigma, zeta, q_guess, v_guess], float)
+    periods = np.asarray(periods, np.int64)
+    rtol = float(options.get("rtol", 1e-10))
+    rows = np.empty((periods.size, N_FIELDS))
+    shoot_batch_into(inputs[0], inputs[1], inputs[2], periods, inputs[3], inputs[4],
+                     float(options.get("exponent", 1.5)), MODELS[options.get("model", "hertz")],
+                     rtol, rtol, int(options.get("max_iter", DEFAULT_MAX_ITER)),
+                     DEFAULT_MAX_STEPS, bool(options.get("harmonics", True)), rows)
+    return solutions_from_rows(rows, periods)
+
+
 def shoot_seeds(omega, sigma, zeta, period, seeds, options):
     """Shoot from every seed; return a list of solution dicts (converged or not), in the
-    order of the seeds.
-
-    Calls the numba batch entry point directly with preallocated arrays: the generic
-    kernels.shoot_batch wrapper (broadcasting, a dict of arrays per call) cost ~15 % of a block.
-    """
+    order of the seeds."""
     if not seeds:
         return []
     n = len(seeds)
-    period = int(period)
     q_guess, v_guess = zip(*seeds)
-    # (omega, sigma, zeta, q guess, q' guess) per seed, each row a contiguous array
-    inputs = np.array([(omega,) * n, (sigma,) * n, (zeta,) * n, q_guess, v_guess], float)
-    rtol = float(options.get("rtol", 1e-10))
-    rows = np.empty((n, N_FIELDS))
-    shoot_batch_into(inputs[0], inputs[1], inputs[2], np.full(n, period, np.int64),
-                     inputs[3], inputs[4], float(options.get("exponent", 1.5)),
-                     MODELS[options.get("model", "hertz")], rtol, rtol,
-                     int(options.get("max_iter", DEFAULT_MAX_ITER)), DEFAULT_MAX_STEPS,
-                     bool(options.get("harmonics", True)), rows)
-    return solutions_from_rows(rows, period)
+    return _solve((omega,) * n, (sigma,) * n, (zeta,) * n, (int(period),) * n, q_guess,
+                  v_guess, options)
 
 
 def solutions_from_rows(rows: np.ndarray, period) -> list[dict]:
@@ -96,20 +98,13 @@ def solutions_from_rows(rows: np.ndarray, period) -> list[dict]:
 def shoot_targets(targets, options) -> list[dict]:
     """One Newton solve per target (omega, sigma, zeta, period, (q, q') guess), all in one
     kernel call (targets at different grid points and periods: the atlas's shots of a round),
-    each landing on a lower minimal period re-solved at it (as shoot_seeds_minimal); solution
-    dicts in the order of the targets."""
+    a solve that landed on an orbit of a lower minimal period (a 2T solve on the 1T orbit: its
+    monodromy is then M^2) re-solved at that period from its start point, so that it carries
+    that period's multipliers; solution dicts in the order of the targets."""
     if not targets:
         return []
     w, s, z, m, x = zip(*targets)
-    inputs = np.array([w, s, z, [g[0] for g in x], [g[1] for g in x]], float)
-    periods = np.array(m, np.int64)
-    rtol = float(options.get("rtol", 1e-10))
-    rows = np.empty((len(targets), N_FIELDS))
-    shoot_batch_into(inputs[0], inputs[1], inputs[2], periods, inputs[3], inputs[4],
-                     float(options.get("exponent", 1.5)), MODELS[options.get("model", "hertz")],
-                     rtol, rtol, int(options.get("max_iter", DEFAULT_MAX_ITER)),
-                     DEFAULT_MAX_STEPS, bool(options.get("harmonics", True)), rows)
-    out = solutions_from_rows(rows, periods)
+    out = _solve(w, s, z, m, [g[0] for g in x], [g[1] for g in x], options)
     low = [i for i, sol in enumerate(out) if sol["period"] < targets[i][3]
            and sol["status"] == st.CONVERGED]
     again = shoot_targets([targets[i][:3] + (out[i]["period"], tuple(out[i]["x0"]))
@@ -120,18 +115,8 @@ def shoot_targets(targets, options) -> list[dict]:
 
 
 def shoot_seeds_minimal(omega, sigma, zeta, period, seeds, options):
-    """shoot_seeds; a solve that landed on an orbit of a lower minimal period (a 2T solve on the
-    1T orbit: its monodromy is then M^2) is re-solved at that period from its start point, so
-    that it carries that period's multipliers."""
-    out = shoot_seeds(omega, sigma, zeta, period, seeds, options)
-    for low in sorted({s["period"] for s in out if s["period"] < period}):
-        idx = [i for i, s in enumerate(out) if s["period"] == low and s["status"] == st.CONVERGED]
-        if idx:
-            again = shoot_seeds(omega, sigma, zeta, low, [tuple(out[i]["x0"]) for i in idx],
-                                options)
-            for i, s in zip(idx, again):
-                out[i] = s
-    return out
+    """shoot_seeds, each solve on a lower minimal period re-solved at it (shoot_targets)."""
+    return shoot_targets([(omega, sigma, zeta, int(period), tuple(x)) for x in seeds], options)
 
 
 def merge_new_orbits(found, candidates):
