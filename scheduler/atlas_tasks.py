@@ -31,10 +31,9 @@ from hertzmap.study.spec import Study
 
 #: the stored variables the atlas needs (the orbits' identity and continuity invariants)
 NEEDS = ("min_q", "max_q", "ptp")
-#: what computes one tile of a round (module:function, imported on the worker by name)
-DEFAULT_ATLAS_TILE = "hertzmap.study.solve.atlas:propagate_tile"
-#: what computes one tile of a census round
-CENSUS_TILE = "hertzmap.study.solve.atlas:census_tile"
+#: what computes one tile of a round, of either kind (module:function, imported on the worker
+#: by name)
+DEFAULT_ATLAS_TILE = "hertzmap.study.solve.atlas:atlas_tile"
 #: what a census round reads of the grid to find its points
 CENSUS_NEEDS = ("attractor_kind", "attractor_periods_run", "stable", "status")
 
@@ -90,11 +89,8 @@ def atlas_task(spec: dict[str, Any]) -> dict[str, Any]:
 
     args = (slot, lines, own, *axes, int(spec["round"]), spec["options"],
             int(spec["max_solutions"]), float(spec["level"]), tuple(spec["periods"]))
-    if census is None:
-        result = load_solver(spec.get("tile_function", DEFAULT_ATLAS_TILE))(
-            *args, offer_own=bool(spec.get("offer_own")))
-    else:
-        result = load_solver(CENSUS_TILE)(*args, census)
+    result = load_solver(spec.get("tile_function", DEFAULT_ATLAS_TILE))(
+        *args, offer_own=bool(spec.get("offer_own")), census=census)
     return {"index": spec["index"], "changed": bool(result.changed.any()),
             "arrays": result.arrays if result.changed.any() else None,
             "shots": result.shots, "skipped": result.skipped, "added": result.added,

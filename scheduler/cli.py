@@ -77,7 +77,7 @@ def _run_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--solver", default=None, help=argparse.SUPPRESS)
     # developer hook: another curve tracer with trace_seed's contract (module:function)
     p.add_argument("--curve-tracer", default=None, help=argparse.SUPPRESS)
-    # developer hook: another atlas tile function with propagate_tile's contract
+    # developer hook: another atlas tile function with study.solve.atlas.atlas_tile's contract
     p.add_argument("--atlas-tile", default=None, help=argparse.SUPPRESS)
     # developer hook: the grid without the atlas (benchmarks/map_completeness.py's "before")
     p.add_argument("--skip-atlas", action="store_true", help=argparse.SUPPRESS)

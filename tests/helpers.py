@@ -374,13 +374,14 @@ def slow_trace_seed(seed, bounds, **kwargs):
 
 # -- a slow atlas tile (the atlas's developer hook --atlas-tile) ---------------------------------
 
-SLOW_ATLAS_TILE = "tests.helpers:slow_propagate_tile"
+SLOW_ATLAS_TILE = "tests.helpers:slow_atlas_tile"
 
 
-def slow_propagate_tile(*args, **kwargs):
-    """study.solve.atlas.propagate_tile after a pause ($HERTZMAP_ATLAS_DELAY s, default 1): an
-    atlas round slow enough for a test to kill it between two staged tiles."""
-    from hertzmap.study.solve.atlas import propagate_tile
+def slow_atlas_tile(*args, **kwargs):
+    """study.solve.atlas.atlas_tile after a pause ($HERTZMAP_ATLAS_DELAY s, default 1): an
+    atlas round (continuation or census) slow enough for a test to kill it between two staged
+    tiles."""
+    from hertzmap.study.solve.atlas import atlas_tile
 
     time.sleep(float(os.environ.get("HERTZMAP_ATLAS_DELAY", "1")))
-    return propagate_tile(*args, **kwargs)
+    return atlas_tile(*args, **kwargs)

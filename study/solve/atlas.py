@@ -226,6 +226,21 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
     return result
 
 
+def atlas_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
+               own: tuple[slice, slice, slice], omega: np.ndarray, sigma: np.ndarray,
+               zeta: np.ndarray, round_: int, options: dict, max_solutions: int, level: float,
+               periods: tuple[int, ...], *, offer_own: bool = False,
+               census: dict | None = None) -> TileResult:
+    """One tile of one round, of either kind: a continuation round (propagate_tile) or, with
+    the census's settings ``census``, a census round (census_tile). The one entry point the
+    scheduler's tasks call."""
+    if census is None:
+        return propagate_tile(region, lines, own, omega, sigma, zeta, round_, options,
+                              max_solutions, level, periods, offer_own=offer_own)
+    return census_tile(region, lines, own, omega, sigma, zeta, round_, options, max_solutions,
+                       level, periods, census)
+
+
 def census_points(arrays: dict[str, np.ndarray], transient_periods: int,
                   record_periods: int) -> np.ndarray:
     """The points (bool over the arrays' omega, sigma, zeta) whose census must run again
