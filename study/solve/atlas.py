@@ -8,8 +8,9 @@ after round r - 1 (the snapshot; round 1 reads the grid's). At a tile, each orbi
 1: every grid orbit of the tile and its one-point halo; later: the halo's orbits that round
 r - 1 added) is continued into its neighbours in the tile: natural continuation, Newton shooting
 at the neighbour's (omega, sigma, zeta) from the orbit's start point, at its period
-(study.solve.point.shoot_targets: the shots of a pass in one kernel call). An orbit that the
-continuity rule already pairs with
+(study.solve.point.shoot_targets: the shots of a pass in one kernel call); a shot that fails
+from an orbit far from its fold is tried again in two half steps (FAR_FROM_FOLD: the
+fold-aware step). An orbit that the continuity rule already pairs with
 one of the neighbour's (study.orbits.match_neighbours) is not shot. A converged orbit new there
 by the identity rule (study.orbits.same_orbit) joins the point with ``atlas_round = r`` and is
 offered in turn to its neighbours in the tile, until the tile gains nothing more; the halo gets
@@ -32,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hertzmap.kernels import status as st
-from hertzmap.study.orbits import match_neighbours, same_orbit
+from hertzmap.study.orbits import fold_function, match_neighbours, same_orbit
 from hertzmap.study.schema import (ATTRACTOR_KINDS, ATTRACTOR_VARIABLES, BIFURCATION_KINDS,
                                    CROSSING_SLOTS, CROSSING_VARIABLES, ORBIT_VARIABLES,
                                    VARIABLES)
@@ -47,6 +48,16 @@ POINT_NAMES = ("orbits_found", "orbits_dropped", "attractor_solution")
 #: the neighbour's start point in a few; most shots that fail are at orbits that end between
 #: the two points (past a fold or a flip), and a long Newton only spent time there
 MAX_ITER = 10
+#: A shot that failed from an orbit whose fold function (study.orbits.fold_function) is at least
+#: this far from zero is tried again in two half steps (the fold-aware step): no multiplier is
+#: near +1, so the orbit does not end at a fold between the two points, and the step was too
+#: long for Newton (orbits that change fast: long flights, contact loss). Nearer a fold the
+#: orbit most often ends between the points, and a shorter step only costs. Measured: on the
+#: default scene's first round, 887 shots of 3,940 failed, most near a fold (median |fold
+#: function| 0.17); half steps recovered 8 (all with a fold function above 1); over the whole
+#: atlas, the vibro-impact scene gains 68 orbits (17,254 -> 17,322) for 9.6 % more shots, the
+#: default scene none (its 8 arrive by later rounds) for 8 % more.
+FAR_FROM_FOLD = 0.5
 
 
 def atlas_names(stored: tuple[str, ...]) -> tuple[str, ...]:
@@ -181,7 +192,7 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
     # tile at once (those beyond it get it next round)
     while fresh:
         # the shots of this pass, in a fixed order, solved in one kernel call
-        shots: list[tuple[tuple, dict]] = []
+        shots: list[tuple[tuple, tuple, dict]] = []
         for src in sorted(fresh):
             for p in neighbours(src, shape):
                 if p not in mine:
@@ -197,12 +208,13 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
                         # counted again, from each neighbour of each round)
                         result.skipped += 1
                         continue
-                    shots.append((p, o))
-        result.shots += len(shots)
-        solved = shoot_targets([(float(omega[p[0]]), float(sigma[p[1]]), float(zeta[p[2]]),
-                                 int(o["period"]), tuple(o["x0"])) for p, o in shots], options)
+                    shots.append((src, p, o))
+        at = lambda idx: (float(omega[idx[0]]), float(sigma[idx[1]]), float(zeta[idx[2]]))
+        solved = shoot_targets([at(p) + (int(o["period"]), tuple(o["x0"]))
+                                for _, p, o in shots], options)
+        result.shots += len(shots) + _half_steps(shots, solved, at, options)
         gained: dict[tuple, list[dict]] = {}
-        for (p, _), sol in zip(shots, solved):
+        for (_, p, _), sol in zip(shots, solved):
             if sol["status"] != st.CONVERGED or sol["period"] < 1 \
                     or any(same_orbit(sol, k) for k in current[p]):
                 continue
@@ -239,6 +251,28 @@ def atlas_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
                               max_solutions, level, periods, offer_own=offer_own)
     return census_tile(region, lines, own, omega, sigma, zeta, round_, options, max_solutions,
                        level, periods, census)
+
+
+def _half_steps(shots, solved, at, options) -> int:
+    """Shots that failed from an orbit far from a fold (FAR_FROM_FOLD) tried again in two half
+    steps: Newton at the edge's midpoint from the orbit's start point, then at the neighbour
+    from the midpoint's orbit. ``solved`` takes the second step's solutions in place. Returns
+    the shots made."""
+    again = [i for i, ((_, _, o), sol) in enumerate(zip(shots, solved))
+             if sol["status"] != st.CONVERGED and abs(fold_function(o)) >= FAR_FROM_FOLD]
+    if not again:
+        return 0
+    mid = lambda src, p: tuple(0.5 * (a + b) for a, b in zip(at(src), at(p)))
+    half = shoot_targets([mid(*shots[i][:2]) + (int(shots[i][2]["period"]),
+                                                tuple(shots[i][2]["x0"])) for i in again],
+                         options)
+    on = [(i, h) for i, h in zip(again, half)
+          if h["status"] == st.CONVERGED and h["period"] == shots[i][2]["period"]]
+    full = shoot_targets([at(shots[i][1]) + (int(h["period"]), tuple(h["x0"])) for i, h in on],
+                         options)
+    for (i, _), sol in zip(on, full):
+        solved[i] = sol
+    return len(again) + len(on)
 
 
 def census_points(arrays: dict[str, np.ndarray], transient_periods: int,

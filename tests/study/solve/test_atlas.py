@@ -10,9 +10,10 @@ import pytest
 from benchmarks import oracle
 from hertzmap.kernels import shoot
 from hertzmap.study.schema import ORBIT_VARIABLES, empty_arrays
-from hertzmap.study.solve.atlas import neighbours, propagate_tile
+from hertzmap.study.orbits import fold_function
+from hertzmap.study.solve.atlas import FAR_FROM_FOLD, MAX_ITER, neighbours, propagate_tile
 from hertzmap.study.solve.block import slot_order
-from hertzmap.study.solve.point import shoot_seeds_minimal
+from hertzmap.study.solve.point import shoot_seeds_minimal, shoot_targets
 
 OPTIONS = {"exponent": 1.5, "model": "hertz", "rtol": 1e-10, "harmonics": False}
 ZETA = 0.01
@@ -114,6 +115,33 @@ def test_a_full_point_keeps_its_stable_orbits_and_counts_the_dropped_one():
     assert r.changed.all() and r.added == 1
     assert [o[0] for o in _orbits(r.arrays, 0, 0)] == [2] and r.arrays["stable"][0, 0, 0, 0]
     assert r.arrays["orbits_found"][0, 0, 0] == 2 and r.arrays["orbits_dropped"][0, 0, 0] == 1
+
+
+def test_a_shot_that_fails_far_from_a_fold_succeeds_in_two_half_steps():
+    """The stable 2T orbit at (0.525, 0.7) of the default scene (complex multipliers: far from
+    a fold) does not converge at (0.5125, 0.7) by one Newton shot from its start point (the
+    orbit changes fast there); the atlas's half steps (via 0.51875) bring it, and the oracle
+    confirms the orbit."""
+    omega = np.array([0.5125, 0.525])
+    sigma = np.array([0.7])
+    guess = (1.605563501275337, -1.486627538966545)
+    source = shoot_seeds_minimal(0.525, 0.7, ZETA, 2, [guess], OPTIONS)[0]
+    assert source["status"] == 0 and source["stable"]
+    assert abs(fold_function(source)) >= FAR_FROM_FOLD
+    # one shot from the source's start point fails (the natural continuation alone)
+    direct = shoot_targets([(0.5125, 0.7, ZETA, 2, tuple(source["x0"]))],
+                           dict(OPTIONS, max_iter=MAX_ITER))[0]
+    assert direct["status"] != 0
+    region = _region(omega, sigma, {(1, 0): [(2, guess)]})
+    own = (slice(0, 1), slice(0, 1), slice(0, 1))
+    r = propagate_tile(region, {}, own, omega, sigma, np.array([ZETA]), 1, OPTIONS, 4, -1.5,
+                       (1, 2))
+    found = _orbits(r.arrays, 0, 0)
+    assert [o[0] for o in found] == [2] and found[0][3] == 1
+    x = np.array(found[0][1:3])
+    phi = oracle.period_map(x, 0.5125, 0.7, ZETA, 2)
+    assert np.max(np.abs(phi - x)) < 1e-7 * (1 + np.hypot(*x))
+    assert r.shots == 3                          # the shot, then the two half steps
 
 
 @pytest.mark.parametrize("order", [(0, 1, 2, 3), (3, 2, 1, 0)])
