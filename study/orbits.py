@@ -196,12 +196,20 @@ def match_neighbours(A, B) -> list[tuple[int, int]]:
     """The continuity rule (module docstring) between the orbits ``A`` and ``B`` (mappings with
     period, min_q, max_q, ptp, multipliers) at two neighbouring grid points: (index in A, index
     in B) of the pairs on one branch, one to one, closest pairs first."""
-    pairs = sorted((continuity_distance(x, y), ia, ib) for ia, x in enumerate(A)
-                   for ib, y in enumerate(B) if x["period"] == y["period"])
+    # (continuity_distance written out: the atlas calls this tens of thousands of times a
+    # round, with a few orbits a side, and the calls cost more than the arithmetic)
+    pairs = []
+    for ia, x in enumerate(A):
+        period, lo, hi = x["period"], x["min_q"], x["max_q"]
+        for ib, y in enumerate(B):
+            if y["period"] == period:
+                pairs.append((abs(lo - y["min_q"]) + abs(hi - y["max_q"]), ia, ib))
     if not pairs:
         return []
-    fold_a = [fold_function(x) for x in A]
-    fold_b = [fold_function(y) for y in B]
+    pairs.sort()
+    # the fold functions of the orbits a pair needs, each computed once
+    fold_a: dict[int, float] = {}
+    fold_b: dict[int, float] = {}
     used_a, used_b = set(), set()
     out = []
     for d, ia, ib in pairs:
@@ -210,7 +218,12 @@ def match_neighbours(A, B) -> list[tuple[int, int]]:
         # along a branch the fold function (1 - mu1)(1 - mu2) changes sign only at a fold,
         # where the branch turns back: neighbours with opposite signs are two branches,
         # however close their invariants
-        ga, gb = fold_a[ia], fold_b[ib]
+        ga = fold_a.get(ia)
+        if ga is None:
+            ga = fold_a[ia] = fold_function(A[ia])
+        gb = fold_b.get(ib)
+        if gb is None:
+            gb = fold_b[ib] = fold_function(B[ib])
         if ga * gb < 0.0 and min(abs(ga), abs(gb)) > FOLD_SIGN_FLOOR:
             continue
         if d <= CONTINUITY_SHARE * (1.0 + max(A[ia]["ptp"], B[ib]["ptp"])):
