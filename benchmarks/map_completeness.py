@@ -75,12 +75,13 @@ def _before_study(scene: Path, folder: Path) -> Path:
     return out
 
 
-def _run(study: Path, store: Path, extra: list[str], workers: int) -> dict[str, float]:
+def _run(study: Path, store: Path, extra: list[str], workers: int,
+         env: dict | None = None) -> dict[str, float]:
     """hertzmap run; the costs its summary prints."""
     cmd = [str(Path(sys.executable).parent / "hertzmap"), "run", str(study),
            "--store", str(store), "--workers", str(workers), *extra]
     t0 = time.perf_counter()
-    proc = subprocess.run(cmd, capture_output=True, text=True, check=True)
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=True, env=env)
     store.with_suffix(".log").write_text(proc.stdout)
     cost = {"wall (s)": time.perf_counter() - t0}
     m = re.search(r"task compute ([0-9.]+) s", proc.stdout)
@@ -90,9 +91,9 @@ def _run(study: Path, store: Path, extra: list[str], workers: int) -> dict[str, 
     return cost
 
 
-def _table(a: dict, b: dict) -> None:
+def _table(a: dict, b: dict, labels: tuple[str, str] = ("before", "after")) -> None:
     width = max(len(k) for k in a | b)
-    print(f"{'':{width}}  {'before':>10}  {'after':>10}")
+    print(f"{'':{width}}  {labels[0]:>10}  {labels[1]:>10}")
     for key in list(a) + [k for k in b if k not in a]:
         x, y = a.get(key, "-"), b.get(key, "-")
         x, y = (f"{v:.1f}" if isinstance(v, float) else v for v in (x, y))
