@@ -262,6 +262,12 @@ ATTRACTOR = Record("attractor", (
           "one standard error of the exponent over 8 blocks of the record window (NaN for a "
           "periodic attractor, whose exponent is exact to the solver's accuracy)",
           output="attractors"),
+    Field("lyapunov_periods", "forcing periods of the Lyapunov exponent's average", "1",
+          "periods Benettin's average ran over (non-periodic and unsettled attractors: the "
+          "record window, or with search.lyapunov_error the windows it took to reach that "
+          "standard error, up to search.max_transient_periods); 0 for a periodic attractor "
+          "(its exponent from the orbit's multipliers)",
+          output="attractors", columns=("lyapunov_periods",)),
     Field("lyapunov_sum_error", "error of the Lyapunov exponents' sum", "1",
           "|lambda1 + lambda2 + 2 zeta| per unit tau: the sum of both exponents is -2 zeta "
           "exactly (Liouville's formula), here taken over the same window as the exponent "
@@ -298,7 +304,6 @@ ATTRACTOR = Record("attractor", (
         ("q_end", "last stroboscopic displacement (tau = 0 mod T)"),
         ("v_end", "last stroboscopic velocity"),
         ("lyapunov_halves", "|estimate of the first half - of the second half| (Benettin)"),
-        ("lyapunov_periods", "periods averaged over (0: from the Floquet multipliers)"),
         ("liouville_error", "max_k |det M_k - exp(-2 zeta T)| / scale over the window"),
         ("window_periods", "periods the measures are over"),
         ("mean_force", "<F> / N over the window (sampled)"),

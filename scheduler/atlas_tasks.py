@@ -115,7 +115,7 @@ class AtlasRun(Stage):
         #: point its census called chaotic) runs where the study stores the census
         self.census = {k: v for k, v in study.solver_kwargs().items()
                        if k in ("transient_periods", "record_periods", "max_transient_periods",
-                                "point_steps")}
+                                "point_steps", "lyapunov_error")}
         if self.census and all(n in self.stored for n in CENSUS_NEEDS):
             self.census["n_states"] = int(study.initial_states)
             self.census_names = self.names + tuple(n for n in ATTRACTOR_VARIABLES

@@ -72,6 +72,8 @@ MAX_TRANSIENT_PERIODS_RANGE = (10, 1_000_000)
 DEFAULT_MAX_TRANSIENT_PERIODS = 20_000
 POINT_STEPS_RANGE = (10_000, 10_000_000_000)
 DEFAULT_POINT_STEPS = 2_000_000
+#: search.lyapunov_error: the largest Lyapunov exponent's target standard error (per unit tau)
+LYAPUNOV_ERROR_RANGE = (1e-6, 1.0)
 CONTACTS = ("double", "single")
 
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$")
@@ -127,6 +129,7 @@ class Study:
     record_periods: int = DEFAULT_RECORD_PERIODS
     max_transient_periods: int = DEFAULT_MAX_TRANSIENT_PERIODS
     point_steps: int = DEFAULT_POINT_STEPS
+    lyapunov_error: float | None = None
     outputs: tuple[str, ...] = DEFAULT_OUTPUTS
     rig: tuple[tuple[str, Any], ...] | None = None
     source_text: str = field(default="", compare=False, repr=False)
@@ -177,6 +180,8 @@ class Study:
             kw["record_periods"] = int(self.record_periods)
             kw["max_transient_periods"] = int(self.max_transient_periods)
             kw["point_steps"] = int(self.point_steps)
+            if self.lyapunov_error is not None:
+                kw["lyapunov_error"] = float(self.lyapunov_error)
         return kw
 
     def to_dict(self) -> dict[str, Any]:
@@ -205,6 +210,8 @@ class Study:
                        record_periods=int(self.record_periods),
                        max_transient_periods=int(self.max_transient_periods),
                        point_steps=int(self.point_steps))
+            if self.lyapunov_error is not None:
+                out["lyapunov_error"] = float(self.lyapunov_error)
         return out
 
     def canonical_json(self) -> str:
@@ -426,7 +433,7 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
     se = _table(doc, "search")
     _refuse_unknown(se, "search", ("periods", "discover", "transients", "attractors",
                                    "initial_states", "transient_periods", "record_periods",
-                                   "max_transient_periods", "point_steps"))
+                                   "max_transient_periods", "point_steps", "lyapunov_error"))
     discover = se.get("discover", False)
     if not isinstance(discover, bool):
         raise StudyError("search.discover", f"expected true or false, got {_r(discover)}")
@@ -478,6 +485,17 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
             "transient_periods", DEFAULT_TRANSIENT_PERIODS):
         raise StudyError("search.max_transient_periods", "must be at least "
                          "search.transient_periods")
+    if "lyapunov_error" in se:
+        lo, hi = LYAPUNOV_ERROR_RANGE
+        value = se["lyapunov_error"]
+        if not _is_number(value) or not lo <= value <= hi:
+            raise StudyError("search.lyapunov_error", f"expected a number {lo:g}..{hi:g} (the "
+                             "largest Lyapunov exponent's standard error to reach, per unit "
+                             f"dimensionless time), got {_r(value)}")
+        if attractors == "never":
+            raise StudyError("search.lyapunov_error", 'only meaningful with search.attractors '
+                             'other than "never"')
+        census["lyapunov_error"] = float(value)
 
     # [products]
     pr = _table(doc, "products")

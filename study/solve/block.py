@@ -116,6 +116,7 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
                 harmonics=True, time_budget=None, seeds=(), turn_folds=True,
                 attractors="never", initial_states=16, transient_periods=500,
                 record_periods=128, max_transient_periods=None, point_steps=2_000_000,
+                lyapunov_error=None,
                 seed_strides=(LINEAR_SEED_STRIDE, MMS_SEED_STRIDE)) -> dict[str, np.ndarray]:
     """Every periodic response at each point of the block omega x sigma x zeta.
 
@@ -193,7 +194,7 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
             search.run_census(attractors, int(initial_states), int(transient_periods),
                               int(record_periods),
                               int(max_transient_periods or transient_periods),
-                              int(point_steps))
+                              int(point_steps), lyapunov_error)
             per_point = search.per_point
             line = None
             if discover and (deadline is None or time.monotonic() <= deadline):

@@ -139,15 +139,16 @@ def recurrence_seeds(strobe: np.ndarray, periods=RECURRENCE_PERIODS) -> list[tup
 
 def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options: dict,
            n_states: int, transient_periods: int, record_periods: int,
-           max_transient_periods: int | None = None, point_steps: int = 2_000_000
-           ) -> tuple[list[Attractor], list[dict]]:
+           max_transient_periods: int | None = None, point_steps: int = 2_000_000,
+           lyapunov_error: float | None = None) -> tuple[list[Attractor], list[dict]]:
     """The attractors at (omega, sigma, zeta) from ``n_states`` initial states, and the orbits
     the census found that ``orbits`` (the point's known orbits, not changed here) lacks.
 
     ``options``: the solver's (exponent, model, rtol, harmonics). Dimensionless inputs. A point
     whose transients did not settle and are not shown chaotic gets longer passes (module
     docstring, "Unsettled") up to ``max_transient_periods`` periods in all, within
-    ``point_steps`` integration steps summed over its open transients.
+    ``point_steps`` integration steps summed over its open transients. ``lyapunov_error``:
+    the exponent's target standard error (window_exponent; None: one window).
     """
     # half of the states where the largest known orbits go (long flights), when they leave
     # the fixed box
@@ -205,7 +206,8 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
         rep = max(runs, key=lambda r: (np.nan_to_num(rows[r, A["window_periods"]]), -r))
         return rep, window_exponent(omega, sigma, zeta, (rows[rep, A["q_end"]],
                                                          rows[rep, A["v_end"]]),
-                                    options, window, rows[rep])
+                                    options, window, rows[rep], lyapunov_error,
+                                    int(max_transient_periods or transient_periods))
 
     left = [float(point_steps)]
     budget = [int(transient_periods)]
@@ -360,19 +362,50 @@ def run_transients(omega, sigma, zeta, q0, v0, options: dict, budget: int,
 
 
 def window_exponent(omega, sigma, zeta, end, options: dict, window: int,
-                    row: np.ndarray) -> np.ndarray:
+                    row: np.ndarray, error_target: float | None = None,
+                    max_periods: int | None = None) -> np.ndarray:
     """A copy of the attractor ``row`` holding the largest Lyapunov exponent by Benettin over
     ``window`` periods from the state ``end`` (q, q') (its error, the halves' difference and
-    the periods, where the kernel converged)."""
+    the periods, where the kernel converged).
+
+    With ``error_target`` (per unit tau), windows follow one another along the trajectory, the
+    window doubling the periods so far each time, until the standard error of the combined
+    estimate is at most the target or ``max_periods`` periods are averaged: the exponent is the
+    periods-weighted mean of the windows' estimates, its error their errors combined as
+    independent (each window's own error is over 8 blocks), the halves' difference that of the
+    last window against those before it (the first window's own, with one window)."""
     n_exp, model, t_rtol, _ = transient_settings(options)
+    column = {name: LYAPUNOV_FIELDS.index(name) for name in LYAPUNOV_FIELDS}
     lyap = np.empty(N_LYAPUNOV_FIELDS)
-    lyapunov_into(float(omega), float(sigma), float(zeta), float(end[0]), float(end[1]), n_exp,
-                  model, int(window), LYAPUNOV_DISCARD, t_rtol, t_rtol, 200_000, lyap)
+    state = (float(end[0]), float(end[1]))
+    windows = []                    # (exponent, error, periods, halves)
+    chunk = int(window)
+    cap = int(max_periods or window)
+    while True:
+        lyapunov_into(float(omega), float(sigma), float(zeta), state[0], state[1], n_exp, model,
+                      chunk, LYAPUNOV_DISCARD, t_rtol, t_rtol, 200_000, lyap)
+        if int(lyap[column["status"]]) != st.CONVERGED:
+            break
+        windows.append(tuple(float(lyap[column[n]]) for n in
+                             ("lyapunov", "lyapunov_error", "periods", "lyapunov_halves")))
+        state = (float(lyap[column["q_end"]]), float(lyap[column["v_end"]]))
+        total = sum(w[2] for w in windows)
+        error = math.sqrt(sum((w[1] * w[2]) ** 2 for w in windows)) / total
+        if error_target is None or not math.isfinite(error) or error <= error_target \
+                or total >= cap:
+            break
+        chunk = int(min(total, cap - total))
     row = np.array(row, float)
-    if int(lyap[LYAPUNOV_FIELDS.index("status")]) == st.CONVERGED:
-        for name in ("lyapunov", "lyapunov_error", "lyapunov_halves"):
-            row[A[name]] = lyap[LYAPUNOV_FIELDS.index(name)]
-        row[A["lyapunov_periods"]] = lyap[LYAPUNOV_FIELDS.index("periods")]
+    if len(windows) == 1:
+        (row[A["lyapunov"]], row[A["lyapunov_error"]], row[A["lyapunov_periods"]],
+         row[A["lyapunov_halves"]]) = windows[0]
+    elif windows:
+        total = sum(w[2] for w in windows)
+        row[A["lyapunov"]] = sum(w[0] * w[2] for w in windows) / total
+        row[A["lyapunov_error"]] = math.sqrt(sum((w[1] * w[2]) ** 2 for w in windows)) / total
+        before = sum(w[0] * w[2] for w in windows[:-1]) / (total - windows[-1][2])
+        row[A["lyapunov_halves"]] = abs(windows[-1][0] - before)
+        row[A["lyapunov_periods"]] = total
     return row
 
 

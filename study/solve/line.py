@@ -334,7 +334,7 @@ class LineSearch:
 
     def run_census(self, mode: str, n_states: int, transient_periods: int,
                    record_periods: int, max_transient_periods: int | None = None,
-                   point_steps: int = 2_000_000) -> None:
+                   point_steps: int = 2_000_000, lyapunov_error: float | None = None) -> None:
         """Transients from ``n_states`` initial states at the points ``mode`` names
         ("where-none-stable": those with no stable orbit when their turn comes, and the
         probe points spread along the line; "always": every point), in omega order. Orbits
@@ -358,7 +358,7 @@ class LineSearch:
                 continue
             found, new = census(self.omega[i], self.sigma, self.zeta, self.per_point[i],
                                 self.options, n_states, transient_periods, record_periods,
-                                max_transient_periods, point_steps)
+                                max_transient_periods, point_steps, lyapunov_error)
             self.attractors[int(i)] = found
             for sol in new:
                 sol["omega"] = self.omega[i]
@@ -379,7 +379,7 @@ class LineSearch:
                 continue
             found, new = census(self.omega[i], self.sigma, self.zeta, self.per_point[i],
                                 self.options, n_states, transient_periods, record_periods,
-                                max_transient_periods, point_steps)
+                                max_transient_periods, point_steps, lyapunov_error)
             self.attractors[i] = found
             for sol in new:
                 sol["omega"] = self.omega[i]

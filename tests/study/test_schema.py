@@ -50,10 +50,10 @@ def test_template_schema_and_attrs():
     # 4 slots x (10 float64 with the Liouville residual and the peak and rms force, 2
     # complex128, 5 bool/int8 with the atlas round, 4 harmonics), the orbit counts found and
     # dropped (int16), and the census: count (int8), the basin entropies (2 float64), 4 int8 x
-    # 4 attractors (the unsettled reason among them), 10 float64 x 4 (the Lyapunov sum error
-    # and the periods run among them), 2 x 4 x 32 strobe points
+    # 4 attractors (the unsettled reason among them), 11 float64 x 4 (the Lyapunov sum error,
+    # the exponent's periods and the periods run among them), 2 x 4 x 32 strobe points
     assert bytes_per_point(s) == (4 * (10 * 8 + 2 * 16 + 5 * 1 + 4 * 8) + 2 + 2
-                                  + 1 + 2 * 8 + 4 * 4 + 10 * 4 * 8 + 2 * 4 * 32 * 8)
+                                  + 1 + 2 * 8 + 4 * 4 + 11 * 4 * 8 + 2 * 4 * 32 * 8)
 
 
 # -- the schema, a store, the products and docs/dataset.md say the same -------------------------

@@ -278,6 +278,25 @@ def test_search_periods_and_the_census_fields():
     assert again.hash == asked.hash
 
 
+def test_the_exponent_error_target():
+    """search.lyapunov_error: optional (absent, the study's hash is unchanged), passed to the
+    census, refused out of range or without a census, naming the field."""
+    base = '[grid]\nomega = [1.0, 1.5]\nsigma = [0.2]\nzeta = [0.01]\n[search]\nperiods = [1, 2]\n'
+    plain = parse_study(base, default_name="s")
+    assert plain.lyapunov_error is None and "lyapunov_error" not in plain.solver_kwargs()
+    assert "lyapunov_error" not in plain.to_dict()["search"]
+    aimed = parse_study(base + "lyapunov_error = 0.002\n", default_name="s")
+    assert aimed.solver_kwargs()["lyapunov_error"] == 0.002
+    assert aimed.hash != plain.hash
+    assert parse_study(_toml_of(aimed.to_dict()), default_name="s").hash == aimed.hash
+    for bad in ("0", "-0.1", "2.0", '"small"', "true"):
+        with pytest.raises(StudyError, match=r"search\.lyapunov_error: expected a number "
+                                             r"1e-06\.\.1"):
+            parse_study(base + f"lyapunov_error = {bad}\n", default_name="s")
+    with pytest.raises(StudyError, match=r"search\.lyapunov_error: only meaningful"):
+        parse_study(base + 'attractors = "never"\nlyapunov_error = 0.01\n', default_name="s")
+
+
 def _toml_of(d) -> str:
     """A study file from a canonical dict (the few value types a study has)."""
     def value(v):

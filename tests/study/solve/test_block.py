@@ -10,6 +10,7 @@ import numpy as np
 
 from hertzmap.kernels import status
 from hertzmap.kernels import status as st
+from hertzmap.study.schema import ATTRACTOR_KINDS
 from hertzmap.study.solve import point
 from hertzmap.study.solve.block import solve_block
 from hertzmap.study.solve.point import MAX_ITER_1T, MAX_ITER_2T, shoot_seeds
@@ -128,3 +129,21 @@ def test_every_stored_orbit_carries_its_liouville_residual():
     expected = np.exp(-2 * z * out["period"] * 2 * pi / w)
     product = np.abs(out["multipliers"][..., 0] * out["multipliers"][..., 1])
     assert np.all(np.abs(product[ok] - expected[ok]) <= 1e-7 * expected[ok])
+
+
+def test_the_study_s_exponent_error_target_reaches_the_census():
+    """search.lyapunov_error through solve_block (as a task calls it) to the census: at the
+    chaotic point (0.75, 3.05) the stored exponent's error is at most the target, and the
+    periods its average took are stored beside it."""
+    kw = dict(periods=(1, 2), attractors="where-none-stable", initial_states=16,
+              transient_periods=500, record_periods=128, max_transient_periods=20_000,
+              harmonics=False)
+    plain = solve_block(np.array([0.75]), np.array([3.05]), np.array([Z]), **kw)
+    aimed = solve_block(np.array([0.75]), np.array([3.05]), np.array([Z]), lyapunov_error=0.002,
+                        **kw)
+    chaotic = ATTRACTOR_KINDS["non_periodic"]
+    for arrays in (plain, aimed):
+        assert arrays["attractor_kind"][0, 0, 0, 0] == chaotic
+    assert plain["lyapunov_error"][0, 0, 0, 0] > 0.002
+    assert 0 < aimed["lyapunov_error"][0, 0, 0, 0] <= 0.002
+    assert aimed["lyapunov_periods"][0, 0, 0, 0] > plain["lyapunov_periods"][0, 0, 0, 0] > 0
