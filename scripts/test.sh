@@ -5,12 +5,14 @@
 # one process, the longest files first (tests/parallel.py). Arguments go to pytest after these
 # (`-n 0` runs everything in this one process; a test path runs only that).
 #
-# Every test's tmp_path is under one new folder (--basetemp), on /dev/shm where it is a tmpfs
-# with room (the stores of the suite are tens of thousands of small files: on a disk, making
-# and deleting them costs minutes), else under $TMPDIR; it is removed after a run that passed
-# and kept after one that did not (its path is printed first, to stderr). (pytest's default, a numbered
-# folder in /tmp/pytest-of-USER shared with every other pytest run of the user, would also
-# delete older runs' folders at the end of this one.)
+# The tests' files (every tmp_path: --basetemp; and what their processes put in TMPDIR: Dask's
+# scratch folders, the Slurm test's daemons and database) go to one new folder of this run, on
+# /dev/shm where it is a tmpfs with room, else under $TMPDIR or /tmp. They are tens of
+# thousands of small files, zarr stores mostly: on a disk that discards what is deleted,
+# deleting them takes minutes. The folder is removed after a run that passed and kept after
+# one that did not (its path is printed first, to stderr). (pytest's default, numbered folders
+# in /tmp/pytest-of-USER shared with every other pytest run of the user, deletes the oldest of
+# them at the end of each run.)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install.sh test
@@ -21,9 +23,11 @@ if [ -d /dev/shm ] && [ -w /dev/shm ] && [ "${shm_free_kb:-0}" -ge $((4 * 1024 *
 else
     base=$(mktemp -d "${TMPDIR:-/tmp}/hertzmap-tests.XXXXXX")
 fi
-echo "test.sh: the tests' folders are in $base (removed if every test passes)" >&2
+mkdir "$base/tmp"
+echo "test.sh: the tests' files are in $base (removed if every test passes)" >&2
 code=0
-.venv/bin/python -m pytest -q -n 2 --dist loadgroup --basetemp "$base" "$@" || code=$?
+TMPDIR="$base/tmp" .venv/bin/python -m pytest -q -n 2 --dist loadgroup \
+    --basetemp "$base/pytest" "$@" || code=$?
 if [ "$code" = 0 ] || [ "$code" = 5 ]; then
     rm -rf "$base"
 fi

@@ -24,11 +24,12 @@ def study_file(tmp_path):
 
 @pytest.fixture(scope="module")
 def client():
-    """An in-process Dask client (one thread): the placeholder solver runs in milliseconds."""
+    """An in-process Dask client (one thread): the placeholder solver runs in milliseconds. Its
+    dashboard on a free loopback port (not 8787: another test process may have a cluster up)."""
     from distributed import Client, LocalCluster
 
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
-                      dashboard_address=None) as cluster, Client(cluster) as c:
+                      dashboard_address="127.0.0.1:0") as cluster, Client(cluster) as c:
         yield c
 
 

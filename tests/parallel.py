@@ -7,26 +7,38 @@ loadgroup``): which tests must share a process, and which go first.
   workspace) keep their order. An explicit ``xdist_group`` mark still groups as xdist does.
 * **Order.** Units are handed out in the order of :data:`SECONDS`, longest first (the longest
   processing time rule: the last unit to start is a short one, so both processes end close
-  together); the others follow in collection order. The figures are a full run's
-  ``--durations`` per file on a 2-core machine: a rough guide, not a contract (a file missing
-  from it only starts later).
+  together); the others follow in collection order. The figures are a rough guide, not a
+  contract: a file missing from them only starts later.
 
 Without ``-n`` nothing here applies: the suite runs in collection order in one process.
 """
 from __future__ import annotations
 
-#: seconds per test file in a full run (tests that share a file share a process)
+#: seconds per test file in a full run with two processes (tests that share a file share a
+#: process), the longest first; measured on a 2-core machine that other jobs kept busy: only
+#: the proportions matter
 SECONDS: dict[str, float] = {
-    "tests/docs/test_docs.py": 300,
-    "tests/end_to_end/test_slurm.py": 260,
-    "tests/hardening/test_faults.py": 130,
-    "tests/scheduler/test_store.py": 110,
-    "tests/kernels/test_jit.py": 120,
-    "tests/kernels/continuation/test_curve.py": 110,
-    "tests/test_packaging.py": 85,
-    "tests/test_recipes.py": 60,
-    "tests/benchmarks/test_work_precision.py": 55,
-    "tests/end_to_end/test_traced_curves.py": 70,
+    "tests/end_to_end/test_slurm.py": 530,
+    "tests/docs/test_docs.py": 523,
+    "tests/kernels/continuation/test_curve.py": 370,
+    "tests/kernels/test_jit.py": 294,
+    "tests/test_packaging.py": 229,
+    "tests/end_to_end/test_traced_curves.py": 221,
+    "tests/hardening/test_faults.py": 213,
+    "tests/end_to_end/test_atlas.py": 187,
+    "tests/scheduler/test_run.py": 176,
+    "tests/test_recipes.py": 132,
+    "tests/end_to_end/test_explore.py": 129,
+    "tests/end_to_end/test_located_bifurcations.py": 116,
+    "tests/scheduler/test_store.py": 113,
+    "tests/hardening/test_input.py": 85,
+    "tests/end_to_end/test_map_hatching.py": 48,
+    "tests/hardening/test_time_limit.py": 47,
+    "tests/kernels/test_attractors.py": 47,
+    "tests/study/test_plots.py": 43,
+    "tests/scheduler/test_cli.py": 40,
+    "tests/benchmarks/test_work_precision.py": 32,
+    "tests/test_architecture.py": 30,
 }
 
 
