@@ -23,7 +23,22 @@ def real_ws(tmp_path_factory) -> Workspace:
     return Workspace(tmp_path_factory.mktemp("docs-real"), small=False)
 
 
-def pytest_terminal_summary(terminalreporter):
+def record_tally(config) -> None:
+    """In an xdist worker: hand this process's TALLY to the controller (which prints it)."""
+    output = getattr(config, "workeroutput", None)
+    if output is not None and TALLY:
+        output["doc_tally"] = [[page, kind, n] for (page, kind), n in TALLY.items()]
+
+
+def merge_tally(workeroutput) -> None:
+    """In the xdist controller: add a worker's TALLY to this process's."""
+    for page, kind, n in (workeroutput or {}).get("doc_tally", []):
+        TALLY[(page, kind)] = TALLY.get((page, kind), 0) + n
+
+
+def write_tally(terminalreporter) -> None:
+    """The tally's lines at the end of the run (tests/conftest.py calls it: the controller of
+    an xdist run never loads this conftest, whose tests run in its workers)."""
     if not TALLY:
         return
     pages = sorted({p for p, _ in TALLY})

@@ -217,7 +217,7 @@ class Workspace:
             from hertzmap.scheduler.cluster import CLUSTER_CONFIG
             with dask.config.set(CLUSTER_CONFIG):
                 self._cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                             dashboard_address=None,
+                                             dashboard_address="127.0.0.1:0",
                                              silence_logs=logging.CRITICAL)
         return self._cluster
 

@@ -173,7 +173,9 @@ def test_client_killed_between_curves_then_rerun_identical(paths, tmp_path):
     committed = [q for q in parts.iterdir() if not q.name.startswith(".")]
     assert 1 <= len(committed) < traced(ref).sizes["curve"], "the kill landed after the curves"
     assert Store(store).done_mask().all()                 # the grid was complete
-    r = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300)
+    # the same command again, its curves without the pause (the kill is behind us)
+    r = subprocess.run(cmd, env=subprocess_env(HERTZMAP_CURVE_DELAY="0"), capture_output=True,
+                       text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert "all 3 tasks done" in r.stdout and "committed" in r.stdout
     assert f"{len(committed)} resumed" in r.stdout

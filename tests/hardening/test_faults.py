@@ -221,7 +221,7 @@ def test_readers_see_only_completed_tasks_as_done(reference, tmp_path):
     os.environ["HERTZMAP_PLACEHOLDER_DELAY"] = "0.02"
     try:
         with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
-                          dashboard_address=None) as cluster, Client(cluster) as client:
+                          dashboard_address="127.0.0.1:0") as cluster, Client(cluster) as client:
             result: dict = {}
             th = threading.Thread(target=lambda: result.update(run_study(s, opts, client=client)))
             th.start()

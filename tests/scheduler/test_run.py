@@ -159,7 +159,7 @@ def test_worker_killed_mid_study(study_path, reference, tmp_path):
     opts = RunOptions(store=store, cluster=ClusterSpec(kind="address"), task_seconds=0.1,
                       error_sample=0)
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster, Client(cluster) as client:
+                      dashboard_address="127.0.0.1:0") as cluster, Client(cluster) as client:
         result: dict = {}
         th = threading.Thread(target=lambda: result.update(run_study(study, opts, client=client)))
         th.start()
