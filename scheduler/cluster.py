@@ -489,8 +489,12 @@ def make_client(spec: ClusterSpec, report=None):
         # a second to start where a process cluster took 10-12 s with its workers loading the
         # kernels; docs/running.md, "Small studies")
         with dask.config.set(CLUSTER_CONFIG):
+            # no dashboard (bokeh's import alone is a second), its HTTP server on a free
+            # port of the loopback (8787, Dask's default, may be taken)
             cluster = LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
-                                   dashboard_address=None, silence_logs=logging.CRITICAL)
+                                   dashboard_address="127.0.0.1:0",
+                                   scheduler_kwargs={"dashboard": False},
+                                   silence_logs=logging.CRITICAL)
             return Client(cluster), cluster
     if spec.kind == "local":
         # (the nannies hand the config to the worker processes they start)

@@ -100,7 +100,7 @@ def run_study(study: Study, opts: RunOptions, *, out: TextIO | None = None,
         # default study, otherwise spent before the workers start)
         t_setup = time.perf_counter()
         early = make_client(opts.cluster, report=_printer(out))
-        if opts.cluster.kind in LOCAL_KINDS:
+        if opts.cluster.kind == "local":
             warming = start_warm_up(early[0], study, opts)
     try:
         store, resumed = open_or_create(opts.store, study, chunks, overwrite=opts.overwrite,
@@ -330,8 +330,11 @@ class StudyRun:
         kwargs = self.study.solver_kwargs()
         if self.warming is not None:
             self.warming.result()       # registered when the embedded cluster started
-        else:
+        elif opts.cluster.kind != INPROCESS:
             client.register_plugin(warm_up_plugin(self.study, opts), name="hertzmap-warmup")
+        # (in-process, the one worker thread loads the kernels its first task calls: a warm-up
+        # there would load every entry point, the census's and the curves' too, in this
+        # process, and compete with the store's creation for its interpreter lock)
         if opts.cluster.kind not in LOCAL_KINDS:
             blind = self.workers_without_the_store(client)
             if blind:
