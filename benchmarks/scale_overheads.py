@@ -181,7 +181,7 @@ def main(argv=None) -> int:
     from hertzmap.scheduler.report import SUMMED_COUNTS, WORST_COUNTS, add_counts, block_counts
     from hertzmap.scheduler.run import task_specs
     from hertzmap.scheduler.sample import Sampler, block_candidates
-    from hertzmap.scheduler.store import BlockWriter, Lock, Store
+    from hertzmap.scheduler.store import Lock, Store
     from hertzmap.study.schema import empty_arrays, stored_variables
     from hertzmap.study.solve.block import solve_block
     from hertzmap.study.spec import load_study

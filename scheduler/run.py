@@ -34,8 +34,7 @@ from hertzmap.scheduler.plan import choose_chunks, make_plan
 from hertzmap.scheduler.progress import Progress
 from hertzmap.scheduler.report import SUMMED_COUNTS, WORST_COUNTS, add_counts, overhead, print_summary
 from hertzmap.scheduler.resources import check_resources
-from hertzmap.scheduler.store import (Lock, Store, StoreError, check_writer, open_or_create,
-                                      shared_store_hint)
+from hertzmap.scheduler.store import Lock, Store, StoreError, check_writer, open_or_create
 from hertzmap.scheduler.worker import DEFAULT_SOLVER, Warmup, run_task
 from hertzmap.study.schema import code_fingerprint, stored_variables
 from hertzmap.study.spec import Study
