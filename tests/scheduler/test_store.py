@@ -204,6 +204,34 @@ def test_a_worker_that_does_not_see_the_store_says_it_needs_a_shared_file_system
     assert not (tmp_path / "elsewhere.zarr").exists()
 
 
+def test_workers_that_cannot_write_the_store_stop_the_run_before_any_task(tmp_path, client):
+    """With --scheduler or --cluster the connected workers are asked first: here the lock
+    they find is not the run's (what a worker sees when the path it has is another file
+    system's), so the run stops with the reason, no task submitted, nothing flagged, and a
+    rerun resumes."""
+    import io
+
+    from hertzmap.scheduler.cluster import ClusterSpec
+    from hertzmap.scheduler.run import RunOptions, StudyRun
+    from tests.helpers import PLACEHOLDER
+
+    s = placeholder_study()
+    path = tmp_path / "n.zarr"
+    store, _ = open_or_create(path, s, choose_chunks(s), overwrite=False, action="t")
+    opts = RunOptions(store=path, solver=PLACEHOLDER, cluster=ClusterSpec(kind="address"),
+                      error_sample=0)
+    out, err = io.StringIO(), io.StringIO()
+    before = _chunk_files(path)
+    with Lock(path):
+        elsewhere = {"host": "another-node", "pid": 1, "token": "0" * 32}
+        summary = StudyRun(s, opts, store, out, err, owner=elsewhere).run(False, client)
+    assert not summary["complete"] and summary["failed"][0][0] == "shared file system"
+    assert "cannot write the store" in err.getvalue() and "held by another client" in err.getvalue()
+    assert "running" not in out.getvalue()
+    assert _chunk_files(path) == before            # no block written, no flag set
+    assert placeholder_run(path, client)["complete"]
+
+
 def test_resume_with_other_solver_code_warns(tmp_path, client, capsys):
     s = placeholder_study()
     path = tmp_path / "g.zarr"
