@@ -4,9 +4,10 @@ until a round adds nothing).
 
 A round's tasks are the grid's tiles (its task blocks) that hold, or touch, an orbit the last
 round added (round 1: every tile). A task reads its tile and a one-point halo from the store
-(the snapshot: nothing is written to the main group during a round) and returns the tile's
-arrays where it gained orbits. The client stages each result as it comes
-(scheduler.store.write_atlas_tile), and once every tile of the round is staged, commits them
+(the snapshot: nothing is written to the main group during a round), stages its result
+itself (scheduler.store.stage_atlas_tile: the tile's arrays where it gained orbits, one file
+per tile, as the grid's tasks write their blocks) and returns its counts. Once every tile of
+the round is staged, the client commits them
 (region writes of whole chunks) and records the round in the store's attrs
 (``hertzmap_atlas``). A run killed during a round keeps the staged tiles and computes the rest
 from the same snapshot; killed during a commit, it commits the staged round again: either way
@@ -23,7 +24,7 @@ import numpy as np
 from hertzmap.scheduler.plan import make_plan
 from hertzmap.scheduler.stage import Stage
 from hertzmap.scheduler.store import (ATLAS_ATTR, Store, read_atlas_tile, read_region,
-                                      remove_atlas_stage, staged_atlas_tiles, write_atlas_tile)
+                                      remove_atlas_stage, stage_atlas_tile, staged_atlas_tiles)
 from hertzmap.study.schema import (ATTRACTOR_VARIABLES, CROSSING_VARIABLES, ORBIT_VARIABLES,
                                    stored_variables)
 from hertzmap.study.solve.atlas import atlas_names, census_points
@@ -53,7 +54,8 @@ def atlas_task(spec: dict[str, Any]) -> dict[str, Any]:
     """One tile of one atlas round. Runs on a worker: reads the tile and its halo from the
     store (read only), continues the neighbours' orbits into the tile. ``spec``: store, round,
     index, slices (the tile), shape (the grid's), chunk_omega, axes (omega, sigma, zeta of the
-    grid), names (what the store holds), options, max_solutions, level, periods."""
+    grid), names (what the store holds), options, max_solutions, level, periods, owner (the
+    client's lock record: the tile is staged only while that client holds the store)."""
     t0 = time.perf_counter()
     tile = tuple(slice(*s) for s in spec["slices"])
     census = spec.get("census")
@@ -91,8 +93,10 @@ def atlas_task(spec: dict[str, Any]) -> dict[str, Any]:
             int(spec["max_solutions"]), float(spec["level"]), tuple(spec["periods"]))
     result = load_solver(spec.get("tile_function", DEFAULT_ATLAS_TILE))(
         *args, offer_own=bool(spec.get("offer_own")), census=census)
-    return {"index": spec["index"], "changed": bool(result.changed.any()),
-            "arrays": result.arrays if result.changed.any() else None,
+    changed = bool(result.changed.any())
+    stage_atlas_tile(spec["store"], spec["owner"], int(spec["round"]), tuple(spec["index"]),
+                     result.arrays if changed else None)
+    return {"index": spec["index"], "changed": changed,
             "shots": result.shots, "skipped": result.skipped, "added": result.added,
             "seconds": time.perf_counter() - t0, "pid": os.getpid()}
 
@@ -102,8 +106,8 @@ class AtlasRun(Stage):
 
     def __init__(self, study: Study, store: Store, out: TextIO, err: TextIO, interrupt,
                  command: str = "hertzmap run", enabled: bool = True,
-                 tile: str = DEFAULT_ATLAS_TILE):
-        super().__init__(study, store, out, err, interrupt, command)
+                 tile: str = DEFAULT_ATLAS_TILE, owner: dict | None = None):
+        super().__init__(study, store, out, err, interrupt, command, owner)
         #: False with another block solver than hertzmap's (a test's stand-in): the atlas
         #: continues real orbits, which such a grid does not hold
         self.enabled = enabled
@@ -165,7 +169,8 @@ class AtlasRun(Stage):
     def _spec(self, task, round_: int, state: dict) -> dict[str, Any]:
         st = self.study
         census = state.get("kind") == "census"
-        return {"store": str(self.store.path), "round": round_, "index": task.index,
+        return {"store": str(self.store.path.resolve()), "owner": self.owner,
+                "round": round_, "index": task.index,
                 "census": self.census if census else None,
                 "offer_own": state.get("after_census", False),
                 "slices": [(s.start, s.stop) for s in task.slices], "shape": st.shape,
@@ -198,9 +203,7 @@ class AtlasRun(Stage):
                                           + "-".join(map(str, t.index)) for t in todo],
                                      pure=False)
                 for fut in as_completed(futures):
-                    res = fut.result()
-                    with self.interrupt.critical():
-                        write_atlas_tile(self.store.path, r, tuple(res["index"]), res["arrays"])
+                    res = fut.result()      # its worker has staged the tile
                     fut.release()
                     summary["censuses" if state.get("kind") == "census" else "shots"] += \
                         res["shots"]

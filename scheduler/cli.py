@@ -50,8 +50,9 @@ def _run_args(p: argparse.ArgumentParser) -> None:
     where.add_argument("--scheduler", metavar="ADDRESS", default=None,
                        help="connect to an existing Dask scheduler (e.g. tcp://host:8786)")
     where.add_argument("--cluster", choices=["local", "slurm", "pbs", "sge", "lsf", "htcondor"],
-                       default="local", help="local: embedded LocalCluster (default); others: "
-                       "dask-jobqueue (pip install 'hertzmap[jobqueue]')")
+                       default=None, help="local: embedded LocalCluster (the default, except "
+                       "that a small study runs in-process unless --cluster or --workers is "
+                       "given); others: dask-jobqueue (pip install 'hertzmap[jobqueue]')")
     p.add_argument("--workers", type=int, default=None, metavar="N",
                    help="worker processes (local: default one per core; jobqueue: processes "
                    "to scale to; --scheduler: wait for N workers before starting)")
@@ -112,9 +113,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         if args.scheduler:
             spec = ClusterSpec(kind="address", address=args.scheduler, workers=args.workers)
         else:
-            spec = ClusterSpec(kind=args.cluster, workers=args.workers,
+            spec = ClusterSpec(kind=args.cluster or "local", workers=args.workers,
                                options=parse_cluster_options(args.cluster_option))
-            if args.cluster == "local" and args.cluster_option:
+            if spec.kind == "local" and args.cluster_option:
                 raise ClusterError("--cluster-option is for dask-jobqueue clusters (--cluster slurm ...)")
         spec.check()
     except ClusterError as exc:
@@ -126,8 +127,13 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.error_sample is not None and args.error_sample < 0:
         return _error(f"--error-sample must be >= 0, got {args.error_sample}")
     if spec.kind == "local" and spec.workers is None:
-        from hertzmap.scheduler.cluster import default_workers
-        spec.workers = default_workers()
+        from hertzmap.scheduler.cluster import INPROCESS, default_workers
+        from hertzmap.scheduler.plan import is_small_study
+        # nothing said of where to run: a small study runs in-process
+        if args.cluster is None and is_small_study(study):
+            spec = ClusterSpec(kind=INPROCESS)
+        else:
+            spec.workers = default_workers()
 
     opts = RunOptions(
         store=args.store or default_store_path(study),

@@ -21,6 +21,12 @@ from typing import Any
 from hertzmap.scheduler.errors import ClusterError
 
 
+#: A small study's cluster (scheduler.plan.is_small_study): one worker thread in the client's
+#: own process, no worker process to start
+INPROCESS = "in-process"
+#: the kinds whose workers run on the client's machine (its file system: the store is theirs)
+LOCAL_KINDS = ("local", INPROCESS)
+
 JOBQUEUE = {"slurm": "SLURMCluster", "pbs": "PBSCluster", "sge": "SGECluster",
             "lsf": "LSFCluster", "htcondor": "HTCondorCluster"}
 #: The command each of them submits a worker job with.
@@ -66,12 +72,14 @@ def shown(value: Any) -> str:
 
 @dataclass
 class ClusterSpec:
-    kind: str = "local"                 # local | address | slurm | pbs | sge | lsf | htcondor
+    kind: str = "local"                 # local | in-process | address | slurm | pbs | sge | lsf | htcondor
     workers: int | None = None          # local: worker processes; jobqueue: worker processes to scale to
     address: str | None = None
     options: dict[str, Any] = field(default_factory=dict)
 
     def describe(self) -> str:
+        if self.kind == INPROCESS:
+            return "in-process: one worker thread in this process (a small study)"
         if self.kind == "local":
             n = self.workers or default_workers()
             return f"local cluster: {n} single-threaded worker process{'es' if n > 1 else ''}"
@@ -476,6 +484,18 @@ def make_client(spec: ClusterSpec, report=None):
         return client, None
     import dask
 
+    if spec.kind == INPROCESS:
+        # a small study: the scheduler and one single-threaded worker in this process (about
+        # a second to start where a process cluster took 10-12 s with its workers loading the
+        # kernels; docs/running.md, "Small studies")
+        with dask.config.set(CLUSTER_CONFIG):
+            # no dashboard (bokeh's import alone is a second), its HTTP server on a free
+            # port of the loopback (8787, Dask's default, may be taken)
+            cluster = LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                   dashboard_address="127.0.0.1:0",
+                                   scheduler_kwargs={"dashboard": False},
+                                   silence_logs=logging.CRITICAL)
+            return Client(cluster), cluster
     if spec.kind == "local":
         # (the nannies hand the config to the worker processes they start)
         with dask.config.set(CLUSTER_CONFIG):
@@ -522,6 +542,13 @@ def close_quietly(client, cluster=None) -> None:
         if cluster is not None:
             with contextlib.suppress(Exception):
                 cluster.close()
+
+
+def where_line(spec: ClusterSpec, n_workers: int) -> str:
+    """Where a run's tasks ran, as its first line and its summary say it."""
+    if spec.kind == INPROCESS:
+        return "in-process (a small study: one worker thread, no worker process started)"
+    return f"on {n_workers} workers"
 
 
 def worker_count(client) -> int:

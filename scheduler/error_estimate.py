@@ -2,14 +2,12 @@
 tighter tolerance, the deviation of their start points reported and stored in the store's attrs."""
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 from typing import Any
 
 import numpy as np
 
-from hertzmap.scheduler.plan import Task
 from hertzmap.scheduler.worker import DEFAULT_SOLVER, solve_points
 from hertzmap.study.spec import Study
 
@@ -17,55 +15,6 @@ from hertzmap.study.spec import Study
 #: The error estimate re-solves at rtol * ERROR_RTOL_FACTOR (not below the solver's floor).
 ERROR_RTOL_FACTOR = 1e-3
 RTOL_FLOOR = 1e-13
-
-
-def _mix64(x: np.ndarray) -> np.ndarray:
-    """splitmix64 finaliser: a fixed pseudo-random key per integer."""
-    x = x.astype(np.uint64)
-    with np.errstate(over="ignore"):
-        x ^= x >> np.uint64(30)
-        x *= np.uint64(0xBF58476D1CE4E5B9)
-        x ^= x >> np.uint64(27)
-        x *= np.uint64(0x94D049BB133111EB)
-        x ^= x >> np.uint64(31)
-    return x
-
-
-class Sampler:
-    """Keeps the ``n`` converged slots with the smallest pseudo-random keys: the sample does
-    not depend on the order in which blocks finish."""
-
-    def __init__(self, study: Study, n: int):
-        self.study = study
-        self.n = n
-        self.seed = np.uint64(int(hashlib.sha256(study.hash.encode()).hexdigest()[:15], 16))
-        self.items: list[tuple[int, tuple]] = []
-
-    def add(self, task: Task, arrays: dict[str, np.ndarray]) -> None:
-        if self.n <= 0:
-            return
-        st = arrays["status"]
-        idx = np.argwhere(st == 0)
-        if idx.size == 0:
-            return
-        o0, s0, z0 = (s.start for s in task.slices)
-        n_o, n_s, n_z = self.study.shape
-        ns = self.study.max_solutions
-        flat = ((((idx[:, 0] + o0) * n_s + idx[:, 1] + s0) * n_z + idx[:, 2] + z0) * ns + idx[:, 3])
-        keys = _mix64(flat.astype(np.uint64) ^ self.seed)
-        order = np.argsort(keys)[: self.n]
-        om, sg, zt = self.study.axis("omega"), self.study.axis("sigma"), self.study.axis("zeta")
-        for r in order:
-            i, j, k, s = idx[r]
-            self.items.append((int(keys[r]), (
-                float(om[i + o0]), float(sg[j + s0]), float(zt[k + z0]), int(arrays["period"][i, j, k, s]),
-                float(arrays["q0"][i, j, k, s]), float(arrays["v0"][i, j, k, s]))))
-        self.items.sort(key=lambda t: t[0])
-        del self.items[self.n:]
-
-    @property
-    def samples(self) -> list[tuple]:
-        return [v for _, v in self.items]
 
 
 def estimate_error(client, study: Study, samples: list[tuple], *, solver: str = DEFAULT_SOLVER,

@@ -99,6 +99,22 @@ def seconds_per_point(study: Study) -> float:
     return seconds
 
 
+#: A study whose estimated solver time (Plan.estimated_seconds: the grid, by
+#: seconds_per_point) is below this runs in-process (one worker thread in the client,
+#: scheduler.cluster.INPROCESS) unless --workers, --cluster or --scheduler says where: a
+#: process cluster costs 10-12 s more to start on this repository's 2-core machine (its workers
+#: load the kernels; docs/running.md, "Small studies") and its second worker saves at most half
+#: the solver time. The estimate comes out high on the shipped scenes (1.2-2.4x) but low where
+#: the census runs at many points (the vibro-impact scene): at this threshold the worst case is
+#: a few seconds slower than a process cluster, the usual case 10 s faster.
+SMALL_STUDY_SECONDS = 4.0
+
+
+def is_small_study(study: Study) -> bool:
+    """True when the plan's estimate of the solver time is below SMALL_STUDY_SECONDS."""
+    return study.size * seconds_per_point(study) < SMALL_STUDY_SECONDS
+
+
 def choose_chunks(study: Study, task_seconds: float = DEFAULT_TASK_SECONDS) -> tuple[int, int, int]:
     """Chunk shape (omega, sigma, zeta) so that one chunk takes about ``task_seconds``."""
     n_o, n_s, n_z = study.shape

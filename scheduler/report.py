@@ -46,6 +46,44 @@ def overhead_line(s: dict[str, Any]) -> str:
     return head
 
 
+#: what a finished block adds to the run summary (block_counts), summed (or, for the
+#: certificates, the worst kept) by the client (add_counts)
+SUMMED_COUNTS = ("conv", "fail", "cut", "with", "dropped", "dropping", "attractors")
+WORST_COUNTS = ("liouville", "lyapunov_sum")
+
+
+def block_counts(arrays: dict) -> dict[str, Any]:
+    """What the run summary needs of one block, counted on the worker that solved it: the
+    converged, failed and time-limited slots, the points with an orbit, the orbits dropped
+    for want of slots, the worst certificates (worst_certificates)."""
+    import numpy as np
+
+    from hertzmap.kernels.status import TIME_LIMIT
+
+    st = arrays["status"]
+    counts: dict[str, Any] = {"conv": int((st == 0).sum()),
+                              "fail": int(((st > 0) & (st != TIME_LIMIT)).sum()),
+                              "cut": int((st == TIME_LIMIT).sum()),
+                              "with": int((st == 0).any(axis=-1).sum()),
+                              "dropped": 0, "dropping": 0, "attractors": 0,
+                              "liouville": math.nan, "lyapunov_sum": math.nan}
+    if "orbits_dropped" in arrays:
+        dropped = np.asarray(arrays["orbits_dropped"])
+        counts["dropped"] = int(dropped[dropped > 0].sum())
+        counts["dropping"] = int((dropped > 0).sum())
+    worst_certificates(counts, arrays)
+    return counts
+
+
+def add_counts(tally: dict[str, Any], counts: dict[str, Any]) -> None:
+    """Add a block's counts (block_counts) to the run's ``tally``."""
+    for k in SUMMED_COUNTS:
+        tally[k] += counts[k]
+    for k in WORST_COUNTS:
+        if math.isfinite(counts[k]):
+            tally[k] = counts[k] if not math.isfinite(tally[k]) else max(tally[k], counts[k])
+
+
 def worst_certificates(tally: dict[str, Any], arrays: dict) -> None:
     """Keep in ``tally`` the worst of each orbit certificate of a finished block: the Liouville
     residual over its converged orbits, the Lyapunov sum error over its census attractors."""
@@ -78,8 +116,9 @@ def certificates_line(s: dict[str, Any]) -> str | None:
 
 def print_summary(s: dict[str, Any], out: TextIO) -> None:
     lines = [
-        f"done: {s['tasks_run']} tasks, {s['points']} points in {s['wall']:.2f} s wall on "
-        f"{s['workers']} workers ({s['points_per_second']:,.0f} points/s; setup {s['setup']:.1f} s)",
+        f"done: {s['tasks_run']} tasks, {s['points']} points in {s['wall']:.2f} s wall "
+        f"{s.get('where') or 'on %d workers' % s['workers']} ({s['points_per_second']:,.0f} "
+        f"points/s; setup {s['setup']:.1f} s)",
         f"orbits: {s['orbits']} converged ({s['orbits_per_second']:,.0f} orbits/s), "
         f"{s['failed_slots']} failed slots, converged fraction {s['converged_fraction']:.4f}, "
         f"{s['points_with_orbit']} points with at least one orbit",

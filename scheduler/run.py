@@ -1,9 +1,10 @@
-"""Run a study: plan, open/create the store, ship blocks to Dask, write results as they come.
+"""Run a study: plan, open/create the store, ship blocks to Dask, flag them as they come.
 
-The client is the only writer: for each finished task (``distributed.as_completed``) it
-writes the block (a region write of whole chunks) and then sets the task's ``task_done`` flag.
-Durability comes from the store, not from Dask: rerunning the same command computes only
-the tasks not flagged.
+Each task's worker writes its own block into the store (scheduler.store.write_task_block: a
+region write of whole chunks that no other task shares) and returns a summary of a few
+hundred bytes; the client, which holds the store's lock, sets the task's ``task_done`` flag
+once the task has returned (``distributed.as_completed``). Durability comes from the store,
+not from Dask: rerunning the same command computes only the tasks not flagged.
 """
 
 from __future__ import annotations
@@ -18,21 +19,22 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
-from hertzmap.kernels.status import TIME_LIMIT
-from hertzmap.scheduler.cluster import (JOBQUEUE, ClusterSpec, WorkerJobsEnded, close_quietly,
-                               make_client, wait_for_first_worker, worker_count)
+from hertzmap.scheduler.cluster import (INPROCESS, JOBQUEUE, LOCAL_KINDS, ClusterSpec,
+                                        WorkerJobsEnded, close_quietly, make_client,
+                                        wait_for_first_worker, where_line, worker_count)
 from hertzmap.scheduler.atlas_tasks import DEFAULT_ATLAS_TILE, AtlasRun
 from hertzmap.scheduler.curve_tasks import DEFAULT_TRACER, CurveRun
 from hertzmap.scheduler.dry_run import plan_for
 from hertzmap.scheduler.defaults import DEFAULT_TASK_SECONDS, DEFAULT_TASK_TIMEOUT, ERROR_SAMPLE
-from hertzmap.scheduler.error_estimate import Sampler, estimate_error, record_error_estimate
+from hertzmap.scheduler.error_estimate import estimate_error, record_error_estimate
+from hertzmap.scheduler.sample import Sampler
 from hertzmap.scheduler.errors import RunError
 from hertzmap.scheduler.interrupt import DeferInterrupt
 from hertzmap.scheduler.plan import choose_chunks, make_plan
 from hertzmap.scheduler.progress import Progress
-from hertzmap.scheduler.report import overhead, print_summary, worst_certificates
+from hertzmap.scheduler.report import SUMMED_COUNTS, WORST_COUNTS, add_counts, overhead, print_summary
 from hertzmap.scheduler.resources import check_resources
-from hertzmap.scheduler.store import Lock, Store, StoreError, open_or_create
+from hertzmap.scheduler.store import Lock, Store, StoreError, check_writer, open_or_create
 from hertzmap.scheduler.worker import DEFAULT_SOLVER, Warmup, run_task
 from hertzmap.study.schema import code_fingerprint, stored_variables
 from hertzmap.study.spec import Study
@@ -102,9 +104,9 @@ def run_study(study: Study, opts: RunOptions, *, out: TextIO | None = None,
     try:
         store, resumed = open_or_create(opts.store, study, chunks, overwrite=opts.overwrite,
                                         action=f"{opts.command}: created")
-        with Lock(store.path):
-            return StudyRun(study, opts, store, out, err, warming).run(resumed, client, early,
-                                                                       t_setup)
+        with Lock(store.path) as lock:
+            return StudyRun(study, opts, store, out, err, warming, lock.owner).run(
+                resumed, client, early, t_setup)
     except BaseException:
         if early is not None:
             close_quietly(*early)
@@ -161,17 +163,22 @@ def _has_dashboard(client) -> bool:
         return False
 
 
-def task_specs(study: Study, tasks, kwargs: dict[str, Any], names, solver,
-               time_budget) -> list[dict[str, Any]]:
+def task_specs(study: Study, tasks, kwargs: dict[str, Any], names, solver, time_budget, *,
+               store: Path, owner: dict[str, Any], sampler: Sampler) -> list[dict[str, Any]]:
     """What the client hands to Dask for each task (scheduler.worker.run_task's argument):
-    the block's axes, the solver's options, the variables to return."""
+    the block's place and axes, the solver's options, the variables to store, where to write
+    them (the store's absolute path: workers may run elsewhere) and as whose (``owner``, the
+    client's lock record), and what the error sample needs of the block."""
     om, sg, zt = study.axis("omega"), study.axis("sigma"), study.axis("zeta")
+    where = str(Path(store).resolve())
     specs = []
     for t in tasks:
         so, ss, sz = t.slices
-        specs.append({"index": t.index, "omega": om[so], "sigma": sg[ss], "zeta": zt[sz],
+        specs.append({"index": t.index, "slices": [(s.start, s.stop) for s in t.slices],
+                      "omega": om[so], "sigma": sg[ss], "zeta": zt[sz],
                       "kwargs": kwargs, "names": names, "solver": solver,
-                      "time_budget": time_budget})
+                      "time_budget": time_budget, "store": where, "owner": owner,
+                      "sample": sampler.task_spec(t)})
     return specs
 
 
@@ -179,7 +186,7 @@ class StudyRun:
     """One run of a study into its (locked) store: repair, resume, compute, summarise."""
 
     def __init__(self, study: Study, opts: RunOptions, store: Store, out: TextIO, err: TextIO,
-                 warming: Future | None = None):
+                 warming: Future | None = None, owner: dict[str, Any] | None = None):
         self.study = study
         self.opts = opts
         self.store = store
@@ -189,6 +196,8 @@ class StudyRun:
         self.names = stored_variables(study)
         self.interrupt = DeferInterrupt()
         self.futures: list = []
+        #: the store's lock record of this client: its tasks' workers write only while it holds
+        self.owner = owner
         #: the warm-up plugin's registration, started with the embedded cluster (start_warm_up)
         self.warming = warming
         self.summary: dict[str, Any] = {"store": str(store.path), "tasks_total": len(self.plan.tasks),
@@ -196,7 +205,7 @@ class StudyRun:
         # the atlas, after the grid and before the curves
         self.atlas = AtlasRun(study, store, out, err, self.interrupt, opts.command,
                               enabled=opts.solver == DEFAULT_SOLVER and opts.atlas,
-                              tile=opts.atlas_tile)
+                              tile=opts.atlas_tile, owner=owner)
         # the traced curves of a study with the "curves" output, after its grid
         self.curves = CurveRun(study, store, out, err, self.interrupt, opts.command,
                                opts.curve_tracer)
@@ -284,15 +293,24 @@ class StudyRun:
               f"{self.store.path}; to resume, run again: {self.opts.command}", file=self.err,
               flush=True)
 
-    def task_specs(self, todo, kwargs) -> list[dict[str, Any]]:
+    def task_specs(self, todo, kwargs, sampler: Sampler) -> list[dict[str, Any]]:
         return task_specs(self.study, todo, kwargs, self.names, self.opts.solver,
-                          self.opts.task_timeout)
+                          self.opts.task_timeout, store=self.store.path, owner=self.owner,
+                          sampler=sampler)
+
+    def workers_without_the_store(self, client) -> list[str]:
+        """The connected workers that cannot write this client's store (scheduler.store.
+        check_writer on each), with why: workers on other machines need it on a shared file
+        system. A worker that joins later is checked by its first task."""
+        replies = client.run(check_writer, str(self.store.path.resolve()), self.owner,
+                             on_error="return")
+        return [f"{w}: {r}" for w, r in sorted(replies.items()) if isinstance(r, Exception)]
 
     def compute(self, client, cluster, todo, n_done, t_setup, own_client) -> dict[str, Any]:
         from distributed import as_completed
 
         opts, store, summary = self.opts, self.store, self.summary
-        if opts.cluster.kind != "local" and own_client:
+        if opts.cluster.kind not in LOCAL_KINDS and own_client:
             print(f"waiting for workers ({opts.cluster.describe()}) ...", file=self.out, flush=True)
         if cluster is not None and opts.cluster.kind in JOBQUEUE:
             try:
@@ -311,24 +329,39 @@ class StudyRun:
         kwargs = self.study.solver_kwargs()
         if self.warming is not None:
             self.warming.result()       # registered when the embedded cluster started
-        else:
+        elif opts.cluster.kind != INPROCESS:
             client.register_plugin(warm_up_plugin(self.study, opts), name="hertzmap-warmup")
+        # (in-process, the one worker thread loads the kernels its first task calls: a warm-up
+        # there would load every entry point, the census's and the curves' too, in this
+        # process, and compete with the store's creation for its interpreter lock)
+        if opts.cluster.kind not in LOCAL_KINDS:
+            blind = self.workers_without_the_store(client)
+            if blind:
+                msg = (f"{len(blind)} worker(s) cannot write the store: {blind[0]}"
+                       f"{' ...' if len(blind) > 1 else ''}; fix that and rerun: the store "
+                       f"({store.path}) resumes")
+                with self.interrupt.critical():
+                    store.add_history(f"{opts.command}: stopped, workers cannot write the store")
+                print(f"hertzmap: error: {msg}", file=self.err, flush=True)
+                summary.update(complete=False, failed=[("shared file system", msg)])
+                return summary
         n_workers = worker_count(client)
         setup = time.perf_counter() - t_setup
-        dash = client.dashboard_link if _has_dashboard(client) else "unavailable (pip install bokeh)"
-        print(f"running {len(todo)} tasks ({sum(t.size for t in todo)} points) on {n_workers} "
-              f"workers; setup {setup:.1f} s; dashboard: {dash}", file=self.out, flush=True)
+        summary["where"] = where_line(opts.cluster, n_workers)
+        dash = (client.dashboard_link if _has_dashboard(client) else "unavailable (pip install bokeh)"
+                ) if opts.cluster.kind != INPROCESS else "none (in-process)"
+        print(f"running {len(todo)} tasks ({sum(t.size for t in todo)} points) "
+              f"{summary['where']}; setup {setup:.1f} s; dashboard: {dash}", file=self.out, flush=True)
 
         by_index = {t.index: t for t in todo}
         keys = [t.key(self.study.hash) for t in todo]
         progress = Progress(self.err, len(self.plan.tasks), sum(t.size for t in todo), n_done)
         sampler = Sampler(self.study, opts.error_sample)
-        tally = {"compute": 0.0, "conv": 0, "fail": 0, "cut": 0, "with": 0, "points": 0,
-                 "liouville": math.nan, "lyapunov_sum": math.nan, "attractors": 0,
-                 "dropped": 0, "dropping": 0}
+        tally = {"compute": 0.0, "write": 0.0, "points": 0, **{k: 0 for k in SUMMED_COUNTS},
+                 **{k: math.nan for k in WORST_COUNTS}}
         pids: set[int] = set()
         t0 = time.perf_counter()
-        self.futures.extend(client.map(run_task, self.task_specs(todo, kwargs), key=keys,
+        self.futures.extend(client.map(run_task, self.task_specs(todo, kwargs, sampler), key=keys,
                                        pure=False))
         lost = None
         for fut in as_completed(self.futures):
@@ -342,25 +375,16 @@ class StudyRun:
                 fut.release()
                 continue
             task = by_index[tuple(res["index"])]
-            arrays = res["arrays"]
+            # the worker wrote the block before its task returned: only now its flag
             with self.interrupt.critical():
-                store.write_block(task.slices, arrays, self.names)   # 1. the block ...
-                store.mark_done(task.index)                          # 2. ... then its flag
+                store.mark_done(task.index)
             fut.release()
             tally["compute"] += res["seconds"]
+            tally["write"] += res["write_seconds"]
             pids.add(res["pid"])
-            st = arrays["status"]
-            tally["conv"] += int((st == 0).sum())
-            tally["fail"] += int(((st > 0) & (st != TIME_LIMIT)).sum())
-            tally["cut"] += int((st == TIME_LIMIT).sum())
-            tally["with"] += int((st == 0).any(axis=-1).sum())
-            if "orbits_dropped" in arrays:
-                dropped = arrays["orbits_dropped"]
-                tally["dropped"] += int(dropped[dropped > 0].sum())
-                tally["dropping"] += int((dropped > 0).sum())
-            worst_certificates(tally, arrays)
+            add_counts(tally, res["counts"])
             tally["points"] += task.size
-            sampler.add(task, arrays)
+            sampler.merge(res["samples"])
             summary["tasks_run"] += 1
             progress.update(task.size)
         wall = time.perf_counter() - t0
@@ -372,6 +396,7 @@ class StudyRun:
         n_conv, n_fail = tally["conv"], tally["fail"]
         summary.update(
             wall=wall, setup=setup, workers=n_workers, compute=tally["compute"],
+            block_writes=tally["write"],
             overhead=overhead(tally["compute"], wall, n_workers, n_run),
             per_task=tally["compute"] / max(1, n_run),
             points=tally["points"],

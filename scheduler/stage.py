@@ -1,6 +1,6 @@
 """What the stages after the grid share (the atlas, scheduler.atlas_tasks; the traced curves,
-scheduler.curve_tasks): the study, its locked store, where to print, the run's interrupt guard
-and command, and the solver's options the stage's tasks integrate with."""
+scheduler.curve_tasks): the study, its locked store and the lock's owner, where to print, the
+run's interrupt guard and command, and the solver's options the stage's tasks integrate with."""
 from __future__ import annotations
 
 from typing import TextIO
@@ -14,8 +14,11 @@ class Stage:
     """A stage of one run of a study into its (locked) store, after its grid."""
 
     def __init__(self, study: Study, store: Store, out: TextIO, err: TextIO, interrupt,
-                 command: str = "hertzmap run"):
+                 command: str = "hertzmap run", owner: dict | None = None):
         self.study = study
+        #: the store's lock record of this run's client (scheduler.store.Lock.owner): workers
+        #: write into the store only while it holds it
+        self.owner = owner
         self.store = store
         self.out = out
         self.err = err

@@ -1,13 +1,18 @@
 """The zarr store of a study: create it from the template, check it, write blocks, mark tasks,
-write products, and the lock that keeps one writer per store. Every write into a store and
+write products, and the lock that keeps one client per store. Every write into a store and
 every lock of hertzmap is here.
 
-The client process is the only writer. The template is written once with
-``to_zarr(compute=False)`` (metadata, coordinates, an all-False ``task_done``); each finished
-block is a region write of whole chunks (coordinates dropped, never ``mode="a"``), and only
-then is its ``task_done`` flag set. A flag is therefore never set for a block that is not
-fully written; a block written but not flagged (client killed in between) is simply
-recomputed on resume and rewritten with identical values.
+One client per store (``Lock``), many writers of blocks: the client writes the template once
+with ``to_zarr(compute=False)`` (metadata, coordinates, an all-False ``task_done``); each task's
+worker writes its own block (:func:`write_task_block`: a region write of whole chunks,
+coordinates dropped, never ``mode="a"``; no two tasks share a chunk, so no lock is needed
+between them) and returns a summary, and only then does the client set the task's
+``task_done`` flag. A flag is therefore never set for a block that is not fully written; a
+block written but not flagged (a worker or the client killed in between) is simply recomputed
+on resume and rewritten with identical values. A worker writes only while the lock file holds
+the very client that sent its task (:func:`check_writer`): a worker of a client that died
+never writes into a store another client has taken over, and a worker that does not see the
+client's file system is told so instead of writing elsewhere.
 """
 
 from __future__ import annotations
@@ -18,6 +23,7 @@ import json
 import os
 import shutil
 import socket
+import uuid
 import warnings
 from pathlib import Path
 from typing import Any
@@ -92,7 +98,7 @@ class Store:
         self._group = zarr.open_group(zarr.storage.LocalStore(self.path), mode="r+",
                                       zarr_format=3, use_consolidated=False)
         self._done = self._group["task_done"]
-        self._arrays: dict[str, zarr.Array] = {}
+        self._writer: BlockWriter | None = None
 
     # -- creation -------------------------------------------------------------------------
     @classmethod
@@ -218,40 +224,11 @@ class Store:
     # -- data -----------------------------------------------------------------------------
     def write_block(self, slices: tuple[slice, slice, slice], arrays: dict[str, np.ndarray],
                     names: tuple[str, ...]) -> None:
-        """Region write of one block (whole chunks) of every variable in ``names``, all in one
-        call into zarr's event loop (its writes run concurrently). Per-block variables (dim
-        ``omega_block``: the located bifurcation points) go to the block's own omega_block
-        entry: one writer per chunk.
-
-        Byte-for-byte what ``block_dataset(...).to_zarr(region=...)`` writes (the stored dtypes
-        are the VARIABLES dtypes and no variable has a CF scale or offset; tested), at a third
-        of its cost: xarray's region write re-opens and re-validates every array on each call,
-        and zarr then runs one event-loop round trip per variable, all on the client that also
-        schedules the study."""
-        ib = slices[0].start // self.chunks[0]
-        jobs = []
-        for name in names:
-            v = VARIABLES[name]
-            arr = self._writable(name)
-            lead = (slice(ib, ib + 1), slices[1], slices[2]) if v.layout == "line" else tuple(slices)
-            sel = lead + (slice(None),) * (arr.ndim - 3)
-            data = np.ascontiguousarray(np.asarray(arrays[name]).astype(v.dtype, copy=False))
-            jobs.append(arr.async_array.setitem(sel, data))
-
-        async def write_all():
-            await asyncio.gather(*jobs)
-
-        zarr_sync(write_all())
-
-    def _writable(self, name: str) -> zarr.Array:
-        """The zarr array ``name``, opened once, writing every chunk of a block in stores that
-        require it (even all-fill chunks: see verify)."""
-        arr = self._arrays.get(name)
-        if arr is None:
-            arr = self._group[name].with_config(
-                {"write_empty_chunks": bool(self.attrs.get(ALL_CHUNKS_ATTR))})
-            self._arrays[name] = arr
-        return arr
+        """Region write of one block (whole chunks) of every variable in ``names``
+        (:class:`BlockWriter`): the atlas's commits, and tests."""
+        if self._writer is None:
+            self._writer = BlockWriter(self._group, self.chunks, bool(self.attrs.get(ALL_CHUNKS_ATTR)))
+        self._writer.write(slices, arrays, names)
 
     def set_attrs(self, **attrs: Any) -> None:
         """Update root attrs in one atomic rewrite of the root zarr.json that keeps its
@@ -274,6 +251,110 @@ class Store:
     def add_history(self, action: str) -> None:
         hist = self.attrs.get("history", "")
         self.set_attrs(history=(hist + "\n" if hist else "") + history_line(action))
+
+
+class BlockWriter:
+    """The arrays of a store's main group, each opened once, for region writes of whole blocks.
+
+    Byte-for-byte what ``block_dataset(...).to_zarr(region=...)`` writes (the stored dtypes
+    are the VARIABLES dtypes and no variable has a CF scale or offset; tested), at a third
+    of its cost: xarray's region write re-opens and re-validates every array on each call,
+    and zarr then runs one event-loop round trip per variable."""
+
+    def __init__(self, group: zarr.Group, chunks: tuple[int, ...], all_chunks: bool):
+        self._group = group
+        self.chunks = tuple(int(c) for c in chunks)
+        #: every chunk of a block is written, even all-fill ones, in stores that require it:
+        #: a done task whose chunk file is missing is then known to be damaged (Store.verify)
+        self.all_chunks = all_chunks
+        self._arrays: dict[str, zarr.Array] = {}
+
+    def _array(self, name: str) -> zarr.Array:
+        arr = self._arrays.get(name)
+        if arr is None:
+            arr = self._arrays[name] = self._group[name].with_config(
+                {"write_empty_chunks": self.all_chunks})
+        return arr
+
+    def write(self, slices: tuple[slice, slice, slice], arrays: dict[str, np.ndarray],
+              names: tuple[str, ...]) -> None:
+        """Every variable in ``names`` of one block, all in one call into zarr's event loop
+        (its writes run concurrently). Per-block variables (dim ``omega_block``: the located
+        bifurcation points) go to the block's own omega_block entry: one writer per chunk."""
+        ib = slices[0].start // self.chunks[0]
+        jobs = []
+        for name in names:
+            v = VARIABLES[name]
+            arr = self._array(name)
+            lead = (slice(ib, ib + 1), slices[1], slices[2]) if v.layout == "line" else tuple(slices)
+            sel = lead + (slice(None),) * (arr.ndim - 3)
+            data = np.ascontiguousarray(np.asarray(arrays[name]).astype(v.dtype, copy=False))
+            jobs.append(arr.async_array.setitem(sel, data))
+
+        async def write_all():
+            await asyncio.gather(*jobs)
+
+        zarr_sync(write_all())
+
+
+#: where a worker process writes: store path -> (its task_done metadata file's (inode, mtime),
+#: the writer). A store made again (--overwrite) has new metadata files, so a writer of the
+#: store it replaced is never used.
+_WRITERS: dict[str, tuple[tuple[int, int], BlockWriter]] = {}
+
+
+def shared_store_hint(path: str | Path) -> str:
+    return (f"hertzmap's workers write their blocks into the store themselves, so {path} must be "
+            "on a file system that the workers share with the client, at the same path "
+            "(docs/running.md, \"Workers write the store\")")
+
+
+def check_writer(path: str | Path, owner: dict[str, Any]) -> None:
+    """Raise StoreError unless the store's lock file holds ``owner``: the client that sent the
+    task still holds the store. A worker that does not see the store (no shared file system)
+    is told so; a worker of a client that died or ended never writes into a store that a
+    later client holds."""
+    path = Path(path)
+    where = f"worker on {socket.gethostname()} (pid {os.getpid()})"
+    try:
+        held = json.loads(lock_path(path).read_text())
+    except FileNotFoundError:
+        if read_attrs(path) is None:
+            raise StoreError(f"{where}: no hertzmap store at {path}: "
+                             + shared_store_hint(path)) from None
+        raise StoreError(f"{where}: {path} is not locked by the client that sent this task "
+                         "(it has ended): not writing") from None
+    except (OSError, ValueError) as exc:
+        raise StoreError(f"{where}: cannot read the lock {lock_path(path)} "
+                         f"({type(exc).__name__}: {exc}): not writing") from None
+    if held != owner:
+        raise StoreError(f"{where}: {path} is held by another client (host {held.get('host')}, "
+                         f"pid {held.get('pid')}), not by the one that sent this task (host "
+                         f"{owner.get('host')}, pid {owner.get('pid')}): not writing")
+
+
+def _writer_for(path: str | Path) -> BlockWriter:
+    path = Path(path)
+    meta = os.stat(path / "task_done" / "zarr.json")
+    stamp = (meta.st_ino, meta.st_mtime_ns)
+    hit = _WRITERS.get(str(path))
+    if hit is None or hit[0] != stamp:
+        attrs = read_attrs(path) or {}
+        group = zarr.open_group(zarr.storage.LocalStore(path), mode="r+", zarr_format=3,
+                                use_consolidated=False)
+        hit = _WRITERS[str(path)] = (stamp, BlockWriter(
+            group, attrs["hertzmap_chunk_shape"], bool(attrs.get(ALL_CHUNKS_ATTR))))
+    return hit[1]
+
+
+def write_task_block(path: str | Path, owner: dict[str, Any], slices: tuple[slice, slice, slice],
+                     arrays: dict[str, np.ndarray], names: tuple[str, ...]) -> None:
+    """A task's own block, written by the worker that solved it (scheduler.worker.run_task):
+    whole chunks that no other task writes, so without a lock between workers; only while
+    ``owner`` (the client's Lock.owner) holds the store (check_writer). The client sets the
+    task's flag once this has returned."""
+    check_writer(path, owner)
+    _writer_for(path).write(slices, arrays, names)
 
 
 def remove_store(path: str | Path) -> None:
@@ -328,9 +409,14 @@ class Lock:
     def __init__(self, store_path: str | Path):
         self.path = lock_path(store_path)
         self.held = False
+        #: what the lock file holds while this client holds it (host, pid, token): the tasks
+        #: carry it to their workers (check_writer)
+        self.owner: dict[str, Any] | None = None
 
     def acquire(self) -> None:
-        me = {"host": socket.gethostname(), "pid": os.getpid()}
+        # the token tells this client's lock from a later one of the same host and pid: a
+        # worker compares the whole record before writing (check_writer)
+        me = {"host": socket.gethostname(), "pid": os.getpid(), "token": uuid.uuid4().hex}
         for _ in range(2):
             try:
                 fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
@@ -349,6 +435,7 @@ class Lock:
             with os.fdopen(fd, "w") as f:
                 json.dump(me, f)
             self.held = True
+            self.owner = me
             return
         raise StoreError(f"cannot lock {self.path}")
 
@@ -606,7 +693,7 @@ def write_atlas_tile(store: str | Path, round_: int, index: tuple[int, int, int]
     """Stage one tile's result of an atlas round (its arrays, or None when the round added
     nothing there) as one .npz file, written whole or not at all: a killed round keeps the
     tiles staged so far, and the main group is written only when the round commits. The caller
-    holds the store's lock."""
+    holds the store's lock, or is a worker of the client that holds it (stage_atlas_tile)."""
     root = _stage_dir(store, round_)
     root.mkdir(parents=True, exist_ok=True)
     name = "-".join(str(int(i)) for i in index)
@@ -618,6 +705,14 @@ def write_atlas_tile(store: str | Path, round_: int, index: tuple[int, int, int]
         os.fsync(f.fileno())
     os.replace(building, final)
     return final
+
+
+def stage_atlas_tile(store: str | Path, owner: dict[str, Any], round_: int,
+                     index: tuple[int, int, int], arrays: dict[str, np.ndarray] | None) -> Path:
+    """write_atlas_tile by the worker that computed the tile, only while ``owner`` (the
+    client's Lock.owner) holds the store (check_writer)."""
+    check_writer(store, owner)
+    return write_atlas_tile(store, round_, index, arrays)
 
 
 def staged_atlas_tiles(store: str | Path, round_: int) -> set[tuple[int, int, int]]:

@@ -204,3 +204,49 @@ def test_failed_tasks_exit_1_then_rerun_completes(tmp_path, capsys):
     assert main(args + ["--solver", PLACEHOLDER]) == 0
     assert "2/3 tasks already done" in capsys.readouterr().out
     assert Store(store).done_mask().all()
+
+
+ONE_POINT = """
+[study]
+name = "one"
+[grid]
+omega = 1.9
+sigma = 0.5
+zeta = 0.01
+[products]
+outputs = ["orbits", "measures"]
+"""
+
+
+def test_a_small_study_runs_in_process_and_stores_what_a_cluster_run_stores(tmp_path, capsys):
+    """A one-point study with nothing said of where to run: no worker process is started
+    (said on the first line and in the summary's), and the store (grid, census, atlas, error
+    estimate's sample) is the one a process cluster writes, as scripts/compare_stores.py
+    compares them; --workers, --cluster local and --scheduler still choose."""
+    p = tmp_path / "one.toml"
+    p.write_text(ONE_POINT)
+    small, cluster = tmp_path / "small.zarr", tmp_path / "cluster.zarr"
+    env = subprocess_env()
+    r = subprocess.run(hertzmap_cmd("run", str(p), "--store", str(small)), env=env,
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.splitlines()
+    assert lines[0].startswith("running 1 tasks (1 points) in-process"), r.stdout
+    assert next(ln for ln in lines if ln.startswith("done:")).startswith(
+        "done: 1 tasks, 1 points in "), r.stdout
+    assert "in-process" in next(ln for ln in lines if ln.startswith("done:"))
+    assert "Traceback" not in r.stdout + r.stderr
+    r = subprocess.run(hertzmap_cmd("run", str(p), "--store", str(cluster), "--workers", "1"),
+                       env=env, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "on 1 workers" in r.stdout.splitlines()[0] and "in-process" not in r.stdout
+    same = subprocess.run([sys.executable, str(Path(__file__).parents[2] / "scripts" /
+                                               "compare_stores.py"), str(small), str(cluster)],
+                          env=env, capture_output=True, text=True, timeout=120)
+    assert same.returncode == 0 and "identical:" in same.stdout, same.stdout + same.stderr
+    for where, expected in ((["--cluster", "local"], "local cluster"),
+                            (["--workers", "2"], "local cluster: 2"),
+                            ([], "in-process")):
+        assert main(["run", str(p), "--store", str(tmp_path / "dry.zarr"), "--dry-run",
+                     *where]) == 0
+        assert f"runs on      {expected}" in capsys.readouterr().out, where

@@ -157,6 +157,81 @@ def test_lock_refuses_a_second_live_client_and_takes_over_a_dead_one(tmp_path, c
     assert not lock.exists()
 
 
+def _chunk_files(path):
+    return sorted((str(f.relative_to(path)), f.stat().st_mtime_ns, f.read_bytes())
+                  for f in path.rglob("*") if f.is_file() and "/c/" in str(f))
+
+
+def test_a_worker_writes_only_for_the_client_that_holds_the_store(tmp_path):
+    """write_task_block (what run_task calls) writes its block while the client that sent the
+    task holds the lock; for a client that has ended, or when another client holds the store
+    now (a worker of a dead client finishing late), it refuses and writes nothing."""
+    from hertzmap.scheduler.store import write_task_block
+
+    s = placeholder_study()
+    path = tmp_path / "w.zarr"
+    store, _ = open_or_create(path, s, choose_chunks(s), overwrite=False, action="t")
+    t0, t1 = make_plan(s, store.chunks).tasks[:2]
+    names = stored_variables(s)
+
+    def block(t):
+        so, ss, sz = t.slices
+        return placeholder_solve_block(s.axis("omega")[so], s.axis("sigma")[ss],
+                                       s.axis("zeta")[sz], **s.solver_kwargs())
+
+    with Lock(path) as first:
+        write_task_block(str(path), first.owner, t0.slices, block(t0), names)
+    written = _chunk_files(path)
+    assert any(f.startswith("q0/c/") for f, _, _ in written)
+    with pytest.raises(StoreError, match="not locked by the client that sent this task"):
+        write_task_block(str(path), first.owner, t1.slices, block(t1), names)
+    with Lock(path) as second:
+        assert second.owner["pid"] == first.owner["pid"]        # same process, a later lock
+        with pytest.raises(StoreError, match="held by another client"):
+            write_task_block(str(path), first.owner, t1.slices, block(t1), names)
+    assert _chunk_files(path) == written                         # nothing written by them
+    # the block the first client's worker wrote is what the solver gave
+    ds = xr.open_zarr(path).isel(omega=t0.slices[0], sigma=t0.slices[1], zeta=t0.slices[2])
+    np.testing.assert_array_equal(ds.q0.values, block(t0)["q0"])
+
+
+def test_a_worker_that_does_not_see_the_store_says_it_needs_a_shared_file_system(tmp_path):
+    from hertzmap.scheduler.store import check_writer
+
+    owner = {"host": socket.gethostname(), "pid": 1, "token": "0" * 32}
+    with pytest.raises(StoreError, match="must be on a file system that the workers share"):
+        check_writer(tmp_path / "elsewhere.zarr", owner)
+    assert not (tmp_path / "elsewhere.zarr").exists()
+
+
+def test_workers_that_cannot_write_the_store_stop_the_run_before_any_task(tmp_path, client):
+    """With --scheduler or --cluster the connected workers are asked first: here the lock
+    they find is not the run's (what a worker sees when the path it has is another file
+    system's), so the run stops with the reason, no task submitted, nothing flagged, and a
+    rerun resumes."""
+    import io
+
+    from hertzmap.scheduler.cluster import ClusterSpec
+    from hertzmap.scheduler.run import RunOptions, StudyRun
+    from tests.helpers import PLACEHOLDER
+
+    s = placeholder_study()
+    path = tmp_path / "n.zarr"
+    store, _ = open_or_create(path, s, choose_chunks(s), overwrite=False, action="t")
+    opts = RunOptions(store=path, solver=PLACEHOLDER, cluster=ClusterSpec(kind="address"),
+                      error_sample=0)
+    out, err = io.StringIO(), io.StringIO()
+    before = _chunk_files(path)
+    with Lock(path):
+        elsewhere = {"host": "another-node", "pid": 1, "token": "0" * 32}
+        summary = StudyRun(s, opts, store, out, err, owner=elsewhere).run(False, client)
+    assert not summary["complete"] and summary["failed"][0][0] == "shared file system"
+    assert "cannot write the store" in err.getvalue() and "held by another client" in err.getvalue()
+    assert "running" not in out.getvalue()
+    assert _chunk_files(path) == before            # no block written, no flag set
+    assert placeholder_run(path, client)["complete"]
+
+
 def test_resume_with_other_solver_code_warns(tmp_path, client, capsys):
     s = placeholder_study()
     path = tmp_path / "g.zarr"
