@@ -474,16 +474,19 @@ def make_client(spec: ClusterSpec, report=None):
     make_jobqueue_cluster."""
     from distributed import Client, LocalCluster
 
+    import dask
+
     spec.check()
     if spec.kind == "address":
         try:
-            client = Client(spec.address, timeout="30s")
+            # Dask's connect timeout (30 s unless DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT or
+            # the Dask config says otherwise): how long an unreachable scheduler is waited for
+            client = Client(spec.address,
+                            timeout=dask.config.get("distributed.comm.timeouts.connect"))
         except (OSError, TimeoutError, ValueError) as exc:
             raise ClusterError(f"--scheduler {spec.address}: cannot connect to a Dask scheduler "
                                f"there ({type(exc).__name__}: {exc})") from None
         return client, None
-    import dask
-
     if spec.kind == INPROCESS:
         # a small study: the scheduler and one single-threaded worker in this process (about
         # a second to start where a process cluster took 10-12 s with its workers loading the
