@@ -155,21 +155,26 @@ def wait_until(pred, timeout: float, what: str) -> None:
         time.sleep(0.02)
 
 
-def kill_client_mid_study(cmd, env, store, tasks: int) -> int:
-    """Start `hertzmap run` (cmd) in its own process group, SIGKILL the whole group (client,
-    scheduler, workers) once ``tasks`` tasks are done, and return how many were done."""
+def kill_run_when(cmd, env, pred, what: str, timeout: float = 300) -> None:
+    """Start `hertzmap run` (cmd) in its own process group and SIGKILL the whole group
+    (client, scheduler, workers) once ``pred(process)`` holds."""
     import signal
     import subprocess
     p = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                          start_new_session=True)
     try:
-        wait_until(lambda: done_count(store) >= tasks or p.poll() is not None, 90,
-                   f"{tasks} tasks")
+        wait_until(lambda: pred(p), timeout, what)
         os.killpg(p.pid, signal.SIGKILL)
         p.wait(timeout=30)
     finally:
         if p.poll() is None:
             os.killpg(p.pid, signal.SIGKILL)
+
+
+def kill_client_mid_study(cmd, env, store, tasks: int) -> int:
+    """kill_run_when ``tasks`` tasks are done (or the run ended); how many were done."""
+    kill_run_when(cmd, env, lambda p: done_count(store) >= tasks or p.poll() is not None,
+                  f"{tasks} tasks", timeout=90)
     return done_count(store)
 
 

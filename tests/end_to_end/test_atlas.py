@@ -5,8 +5,6 @@ tiles of a round then rerun; every orbit the atlas added is a fixed point of the
 period map (benchmarks/oracle.py)."""
 from __future__ import annotations
 
-import os
-import signal
 import subprocess
 
 import numpy as np
@@ -17,7 +15,7 @@ from benchmarks import oracle
 from hertzmap.scheduler.store import ATLAS_ATTR, ATLAS_STAGE, Store, read_attrs
 from hertzmap.study.schema import ATTRACTOR_KINDS
 from hertzmap.study.solve.atlas import census_points
-from tests.helpers import SLOW_ATLAS_TILE, hertzmap_cmd, subprocess_env, wait_until
+from tests.helpers import SLOW_ATLAS_TILE, hertzmap_cmd, kill_run_when, subprocess_env
 from tests.scheduler.test_run import assert_same_store
 
 pytestmark = [pytest.mark.slow]
@@ -35,10 +33,9 @@ outputs = ["orbits", "measures"]
 ARGS = ["--task-seconds", "0.01", "--error-sample", "0"]
 
 
-def _run(d, store, *extra, env=None):
-    r = subprocess.run(hertzmap_cmd("run", str(d / "atlas.toml"), "--store", str(store), *ARGS,
-                                    *extra), env=env or subprocess_env(), capture_output=True,
-                       text=True, timeout=600)
+def _run(d, store, *extra, study="atlas.toml"):
+    r = subprocess.run(hertzmap_cmd("run", str(d / study), "--store", str(store), *ARGS, *extra),
+                       env=subprocess_env(), capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stdout + r.stderr
     assert "Traceback" not in r.stdout + r.stderr
     return r.stdout
@@ -89,18 +86,10 @@ def test_client_killed_between_staged_tiles_then_rerun_identical(reference, tmp_
     cmd = hertzmap_cmd("run", str(d / "atlas.toml"), "--store", str(store), *ARGS,
                        "--workers", "2", "--atlas-tile", SLOW_ATLAS_TILE)
     stage = store / ATLAS_STAGE / "round_0001"
-    p = subprocess.Popen(cmd, env=subprocess_env(HERTZMAP_ATLAS_DELAY="1.0"),
-                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                         start_new_session=True)
-    try:
-        wait_until(lambda: stage.is_dir() and any(not q.name.startswith(".")
-                                                  for q in stage.iterdir()), timeout=300,
-                   what="a staged tile of the first atlas round")
-        os.killpg(p.pid, signal.SIGKILL)
-        p.wait(timeout=30)
-    finally:
-        if p.poll() is None:
-            os.killpg(p.pid, signal.SIGKILL)
+    kill_run_when(cmd, subprocess_env(HERTZMAP_ATLAS_DELAY="1.0"),
+                  lambda p: stage.is_dir() and any(not q.name.startswith(".")
+                                                   for q in stage.iterdir()),
+                  "a staged tile of the first atlas round")
     staged = [q for q in stage.iterdir() if not q.name.startswith(".")]
     assert 1 <= len(staged) < len(Store(store).done_mask().ravel()), "the kill missed the round"
     assert read_attrs(store).get(ATLAS_ATTR, {}).get("phase") != "done"
@@ -133,21 +122,12 @@ outputs = ["orbits", "measures", "attractors"]
 """
 
 
-def _run_census(d, store, *extra):
-    r = subprocess.run(hertzmap_cmd("run", str(d / "census_rounds.toml"), "--store", str(store),
-                                    *ARGS, *extra), env=subprocess_env(), capture_output=True,
-                       text=True, timeout=600)
-    assert r.returncode == 0, r.stdout + r.stderr
-    assert "Traceback" not in r.stdout + r.stderr
-    return r.stdout
-
-
 @pytest.fixture(scope="module")
 def census_reference(tmp_path_factory):
     d = tmp_path_factory.mktemp("census_rounds")
     (d / "census_rounds.toml").write_text(CENSUS_STUDY)
     ref = d / "ref.zarr"
-    out = _run_census(d, ref, "--workers", "2")
+    out = _run(d, ref, "--workers", "2", study="census_rounds.toml")
     return d, ref, out
 
 
@@ -185,23 +165,15 @@ def test_census_round_killed_then_rerun_on_one_worker_gives_the_same_store(censu
     store = tmp_path / "killed.zarr"
     cmd = hertzmap_cmd("run", str(d / "census_rounds.toml"), "--store", str(store), *ARGS,
                        "--workers", "1", "--atlas-tile", SLOW_ATLAS_TILE)
-    p = subprocess.Popen(cmd, env=subprocess_env(HERTZMAP_ATLAS_DELAY="1.0"),
-                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                         start_new_session=True)
 
-    def in_census_round():
+    def in_census_round(_):
         state = (read_attrs(store) or {}).get(ATLAS_ATTR) or {}     # None: no store yet
         return state.get("kind") == "census" and state.get("phase") == "computing"
 
-    try:
-        wait_until(in_census_round, timeout=300, what="the census round")
-        os.killpg(p.pid, signal.SIGKILL)
-        p.wait(timeout=30)
-    finally:
-        if p.poll() is None:
-            os.killpg(p.pid, signal.SIGKILL)
+    kill_run_when(cmd, subprocess_env(HERTZMAP_ATLAS_DELAY="1.0"), in_census_round,
+                  "the census round")
     state = read_attrs(store)[ATLAS_ATTR]
     assert state["kind"] == "census" and state["phase"] != "done", "the kill missed the round"
-    _run_census(d, store, "--workers", "1")
+    _run(d, store, "--workers", "1", study="census_rounds.toml")
     assert_same_store(ref, store)
     assert read_attrs(store)[ATLAS_ATTR] == read_attrs(ref)[ATLAS_ATTR]
