@@ -55,8 +55,9 @@ MAX_ITER = 10
 #: orbit most often ends between the points, and a shorter step only costs. Measured: on the
 #: default scene's first round, 887 shots of 3,940 failed, most near a fold (median |fold
 #: function| 0.17); half steps recovered 8 (all with a fold function above 1); over the whole
-#: atlas, the vibro-impact scene gains 68 orbits (17,254 -> 17,322) for 9.6 % more shots, the
-#: default scene none (its 8 arrive by later rounds) for 8 % more.
+#: atlas (benchmarks/atlas_fold_step.py), the vibro-impact scene gains 39 orbits (15,009 ->
+#: 15,048; 9 more points with a stable 12T orbit) for 9.6 % more shots, the default scene none
+#: (its 8 arrive by later rounds) for 8 % more.
 FAR_FROM_FOLD = 0.5
 
 
