@@ -22,7 +22,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from benchmarks.map_completeness import _run, _table, counts  # noqa: E402
+from benchmarks.map_completeness import counts, print_table, run_scene  # noqa: E402
 
 
 def tile_without_half_steps(*args, **kwargs):
@@ -53,18 +53,18 @@ def main(argv: list[str]) -> int:
         folder = Path(keep or tmp)
         folder.mkdir(parents=True, exist_ok=True)
         grid = folder / "grid.zarr"
-        _run(scene, grid, ["--skip-atlas"], workers)
+        run_scene(scene, grid, ["--skip-atlas"], workers)
         stores = {}
         for name in ("off", "on"):
             stores[name] = folder / f"{name}.zarr"
             shutil.rmtree(stores[name], ignore_errors=True)
             shutil.copytree(grid, stores[name])
-        off = _run(scene, stores["off"], ["--atlas-tile",
+        off = run_scene(scene, stores["off"], ["--atlas-tile",
                                           "benchmarks.atlas_fold_step:tile_without_half_steps"],
                    workers, env)
-        on = _run(scene, stores["on"], [], workers, env)
+        on = run_scene(scene, stores["on"], [], workers, env)
         print(f"{scene}: the same grid; the atlas without (off) and with (on) the half steps")
-        _table(counts(str(stores["off"])) | _shots(stores["off"]) | off,
+        print_table(counts(str(stores["off"])) | _shots(stores["off"]) | off,
                counts(str(stores["on"])) | _shots(stores["on"]) | on, ("off", "on"))
     return 0
 

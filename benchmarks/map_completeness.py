@@ -75,7 +75,7 @@ def _before_study(scene: Path, folder: Path) -> Path:
     return out
 
 
-def _run(study: Path, store: Path, extra: list[str], workers: int,
+def run_scene(study: Path, store: Path, extra: list[str], workers: int,
          env: dict | None = None) -> dict[str, float]:
     """hertzmap run; the costs its summary prints."""
     cmd = [str(Path(sys.executable).parent / "hertzmap"), "run", str(study),
@@ -91,7 +91,7 @@ def _run(study: Path, store: Path, extra: list[str], workers: int,
     return cost
 
 
-def _table(a: dict, b: dict, labels: tuple[str, str] = ("before", "after")) -> None:
+def print_table(a: dict, b: dict, labels: tuple[str, str] = ("before", "after")) -> None:
     width = max(len(k) for k in a | b)
     print(f"{'':{width}}  {labels[0]:>10}  {labels[1]:>10}")
     for key in list(a) + [k for k in b if k not in a]:
@@ -108,17 +108,17 @@ def main(argv: list[str]) -> int:
         with tempfile.TemporaryDirectory() as tmp:
             folder = Path(keep or tmp)
             folder.mkdir(parents=True, exist_ok=True)
-            before = _run(_before_study(scene, folder), folder / "before.zarr",
+            before = run_scene(_before_study(scene, folder), folder / "before.zarr",
                           ["--skip-atlas"], workers)
-            after = _run(scene, folder / "after.zarr", [], workers)
+            after = run_scene(scene, folder / "after.zarr", [], workers)
             print(f"{scene}: before = grid, census first pass only; after = the scene as is")
-            _table(counts(str(folder / "before.zarr")) | before,
+            print_table(counts(str(folder / "before.zarr")) | before,
                    counts(str(folder / "after.zarr")) | after)
         return 0
     if len(argv) != 2:
         print(__doc__.strip(), file=sys.stderr)
         return 2
-    _table(counts(argv[0]), counts(argv[1]))
+    print_table(counts(argv[0]), counts(argv[1]))
     return 0
 
 

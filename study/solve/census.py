@@ -389,8 +389,7 @@ def window_exponent(omega, sigma, zeta, end, options: dict, window: int,
         windows.append(tuple(float(lyap[column[n]]) for n in
                              ("lyapunov", "lyapunov_error", "periods", "lyapunov_halves")))
         state = (float(lyap[column["q_end"]]), float(lyap[column["v_end"]]))
-        total = sum(w[2] for w in windows)
-        error = math.sqrt(sum((w[1] * w[2]) ** 2 for w in windows)) / total
+        _, error, total = _combined(windows)
         if error_target is None or not math.isfinite(error) or error <= error_target \
                 or total >= cap:
             break
@@ -400,13 +399,18 @@ def window_exponent(omega, sigma, zeta, end, options: dict, window: int,
         (row[A["lyapunov"]], row[A["lyapunov_error"]], row[A["lyapunov_periods"]],
          row[A["lyapunov_halves"]]) = windows[0]
     elif windows:
-        total = sum(w[2] for w in windows)
-        row[A["lyapunov"]] = sum(w[0] * w[2] for w in windows) / total
-        row[A["lyapunov_error"]] = math.sqrt(sum((w[1] * w[2]) ** 2 for w in windows)) / total
-        before = sum(w[0] * w[2] for w in windows[:-1]) / (total - windows[-1][2])
-        row[A["lyapunov_halves"]] = abs(windows[-1][0] - before)
-        row[A["lyapunov_periods"]] = total
+        row[A["lyapunov"]], row[A["lyapunov_error"]], row[A["lyapunov_periods"]] = \
+            _combined(windows)
+        row[A["lyapunov_halves"]] = abs(windows[-1][0] - _combined(windows[:-1])[0])
     return row
+
+
+def _combined(windows) -> tuple[float, float, float]:
+    """(exponent, standard error, periods) of consecutive Benettin windows (exponent, error,
+    periods, ...): the periods-weighted mean, the errors combined as independent."""
+    total = sum(w[2] for w in windows)
+    return (sum(w[0] * w[2] for w in windows) / total,
+            math.sqrt(sum((w[1] * w[2]) ** 2 for w in windows)) / total, total)
 
 
 def strobe_points(strobe: np.ndarray, row: np.ndarray) -> np.ndarray:
