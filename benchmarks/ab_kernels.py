@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import inspect
 import os
 import re
 import subprocess
@@ -97,18 +98,21 @@ def main(argv=None) -> int:
             ref = shoot(omega, sigma, zeta, period=m, guess=guess, exponent=n, rtol=1e-13)
             k = 64
             full = lambda v: np.full(k, v, dtype=np.float64)  # noqa: E731
-            args = (full(omega), full(sigma), full(zeta), np.full(k, m, dtype=np.int64),
-                    full(ref.x0[0] + 1e-2), full(ref.x0[1] + 1e-2), n, 0, rtol, rtol, 40,
-                    200_000, False, np.empty((k, N_FIELDS)))
-            old_into(*args)
-            new_into(*args)
+            head = (full(omega), full(sigma), full(zeta), np.full(k, m, dtype=np.int64),
+                    full(ref.x0[0] + 1e-2), full(ref.x0[1] + 1e-2), n, 0, rtol, rtol, 40)
+            tail = (200_000, False, np.empty((k, N_FIELDS)))
+            # kernels before the stall_ratio argument take one argument fewer
+            args = {fn: head + ((1.0,) if "stall_ratio" in inspect.signature(
+                fn.py_func).parameters else ()) + tail for fn in (old_into, new_into)}
+            old_into(*args[old_into])
+            new_into(*args[new_into])
             t_a, t_b = [], []
             for r in range(16):
                 pair = ((old_into, t_a), (new_into, t_b))
                 for fn, out in (pair if r % 2 == 0 else pair[::-1]):
                     t0 = time.perf_counter()
                     for _ in range(5):
-                        fn(*args)
+                        fn(*args[fn])
                     out.append((time.perf_counter() - t0) / 5 / k * 1e6)
             t_a, t_b = np.array(t_a), np.array(t_b)
             counts = [step_counts(p, ref.x0, omega, sigma, zeta, m, n, rtol)

@@ -140,9 +140,9 @@ def main():
         res = np.empty((nb, N_FIELDS))
         # like for like: start point and multipliers (+ the contact measures), as the paper's
         # scheme gives; then with the force harmonics too (a quadrature on every step)
-        batch = lambda: shoot_batch_into(*args, n_exp, 0, rtol, rtol, 40, 200_000, False, res)
+        batch = lambda: shoot_batch_into(*args, n_exp, 0, rtol, rtol, 40, 1.0, 200_000, False, res)
         t_hm = per_call(batch, 0.5) / nb
-        batch_h = lambda: shoot_batch_into(*args, n_exp, 0, rtol, rtol, 40, 200_000, True, res)
+        batch_h = lambda: shoot_batch_into(*args, n_exp, 0, rtol, rtol, 40, 1.0, 200_000, True, res)
         t_hm_h = per_call(batch_h, 0.3) / nb
         # the Python entry point, one call per orbit, same solve and options (like for like)
         single = lambda: shoot(w, s, z, m, guess=guess, rtol=rtol, exponent=n_exp,

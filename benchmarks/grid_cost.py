@@ -97,7 +97,7 @@ def kernel_time(orbits: np.ndarray, kw: dict, rounds: int = 5):
     rtol = float(kw.get("rtol", 1e-10))
     out = np.empty((n, N_FIELDS))
     args = (w, s, z, m, q, v, float(kw.get("exponent", 1.5)), MODELS[kw.get("model", "hertz")],
-            rtol, rtol, point_mod.MAX_ITER_1T, DEFAULT_MAX_STEPS, bool(kw.get("harmonics", True)),
+            rtol, rtol, point_mod.MAX_ITER_1T, 1.0, DEFAULT_MAX_STEPS, bool(kw.get("harmonics", True)),
             out)
     shoot_batch_into(*args)
     best = np.inf

@@ -98,7 +98,7 @@ def time_orbit(w, s, z, m, x0, n_exp):
     args = [np.full(BATCH, v) for v in (w, s, z)] + [np.full(BATCH, m, np.int64)] + \
         [np.full(BATCH, guess[0]), np.full(BATCH, guess[1])]
     res = np.empty((BATCH, N_FIELDS))
-    t_hm = per_call(lambda: shoot_batch_into(*args, n_exp, 0, rtol, rtol, 40, 200_000, False,
+    t_hm = per_call(lambda: shoot_batch_into(*args, n_exp, 0, rtol, rtol, 40, 1.0, 200_000, False,
                                              res), 0.05) / BATCH
     return t_cd / t_hm, t_hm, t_cd, rtol, None, t_tuned
 

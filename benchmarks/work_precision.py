@@ -222,7 +222,7 @@ def run_case(name, omega, sigma, zeta, m, rough, cfg, log=print) -> list[Point]:
     for rtol in cfg["rtols"]:
         # what every method here delivers: start point and multipliers (hertzmap adds the
         # contact measures; the force harmonics, which no other method computes, are off)
-        batch = lambda: shoot_batch_into(*args, N_EXP, 0, rtol, rtol, 40, 200_000, False, res)  # noqa: E731
+        batch = lambda: shoot_batch_into(*args, N_EXP, 0, rtol, rtol, 40, 1.0, 200_000, False, res)  # noqa: E731
         t = per_call(batch, cfg["budget"]) / nb
         r = res[0]
         mu = [complex(r[F["multiplier1_re"]], r[F["multiplier1_im"]]),

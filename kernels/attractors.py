@@ -351,8 +351,8 @@ def _confirm(omega, sigma, zeta, m, q, v, n, model, shoot_rtol, max_steps, harmo
     within ``near`` of (q, v) (orbit row filled either way; one more refinement in row)."""
     row[A_REFINE] += 1.0
     row[A_ORBIT_PERIOD] = m
-    shoot_into(omega, sigma, zeta, m, q, v, n, model, shoot_rtol, shoot_rtol, 40, max_steps,
-               harmonics, orbit)
+    shoot_into(omega, sigma, zeta, m, q, v, n, model, shoot_rtol, shoot_rtol, 40, 1.0,
+               max_steps, harmonics, orbit)
     if orbit[I_STATUS] != st.CONVERGED:
         return False
     if orbit[I_MINPER] != m or orbit[I_STABLE] != 1.0:

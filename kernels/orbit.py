@@ -115,34 +115,44 @@ for _field in ORBIT.fields:
 del _field
 
 
+def _check_stall_ratio(stall_ratio) -> None:
+    if not 0.0 < float(stall_ratio) <= 1.0:
+        raise ValueError(f"stall_ratio must be in (0, 1], got {stall_ratio!r}")
+
+
 def shoot(omega: float, sigma: float, zeta: float, period: int = 1, guess=(0.0, 0.0), *,
           exponent: float = 1.5, model: str = "hertz", rtol: float = DEFAULT_RTOL,
-          atol: float | None = None, max_iter: int = DEFAULT_MAX_ITER,
+          atol: float | None = None, max_iter: int = DEFAULT_MAX_ITER, stall_ratio: float = 1.0,
           max_steps: int = DEFAULT_MAX_STEPS, harmonics: bool = True) -> Orbit:
     """Find the period-``period`` orbit of paper Eq. 7 (or Eq. 11 with model="taylor") by Newton
     shooting from ``guess`` = (q0, q'0) at tau = 0. Never raises for a failed solve: look at
     ``orbit.status`` (kernels.status). ``rtol``/``atol``: local error tolerances of the integrator.
     ``harmonics=False`` skips the contact-force harmonics and mean force (NaN then): a
     quadrature on every step of the last integration, about a quarter of a 1T solve's time.
+    ``stall_ratio`` in (0, 1]: Newton gives up after two damped steps running that each leave
+    the residual at or above this share of the last (1: only when it does not decrease at all).
     """
     # the kernel checks the parameters itself (status DIVERGED): only what it cannot check here
     period = int(period)
     if period < 1:
         raise ValueError(f"period must be an integer >= 1, got {period!r}")
+    _check_stall_ratio(stall_ratio)
     omega, sigma, zeta, rtol = float(omega), float(sigma), float(zeta), float(rtol)
     row = np.empty(N_FIELDS)
     shoot_into(omega, sigma, zeta, period, float(guess[0]), float(guess[1]),
                check_exponent(exponent), model_code(model), rtol,
-               rtol if atol is None else float(atol), int(max_iter), int(max_steps),
-               bool(harmonics), row)
+               rtol if atol is None else float(atol), int(max_iter), float(stall_ratio),
+               int(max_steps), bool(harmonics), row)
     return Orbit(omega, sigma, zeta, period, row)
 
 
 def shoot_batch(omega, sigma, zeta, period, q_guess, v_guess, *, exponent: float = 1.5,
                 model: str = "hertz", rtol: float = DEFAULT_RTOL, atol: float | None = None,
-                max_iter: int = DEFAULT_MAX_ITER, max_steps: int = DEFAULT_MAX_STEPS,
+                max_iter: int = DEFAULT_MAX_ITER, stall_ratio: float = 1.0,
+                max_steps: int = DEFAULT_MAX_STEPS,
                 harmonics: bool = True) -> dict[str, np.ndarray]:
     """Vectorised ``shoot`` over broadcast 1-D arrays; returns {field: array} (kernels.shooting.FIELDS)."""
+    _check_stall_ratio(stall_ratio)
     omega, sigma, zeta, period, q_guess, v_guess = np.broadcast_arrays(
         np.asarray(omega, float), np.asarray(sigma, float), np.asarray(zeta, float),
         np.asarray(period, np.int64), np.asarray(q_guess, float), np.asarray(v_guess, float))
@@ -150,6 +160,6 @@ def shoot_batch(omega, sigma, zeta, period, q_guess, v_guess, *, exponent: float
     args = [np.array(a.ravel(), copy=True) for a in (omega, sigma, zeta, period, q_guess, v_guess)]
     out = np.empty((args[0].size, N_FIELDS))
     shoot_batch_into(*args, check_exponent(exponent), model_code(model), float(rtol),
-                     float(rtol if atol is None else atol), int(max_iter), int(max_steps),
-                     bool(harmonics), out)
+                     float(rtol if atol is None else atol), int(max_iter), float(stall_ratio),
+                     int(max_steps), bool(harmonics), out)
     return {name: out[:, i].reshape(shape) for i, name in enumerate(FIELDS)}

@@ -45,8 +45,9 @@ I_STEPS, I_REJ, I_EVENTS = F["steps"], F["rejected"], F["events"]
 I_M11, I_M12, I_M21, I_M22 = F["m11"], F["m12"], F["m21"], F["m22"]
 
 XTOL_MEASURE = 1e-3    # Newton hands over to the measure pass below this step (relative)
-# Newton gives up after this many consecutive steps that the line search could not make
-# decrease the residual even at its smallest damping (why 2: at the test in shoot_into)
+# Newton gives up after this many consecutive stalled steps: steps that the line search could
+# not make decrease the residual below ``stall_ratio`` times the last (why 2: at the test in
+# shoot_into)
 STALL_LIMIT = 2
 
 
@@ -99,15 +100,19 @@ def _measure_pass(x0, v0, P, omega, sigma, zeta, n, model, rtol, atol, h, max_st
                      K, W)
 
 
-@kernel("void(float64, float64, float64, int64, float64, float64, float64, int64, float64, float64, int64, int64, boolean, float64[::1])")
+@kernel("void(float64, float64, float64, int64, float64, float64, float64, int64, float64, float64, int64, float64, int64, boolean, float64[::1])")
 def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, max_iter,
-               max_steps, harmonics, res):
+               stall_ratio, max_steps, harmonics, res):
     """Find the period-m orbit near (q_guess, v_guess); write FIELDS into res (float64[N_FIELDS]).
 
     Dimensionless inputs (paper Eq. 7): omega > 0, sigma >= 0, zeta >= 0, n > 0 the contact
     exponent, model a contact law's code (kernels.model.LAWS); rtol/atol the integrator's local tolerances on (q, q').
     ``harmonics``: also the contact-force harmonics, rms and mean force (a quadrature on every
     step of the measure pass, which it makes about twice as costly); else those fields are NaN.
+    ``stall_ratio`` (<= 1): a damped Newton step stalls when it leaves the residual at or above
+    this share of the last; STALL_LIMIT stalls running end the solve (not_converged). 1: only
+    steps that do not decrease it at all (the searches from seeds); below 1, slow creep too
+    (study.solve.atlas.STALL_RATIO: continuations from a neighbour's orbit).
     """
     for i in range(res.shape[0]):
         res[i] = np.nan
@@ -201,10 +206,11 @@ def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, ma
             lam *= 0.5
         if code != st.CONVERGED:
             break
-        stalls = 0 if rnt < (1.0 - 1e-4 * lam) * rn else stalls + 1
+        stalls = 0 if rnt < min(1.0 - 1e-4 * lam, stall_ratio) * rn else stalls + 1
         if stalls >= STALL_LIMIT:
-            # No decrease even at the smallest damping, twice running: this run is not
-            # converging; give up (not_converged, at the last iterate). Each such iteration was a
+            # Stalled twice running (with stall_ratio 1: no decrease even at the smallest
+            # damping): this run is not converging; give up (not_converged, at the last
+            # iterate). Each such iteration was a
             # line search to the bottom (7 maps), and hopeless runs from exploratory seeds took
             # two thirds of a grid block's work. Giving up at the first such step cut more, but
             # lost 2T orbits of the isola reached by continuation (10 of 1531 on the band of
@@ -304,10 +310,10 @@ def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, ma
         res[I_STATUS] = st.CONVERGED
 
 
-@kernel("void(float64[::1], float64[::1], float64[::1], int64[::1], float64[::1], float64[::1], float64, int64, float64, float64, int64, int64, boolean, float64[:, ::1])")
+@kernel("void(float64[::1], float64[::1], float64[::1], int64[::1], float64[::1], float64[::1], float64, int64, float64, float64, int64, float64, int64, boolean, float64[:, ::1])")
 def shoot_batch_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, max_iter,
-                     max_steps, harmonics, out):
+                     stall_ratio, max_steps, harmonics, out):
     """shoot_into for each i over 1-D arrays of equal length; out has shape (len, N_FIELDS)."""
     for i in range(omega.shape[0]):
         shoot_into(omega[i], sigma[i], zeta[i], m[i], q_guess[i], v_guess[i], n, model, rtol,
-                   atol, max_iter, max_steps, harmonics, out[i])
+                   atol, max_iter, stall_ratio, max_steps, harmonics, out[i])

@@ -48,6 +48,17 @@ POINT_NAMES = ("orbits_found", "orbits_dropped", "attractor_solution")
 #: the neighbour's start point in a few; most shots that fail are at orbits that end between
 #: the two points (past a fold or a flip), and a long Newton only spent time there
 MAX_ITER = 10
+#: A continuation's Newton gives up after two damped steps running that each leave the residual
+#: above this share of the last (kernels.shooting.shoot_into's stall_ratio; the grid's searches
+#: from seeds use 1: no decrease at all). From a neighbour's orbit, Newton either converges
+#: fast or creeps: where the orbit ends between the two points, the residual settles on a
+#: floor (a minimum of |P(x) - x| that is not a zero) and Newton crept there for all its
+#: iterations, with line searches. Measured on the default scene's first round (4,369 shots,
+#: each solved with 1 to 10 iterations to trace its residuals): failed shots took 77 % of the
+#: integration steps; this rule ends 1,163 of them early and halves the round's steps, at the
+#: cost of 8 shots that would have converged after such creeping (their orbits arrive through
+#: other neighbours: benchmarks/atlas_rules.py stall).
+STALL_RATIO = 0.9
 #: A shot that failed from an orbit whose fold function (study.orbits.fold_function) is at least
 #: this far from zero is tried again in two half steps (the fold-aware step): no multiplier is
 #: near +1, so the orbit does not end at a fold between the two points, and the step was too
@@ -55,7 +66,7 @@ MAX_ITER = 10
 #: orbit most often ends between the points, and a shorter step only costs. Measured: on the
 #: default scene's first round, 887 shots of 3,940 failed, most near a fold (median |fold
 #: function| 0.17); half steps recovered 8 (all with a fold function above 1); over the whole
-#: atlas (benchmarks/atlas_fold_step.py), the vibro-impact scene gains 39 orbits (15,009 ->
+#: atlas (benchmarks/atlas_rules.py half_steps), the vibro-impact scene gains 39 orbits (15,009 ->
 #: 15,048; 9 more points with a stable 12T orbit) for 9.6 % more shots, the default scene none
 #: (its 8 arrive by later rounds) for 8 % more.
 FAR_FROM_FOLD = 0.5
@@ -158,7 +169,7 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
     orbits of the last round are offered too (after a census round: its orbits were not
     offered where they were found). Returns the tile's arrays (atlas_names) with the orbits
     this round adds."""
-    options = dict(options, max_iter=MAX_ITER)
+    options = dict(options, max_iter=MAX_ITER, stall_ratio=STALL_RATIO)
     shape = region["status"].shape[:3]
     orbits = region_orbits(region)
     out = {n: region[n][own].copy() for n in region if n in ORBIT_VARIABLES + POINT_NAMES}

@@ -59,7 +59,8 @@ def _solve(omega, sigma, zeta, periods, q_guess, v_guess, options) -> list[dict]
     shoot_batch_into(inputs[0], inputs[1], inputs[2], periods, inputs[3], inputs[4],
                      float(options.get("exponent", 1.5)), MODELS[options.get("model", "hertz")],
                      rtol, rtol, int(options.get("max_iter", DEFAULT_MAX_ITER)),
-                     DEFAULT_MAX_STEPS, bool(options.get("harmonics", True)), rows)
+                     float(options.get("stall_ratio", 1.0)), DEFAULT_MAX_STEPS,
+                     bool(options.get("harmonics", True)), rows)
     return solutions_from_rows(rows, periods)
 
 

@@ -117,7 +117,7 @@ def test_a_plain_njit_caller_of_a_kernel_is_cached_and_loads_alone(tmp_path):
 
         @njit(cache=True)
         def first_orbit(out):
-            shoot_into(1.5, 0.2, 0.01, 1, -0.16, 0.006, 1.5, 0, 1e-10, 1e-10, 30, 100000,
+            shoot_into(1.5, 0.2, 0.01, 1, -0.16, 0.006, 1.5, 0, 1e-10, 1e-10, 30, 1.0, 100000,
                        True, out)
     """))
     code = """

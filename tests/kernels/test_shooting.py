@@ -108,6 +108,28 @@ def test_small_sigma_tends_to_linear_response(omega):
     assert dev[1] < 0.05
 
 
+def test_stall_ratio_ends_a_creeping_solve_and_leaves_converging_ones_alone():
+    """stall_ratio < 1 (the atlas's continuations): a 1T start point of the default scene shot
+    one grid step past where its branch ends creeps (the residual settles on a floor) and
+    gives up within a few iterations instead of running to max_iter; solves that converge
+    take the same iterations to the same orbit."""
+    creep = dict(omega=0.95, sigma=0.075, zeta=0.01, period=1, guess=(0.691577, 0.13825),
+                 max_iter=10, harmonics=False)
+    full = shoot(**creep)
+    early = shoot(**creep, stall_ratio=0.9)
+    assert full.status == early.status == status.NOT_CONVERGED
+    assert full.newton_iterations == 10
+    assert early.newton_iterations <= 4
+    assert early.steps < full.steps / 3
+    for omega, sigma, zeta, m, guess, n, model, _ in (c.values for c in ORACLE_CASES[:3]):
+        a = shoot(omega, sigma, zeta, m, guess=guess, exponent=n, model=model)
+        b = shoot(omega, sigma, zeta, m, guess=guess, exponent=n, model=model, stall_ratio=0.9)
+        assert a.converged and b.converged
+        assert (a.newton_iterations, tuple(a.x0)) == (b.newton_iterations, tuple(b.x0))
+    with pytest.raises(ValueError, match="stall_ratio"):
+        shoot(1.5, 0.2, 0.01, stall_ratio=0.0)
+
+
 def test_two_t_solve_that_lands_on_1t_orbit_is_flagged():
     one = shoot(1.9, 0.5, 0.01, 1, guess=(-0.19, 0.005))
     two = shoot(1.9, 0.5, 0.01, 2, guess=one.x0 + 1e-3)
