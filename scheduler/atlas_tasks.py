@@ -2,8 +2,8 @@
 (study.solve.atlas: every stored orbit continued into its grid neighbours, round after round,
 until a round adds nothing).
 
-A round's tasks are the grid's tiles (its task blocks) that hold, or touch, an orbit the last
-round added (round 1: every tile). A task reads its tile and a one-point halo from the store
+A round's tasks are the atlas's tiles (TILE_BLOCKS of the grid's task blocks along sigma) that
+hold, or touch, an orbit the last round added (round 1: every tile). A task reads its tile and a one-point halo from the store
 (the snapshot: nothing is written to the main group during a round), stages its result
 itself (scheduler.store.stage_atlas_tile: the tile's arrays where it gained orbits, one file
 per tile, as the grid's tasks write their blocks) and returns its counts. Once every tile of
@@ -26,8 +26,8 @@ from hertzmap.scheduler.stage import Stage
 from hertzmap.scheduler.store import (ATLAS_ATTR, Store, read_atlas_tile, read_region,
                                       remove_atlas_stage, stage_atlas_tile, staged_atlas_tiles)
 from hertzmap.study.schema import (ATTRACTOR_VARIABLES, CROSSING_VARIABLES, ORBIT_VARIABLES,
-                                   stored_variables)
-from hertzmap.study.solve.atlas import atlas_names, census_points
+                                   VARIABLES, stored_variables)
+from hertzmap.study.solve.atlas import HALO_NAMES, atlas_names, census_points
 from hertzmap.study.spec import Study
 
 #: the stored variables the atlas needs (the orbits' identity and continuity invariants)
@@ -37,6 +37,17 @@ NEEDS = ("min_q", "max_q", "ptp")
 DEFAULT_ATLAS_TILE = "hertzmap.study.solve.atlas:atlas_tile"
 #: what a census round reads of the grid to find its points
 CENSUS_NEEDS = ("attractor_kind", "attractor_periods_run", "stable", "status")
+#: An atlas tile is this many of the grid's blocks along sigma (the store's chunks): a tile's
+#: task reads the chunks of its one-point halo besides its own, and zarr's cost is per chunk
+#: read, not per value (about 1 ms a chunk in a worker), so one-block tiles spent more on
+#: reading than on shooting. A function of the store's chunks only: the tiles, and so the
+#: store, are the same for any worker count.
+TILE_BLOCKS = 3
+
+
+def atlas_chunks(chunks: tuple[int, int, int]) -> tuple[int, int, int]:
+    """The atlas tiles' shape from the store's chunks (TILE_BLOCKS blocks along sigma)."""
+    return (int(chunks[0]), int(chunks[1]) * TILE_BLOCKS, int(chunks[2]))
 
 
 def _region(tile: tuple[slice, slice, slice], shape: tuple[int, int, int]):
@@ -66,9 +77,11 @@ def atlas_task(spec: dict[str, Any]) -> dict[str, Any]:
         region, own = tile, tuple(slice(0, s.stop - s.start) for s in tile)
     names = spec["names"]
     ib = tile[0].start // int(spec["chunk_omega"])
-    # the slots and counts over the region; the census's attractors and the lines over the
-    # tile only; all read in one call into zarr's event loop
-    where = {n: region for n in names if n in ORBIT_VARIABLES
+    # the halo's orbit rules and start points over the region; the other slot variables, the
+    # counts, the census's attractors and the lines over the tile only (a chunk read costs
+    # the same for one line of it: the halo's reads of every variable were most of a small
+    # tile's time); all read in one call into zarr's event loop
+    where = {n: region if n in HALO_NAMES else tile for n in names if n in ORBIT_VARIABLES
              or n in ("orbits_found", "orbits_dropped")}
     if census is not None:
         where.update({n: tile for n in names if n in ATTRACTOR_VARIABLES})
@@ -77,13 +90,19 @@ def atlas_task(spec: dict[str, Any]) -> dict[str, Any]:
     where.update({n: (slice(ib, ib + 1), tile[1], tile[2]) for n in names
                   if n in CROSSING_VARIABLES})
     read = read_region(spec["store"], where)
-    slot = {n: read[n] for n in where if n not in CROSSING_VARIABLES
-            and (census is not None or n != "attractor_solution")}
-    if "attractor_solution" in read and census is None:
-        a = read["attractor_solution"]
-        slot["attractor_solution"] = np.full(
-            tuple(r.stop - r.start for r in region) + a.shape[3:], -1, a.dtype)
-        slot["attractor_solution"][own] = a
+    slot = {}
+    for n in where:
+        if n in CROSSING_VARIABLES:
+            continue
+        if where[n] == region:
+            slot[n] = read[n]
+            continue
+        # over the region, the halo filled with the variable's empty value (the tile function
+        # reads only HALO_NAMES there)
+        a = read[n]
+        slot[n] = np.full(tuple(r.stop - r.start for r in region) + a.shape[3:],
+                          VARIABLES[n].fill, a.dtype)
+        slot[n][own] = a
     lines = {n: read[n] for n in where if n in CROSSING_VARIABLES}
     axes = [np.asarray(spec["axes"][a], float)[r] for a, r in zip(("omega", "sigma", "zeta"),
                                                                  region)]
@@ -186,7 +205,7 @@ class AtlasRun(Stage):
         printed)."""
         from distributed import as_completed
 
-        plan = make_plan(self.study, self.store.chunks)
+        plan = make_plan(self.study, atlas_chunks(self.store.chunks))
         by_index = {t.index: t for t in plan.tasks}
         state = self.state()
         summary = {"rounds": 0, "added": 0, "shots": 0, "censuses": 0, "skipped": 0,

@@ -93,6 +93,9 @@ class TileResult:
 #: what the identity and continuity rules, the slot order and the crossings read of an orbit
 RULE_FIELDS = ("period", "status", "stable", "atlas_round", "min_q", "max_q", "ptp",
                "multipliers")
+#: the slot variables a tile reads of its halo (its neighbours' orbits: their rules and start
+#: points); the others are read, rewritten and written over the tile's own cells only
+HALO_NAMES = RULE_FIELDS + ("q0", "v0")
 
 
 class _Lazy(dict):
@@ -189,16 +192,17 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
         if round_ == 1 or offer_own or idx not in mine:
             fresh[idx] = [o for o in current[idx] if o["atlas_round"] == round_ - 1]
     # the continuity pairing of two neighbours, computed once for both directions (until one
-    # of them gains an orbit)
+    # of them gains an orbit): (sizes, the paired orbits of the lower point, of the higher)
     pairing: dict[tuple, tuple] = {}
 
     def paired(src, p) -> set[int]:
-        lo_, hi_ = (src, p) if src < p else (p, src)
-        sizes = (len(current[lo_]), len(current[hi_]))
-        hit = pairing.get((lo_, hi_))
+        key = (src, p) if src < p else (p, src)
+        sizes = (len(current[key[0]]), len(current[key[1]]))
+        hit = pairing.get(key)
         if hit is None or hit[0] != sizes:
-            hit = pairing[(lo_, hi_)] = (sizes, match_neighbours(current[lo_], current[hi_]))
-        return {pair[0 if src == lo_ else 1] for pair in hit[1]}
+            pairs = match_neighbours(current[key[0]], current[key[1]])
+            hit = pairing[key] = (sizes, {a for a, _ in pairs}, {b for _, b in pairs})
+        return hit[1] if src == key[0] else hit[2]
 
     # the tile to its own fixed point: an orbit added here is offered to its neighbours in the
     # tile at once (those beyond it get it next round)
@@ -206,13 +210,15 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
         # the shots of this pass, in a fixed order, solved in one kernel call
         shots: list[tuple[tuple, tuple, dict]] = []
         for src in sorted(fresh):
+            offered = {id(f) for f in fresh[src]}
+            offer = [(ia, o) for ia, o in enumerate(current[src]) if id(o) in offered]
             for p in neighbours(src, shape):
                 if p not in mine:
                     continue
                 done = paired(src, p)
                 full = _full_rank(current[p], max_solutions)
-                for ia, o in enumerate(current[src]):
-                    if ia in done or not any(o is f for f in fresh[src]):
+                for ia, o in offer:
+                    if ia in done:
                         continue
                     if full is not None and slot_rank(o) > full:
                         # the point's slots are full of orbits ranked before it (stable ones,
