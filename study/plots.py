@@ -53,6 +53,7 @@ __all__ = [
     "plot_frequency_response",
     "plot_force_harmonics",
     "plot_time_histories",
+    "plot_thresholds",
     "plot_lyapunov_map",
     "plot_bifurcation_diagram",
     "plot_basin_map",
@@ -700,6 +701,45 @@ def paper_fig05(path, sigma=0.5, zeta=0.01, fr=None) -> Path:
     return _save(fig, path)
 
 
+def plot_thresholds(th, path, *, measured=(None, None)) -> Path:
+    """The subharmonic thresholds against damping (issue 33), from products/thresholds: left,
+    sigma*/zeta and sigma**/zeta against zeta (the continued curves, the study's zeta values as
+    points), the multiple-scales 36 / (1 + 16 zeta^2 / 9) (paper Eq. 26) and the rig's measured
+    (sigma*/zeta)_exp (``measured`` = (zeta, ratio): paper section 4, ~40 at zeta = 0.005);
+    right, sigma*, sigma** and the isola's join against zeta."""
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4.2), layout="constrained")
+    for name, label, color in (("star", "sigma* (1T flip curve's lowest point)", "C0"),
+                               ("double_star", "sigma** (isola's lowest point)", "C1")):
+        z, s = th[f"{name}_zeta"].values, th[f"{name}_sigma"].values
+        if z.size:
+            ax.plot(z, s / z, "-", color=color, lw=1.4, label=label + " / zeta")
+            bx.plot(z, s, "-", color=color, lw=1.4, label=label)
+        zg, sg = th["zeta"].values, th[f"sigma_{name}"].values
+        ax.plot(zg, sg / zg, "o", color=color, ms=4)
+        bx.plot(zg, sg, "o", color=color, ms=4)
+    if th["star_zeta"].size:
+        z = th["star_zeta"].values
+        ax.plot(z, th["star_sigma_mms"].values / z, "--", color="0.3", lw=1.0,
+                label="multiple scales: 36 / (1 + 16 zeta^2 / 9) (Eq. 26)")
+        bx.plot(z, th["star_sigma_mms"].values, "--", color="0.3", lw=1.0,
+                label="sigma* by multiple scales (Eq. 26)")
+    bx.plot(th["zeta"].values, th["sigma_join"].values, "s", color="C2", ms=4, mfc="none",
+            label="the isola joins the flip-born branch")
+    z_exp, r_exp = measured
+    if z_exp is not None:
+        ax.plot([z_exp], [r_exp], "*", color="C3", ms=12,
+                label=f"measured on the rig: ~{r_exp:g} at zeta = {z_exp:g} (paper)")
+    ax.set_xlabel("damping ratio zeta")
+    ax.set_ylabel("threshold / zeta")
+    ax.set_title("thresholds over damping")
+    ax.legend(fontsize=7, loc="best")
+    bx.set_xlabel("damping ratio zeta")
+    bx.set_ylabel("sigma")
+    bx.set_title("sigma*, sigma** and the join")
+    bx.legend(fontsize=7, loc="upper left")
+    return _save(fig, path)
+
+
 PAPER_FIGURES = {"fig02": paper_fig02, "fig03": paper_fig03, "fig04": paper_fig04,
                  "fig05": paper_fig05}
 
@@ -843,6 +883,11 @@ def _strobe_figure(sheet, prods, asked) -> list[Path]:
     return paths
 
 
+def _thresholds_figure(sheet, prods, asked) -> list[Path]:
+    return [plot_thresholds(prods["thresholds"], sheet.path("thresholds"),
+                            measured=(P.MEASURED_ZETA, P.MEASURED_STAR_RATIO))]
+
+
 def _histories_figure(sheet, prods, asked) -> list[Path]:
     th = prods["time_histories"]
     return [plot_time_histories(th, sheet.path("histories"))] if th.sizes["case"] else []
@@ -853,7 +898,7 @@ def _histories_figure(sheet, prods, asked) -> list[Path]:
 _DRAW = {"map": _map_figure, "measures": _measures_figure, "lyapunov": _lyapunov_figure,
          "bifurcation": _bifurcation_figure, "response": _response_figure,
          "harmonics": _harmonics_figure, "strobe": _strobe_figure,
-         "histories": _histories_figure}
+         "histories": _histories_figure, "thresholds": _thresholds_figure}
 
 
 def plot_results(ds, prods, out: str | Path = "results", which: Sequence[str] = ("auto",),

@@ -6,8 +6,9 @@ after the products it takes) names
 
 * ``needs(ds, context)``: whether the results support it (``ds``: study.products.open_store;
   ``context``: a :class:`Context`, the figures asked for and the products at hand);
-* ``compute(ds, *inputs)``: the pure function, given the results and the products named in
-  ``inputs`` (earlier entries, or :data:`RUN_PRODUCTS`, written by ``hertzmap run``);
+* ``compute(ds, *inputs, **optional)``: the pure function, given the results and the products
+  named in ``inputs`` (earlier entries, or :data:`RUN_PRODUCTS`, written by ``hertzmap run``),
+  and those named in ``optional`` that are at hand, by name;
 * ``figures``: the figures of study/plots.py drawn from it, each a :class:`Figure` (its
   ``--which`` name and plotting function).
 
@@ -32,6 +33,7 @@ from hertzmap.study.products.multiple_scales import (MMS_HALF_WIDTH, mms_curves_
                                                      mms_response_over, mms_window)
 from hertzmap.study.products.response import force_harmonics, frequency_response, time_histories
 from hertzmap.study.products.results import open_store, rig_of, source_attrs
+from hertzmap.study.products.thresholds import thresholds
 from hertzmap.study.products.traced_curves import isola_boundary
 
 __all__ = ["Figure", "Product", "Context", "PRODUCTS", "RUN_PRODUCTS", "WHICH", "MAX_LINES",
@@ -66,6 +68,8 @@ class Product:
     compute: Callable[..., xr.Dataset]
     figures: tuple[Figure, ...] = ()
     inputs: tuple[str, ...] = ()
+    #: products it takes when at hand (keyword arguments of ``compute``, by name)
+    optional: tuple[str, ...] = ()
 
 
 #: Products that ``hertzmap run`` writes itself (the ``curves`` output) and the others may take.
@@ -93,6 +97,10 @@ def _few_lines(ds: xr.Dataset, context: Context) -> bool:
 
 def _mms_window_in_few_lines(ds: xr.Dataset, context: Context) -> bool:
     return _few_lines(ds, context) and mms_window(ds["omega"].values) is not None
+
+
+def _zeta_swept(ds: xr.Dataset, context: Context) -> bool:
+    return ds.sizes["zeta"] >= 2
 
 
 def _stored(*names: str) -> Callable[[xr.Dataset, Context], bool]:
@@ -153,6 +161,11 @@ PRODUCTS: tuple[Product, ...] = (
             "the traced curves",
             _at_hand("traced_curves"), lambda ds, traced: isola_boundary(traced),
             inputs=("traced_curves",)),
+    Product("thresholds", "sigma*, sigma** and the isola's join at each zeta, by continuation, "
+            "and sigma*(zeta), sigma**(zeta) continued in zeta (studies of two or more zeta "
+            "values)",
+            _zeta_swept, thresholds, (Figure("thresholds", "plot_thresholds"),),
+            optional=("traced_curves", "isola_boundary")),
 )
 
 #: Every figure's --which name, in the registry's order.
@@ -188,5 +201,7 @@ def compute_products(results: str | Path | xr.Dataset, *, which: Sequence[str] =
     context = Context(check_which(which), at_hand)
     for p in PRODUCTS:
         if p.needs(ds, context):
-            out[p.name] = at_hand[p.name] = p.compute(ds, *(at_hand[n] for n in p.inputs))
+            out[p.name] = at_hand[p.name] = p.compute(
+                ds, *(at_hand[n] for n in p.inputs),
+                **{n: at_hand[n] for n in p.optional if n in at_hand})
     return out
