@@ -778,6 +778,9 @@ class _Sheet:
     zeta: np.ndarray
     out: Path
     name: str
+    #: the store has several zeta values (its files of one zeta are tagged with it, also when
+    #: only one is drawn: plot_results' ``zeta``)
+    several_zeta: bool = False
 
     @property
     def is_map(self) -> bool:
@@ -798,11 +801,12 @@ class _Sheet:
         return self.out / f"{self.name}_{which}{tag}.png"
 
     def zeta_tag(self, z) -> str:
-        return f"_zeta{z:g}" if self.zeta.size > 1 else ""
+        return f"_zeta{z:g}" if self.several_zeta or self.zeta.size > 1 else ""
 
     def line_tag(self, s, z, *, always: bool = False) -> str:
         """The files' tag of line (s, z): none for a study of one line, unless ``always``."""
-        return f"_sigma{s:g}" + self.zeta_tag(z) if always or self.lines > 1 else ""
+        return (f"_sigma{s:g}" + self.zeta_tag(z) if always or self.lines > 1 or self.several_zeta
+                else "")
 
 
 def _map_figure(sheet, prods, asked) -> list[Path]:
@@ -877,7 +881,7 @@ def _strobe_figure(sheet, prods, asked) -> list[Path]:
     paths = []
     for i in range(diagrams.sizes["line"]):
         diag = P.diagram_line(diagrams, i)
-        if diag.sizes["point"]:
+        if diag.sizes["point"] and np.isclose(sheet.zeta, diag.attrs["zeta"]).any():
             paths.append(plot_bifurcation_diagram(diag, sheet.path("strobe", sheet.line_tag(
                 diag.attrs["sigma"], diag.attrs["zeta"], always=True))))
     return paths
@@ -901,8 +905,19 @@ _DRAW = {"map": _map_figure, "measures": _measures_figure, "lyapunov": _lyapunov
          "histories": _histories_figure, "thresholds": _thresholds_figure}
 
 
+def chosen_zeta(zetas, zeta: float) -> float:
+    """The store's zeta value nearest ``zeta`` (``hertzmap plot --zeta``); ValueError naming
+    the option and the store's range when ``zeta`` lies outside it (beyond half a step)."""
+    zs = np.sort(np.asarray(zetas, float))
+    step = float(np.min(np.diff(zs))) if zs.size > 1 else 0.0
+    if not (zs[0] - 0.5 * step - 1e-12 <= zeta <= zs[-1] + 0.5 * step + 1e-12):
+        raise ValueError(f"--zeta {zeta:g} is outside the store's zeta values "
+                         f"{zs[0]:g} .. {zs[-1]:g} ({zs.size} values)")
+    return float(zs[np.argmin(np.abs(zs - zeta))])
+
+
 def plot_results(ds, prods, out: str | Path = "results", which: Sequence[str] = ("auto",),
-                 *, prefix: str | None = None) -> list[Path]:
+                 *, prefix: str | None = None, zeta: float | None = None) -> list[Path]:
     """The figures of the products ``prods`` (by name: ``hertzmap plot`` passes the groups it
     has just stored, read back from the store), into ``out`` as
     ``<study>_<figure>[_...].png``. Returns the paths.
@@ -912,11 +927,16 @@ def plot_results(ds, prods, out: str | Path = "results", which: Sequence[str] = 
     ``which``: "auto" (every figure the products support), or names from :data:`WHICH`. Maps
     and bifurcation sets need >= 2 omega and >= 2 sigma; response curves are drawn unless asked
     for only for studies of at most :data:`RESPONSE_FIGURE_LINES` (sigma, zeta) lines and more
-    than a few named frequencies, harmonics only for the latter.
+    than a few named frequencies, harmonics only for the latter. ``zeta``: the figures of that
+    zeta value only (the store's nearest: :func:`chosen_zeta`); by default every figure drawn
+    per zeta is drawn for each of the store's zeta values.
     """
     which = check_which(which)
-    sheet = _Sheet(ds["omega"].values, ds["sigma"].values, ds["zeta"].values, Path(out),
-                   prefix or ds.attrs.get("hertzmap_study_name") or "study")
+    zetas = np.asarray(ds["zeta"].values, float)
+    sheet = _Sheet(ds["omega"].values, ds["sigma"].values,
+                   zetas if zeta is None else np.array([chosen_zeta(zetas, zeta)]), Path(out),
+                   prefix or ds.attrs.get("hertzmap_study_name") or "study",
+                   several_zeta=zetas.size > 1)
     paths: list[Path] = []
     for product in P.PRODUCTS:
         if product.name not in prods:
