@@ -238,8 +238,8 @@ def _plot_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, default=Path("results"), help="folder for the PNGs (default results/)")
     p.add_argument("--which", nargs="+", default=["auto"], metavar="FIG",
                    help="auto (default: every figure the store's products support) or: map "
-                   "measures lyapunov bifurcation response harmonics strobe histories "
-                   "thresholds")
+                   "measures lyapunov zeta_maps bifurcation response harmonics strobe "
+                   "histories thresholds impact_onset")
     p.add_argument("--zeta", type=float, default=None, metavar="Z",
                    help="draw the figures of this zeta only (the store's nearest value; by "
                    "default the maps and the other per-zeta figures of every zeta)")

@@ -54,6 +54,8 @@ __all__ = [
     "plot_force_harmonics",
     "plot_time_histories",
     "plot_thresholds",
+    "plot_zeta_maps",
+    "plot_impact_onset",
     "plot_lyapunov_map",
     "plot_bifurcation_diagram",
     "plot_basin_map",
@@ -238,13 +240,9 @@ def _grid_fallback(traced, zeta, names):
 # maps
 # ---------------------------------------------------------------------------------------------
 
-def plot_loss_of_contact_map(lcm, curves, path, *, zeta=None, mms=None, title=None,
-                             traced=None, isola=None) -> Path:
-    """Kinds of stable response over (omega, sigma) with the flip, grazing and isola curves
-    (traced ones where the study has them, ``traced``: products/traced_curves, with sigma**
-    from ``isola``, products/isola_boundary; else the grid's contours) and the MMS flip
-    curve."""
-    zeta = float(lcm["zeta"].values[0] if zeta is None else zeta)
+def _map_panel(ax, lcm, curves, zeta, mms, traced, isola) -> list:
+    """One map of stable responses at ``zeta`` into ``ax`` (see plot_loss_of_contact_map);
+    returns the legend's patches of the response kinds present."""
     m = lcm.sel(zeta=zeta, method="nearest")
     field = "map_class" if "map_class" in m else "stable_set"
     codes = m[field].transpose("sigma", "omega").values.astype(int)
@@ -253,7 +251,6 @@ def plot_loss_of_contact_map(lcm, curves, path, *, zeta=None, mms=None, title=No
     n = len(SET_COLORS)
     cmap = ListedColormap([SET_COLORS[c] for c in range(n)])
     norm = BoundaryNorm(np.arange(-0.5, n + 0.5), n)
-    fig, ax = plt.subplots(figsize=(8.2, 4.8), layout="constrained")
     ax.pcolormesh(m["omega"], m["sigma"], codes, cmap=cmap, norm=norm, shading="nearest",
                   rasterized=True)
     handles = [Patch(facecolor=SET_COLORS[c], edgecolor="0.6", label=SET_LABELS[c]) for c in present]
@@ -271,12 +268,72 @@ def plot_loss_of_contact_map(lcm, curves, path, *, zeta=None, mms=None, title=No
     _draw_mms(ax, mms, zeta, sigma1=False)
     ax.set_xlim(float(m["omega"].min()), float(m["omega"].max()))
     ax.set_ylim(float(m["sigma"].min()), float(m["sigma"].max()))
+    return handles
+
+
+def plot_loss_of_contact_map(lcm, curves, path, *, zeta=None, mms=None, title=None,
+                             traced=None, isola=None) -> Path:
+    """Kinds of stable response over (omega, sigma) with the flip, grazing and isola curves
+    (traced ones where the study has them, ``traced``: products/traced_curves, with sigma**
+    from ``isola``, products/isola_boundary; else the grid's contours) and the MMS flip
+    curve."""
+    zeta = float(lcm["zeta"].values[0] if zeta is None else zeta)
+    fig, ax = plt.subplots(figsize=(8.2, 4.8), layout="constrained")
+    handles = _map_panel(ax, lcm, curves, zeta, mms, traced, isola)
     ax.set_xlabel("omega (excitation frequency / natural frequency)")
     ax.set_ylabel("sigma (excitation amplitude / preload)")
     ax.set_title(title or f"Stable responses and contact loss, {_zlabel(zeta)}")
     h2, l2 = ax.get_legend_handles_labels()
     ax.legend(handles=handles + h2, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0),
               title="stable responses / curves", title_fontsize=7, frameon=False)
+    return _save(fig, path)
+
+
+#: the side-by-side maps of a study of several zeta values: at most this many, evenly spread
+#: from the first zeta to the last
+ZETA_MAPS = 4
+
+
+def plot_zeta_maps(lcm, curves, path, *, zetas, mms=None, traced=None, isola=None) -> Path:
+    """The maps of stable responses (plot_loss_of_contact_map) at the ``zetas`` side by side,
+    on one sigma axis: how damping moves the flip curve and the isola."""
+    fig, axes = plt.subplots(1, len(zetas), figsize=(3.6 * len(zetas) + 2.2, 4.4),
+                             layout="constrained", sharey=True, squeeze=False)
+    handles = {}
+    for ax, z in zip(axes[0], zetas):
+        for h in _map_panel(ax, lcm, curves, float(z), mms, traced, isola):
+            handles[h.get_label()] = h
+        ax.set_title(_zlabel(float(z)), fontsize=9)
+        ax.set_xlabel("omega")
+    axes[0, 0].set_ylabel("sigma")
+    h2, l2 = axes[0, -1].get_legend_handles_labels()
+    axes[0, -1].legend(handles=list(handles.values()) + h2, fontsize=6, loc="upper left",
+                       bbox_to_anchor=(1.01, 1.0), frameon=False)
+    fig.suptitle("Stable responses and contact loss as damping grows", fontsize=10)
+    return _save(fig, path)
+
+
+def plot_impact_onset(onset, path) -> Path:
+    """Where vibro-impacts start: the lowest sigma at which a stable response loses contact,
+    over (omega, zeta), from products/impact_onset; in the rig's units (Hz, N) when it has
+    them. A design chart: below the surface every stable response stays in contact."""
+    rig = "frequency_hz" in onset.coords
+    x = onset["frequency_hz"].values if rig else onset["omega"].values
+    value = onset["force_amplitude_N"] if rig else onset["sigma_impact_onset"]
+    z = value.transpose("zeta", "omega").values
+    fig, ax = plt.subplots(figsize=(7.6, 4.6), layout="constrained")
+    pc = ax.pcolormesh(x, onset["zeta"].values, z, cmap="viridis", shading="nearest",
+                       rasterized=True)
+    cb = fig.colorbar(pc, ax=ax)
+    cb.set_label("excitation force amplitude at the onset (N)" if rig else
+                 "sigma at the onset (excitation amplitude / preload)")
+    if np.isfinite(z).sum() > 3 and np.nanmax(z) > np.nanmin(z):
+        cs = ax.contour(x, onset["zeta"].values, z, levels=8, colors="k", linewidths=0.6)
+        ax.clabel(cs, fontsize=6, fmt="%.3g")
+    ax.set_xlabel("excitation frequency (Hz)" if rig else "omega")
+    ax.set_ylabel("damping ratio zeta")
+    ax.set_title("Vibro-impact onset: the lowest excitation at which a stable response loses "
+                 "contact (white: none in the window)", fontsize=9)
     return _save(fig, path)
 
 
@@ -887,6 +944,21 @@ def _strobe_figure(sheet, prods, asked) -> list[Path]:
     return paths
 
 
+def _zeta_maps_figure(sheet, prods, asked) -> list[Path]:
+    if not sheet.is_map or sheet.zeta.size < 2:
+        return []
+    pick = np.unique(np.linspace(0, sheet.zeta.size - 1, min(ZETA_MAPS, sheet.zeta.size))
+                     .round().astype(int))
+    return [plot_zeta_maps(prods["loss_of_contact_map"], prods["bifurcation_curves"],
+                           sheet.path("zeta_maps"), zetas=sheet.zeta[pick],
+                           mms=prods["mms_curves"], traced=prods.get("traced_curves"),
+                           isola=prods.get("isola_boundary"))]
+
+
+def _impact_onset_figure(sheet, prods, asked) -> list[Path]:
+    return [plot_impact_onset(prods["impact_onset"], sheet.path("impact_onset"))]
+
+
 def _thresholds_figure(sheet, prods, asked) -> list[Path]:
     return [plot_thresholds(prods["thresholds"], sheet.path("thresholds"),
                             measured=(P.MEASURED_ZETA, P.MEASURED_STAR_RATIO))]
@@ -902,7 +974,8 @@ def _histories_figure(sheet, prods, asked) -> list[Path]:
 _DRAW = {"map": _map_figure, "measures": _measures_figure, "lyapunov": _lyapunov_figure,
          "bifurcation": _bifurcation_figure, "response": _response_figure,
          "harmonics": _harmonics_figure, "strobe": _strobe_figure,
-         "histories": _histories_figure, "thresholds": _thresholds_figure}
+         "histories": _histories_figure, "thresholds": _thresholds_figure,
+         "zeta_maps": _zeta_maps_figure, "impact_onset": _impact_onset_figure}
 
 
 def chosen_zeta(zetas, zeta: float) -> float:

@@ -33,7 +33,7 @@ from hertzmap.study.products.multiple_scales import (MMS_HALF_WIDTH, mms_curves_
                                                      mms_response_over, mms_window)
 from hertzmap.study.products.response import force_harmonics, frequency_response, time_histories
 from hertzmap.study.products.results import open_store, rig_of, source_attrs
-from hertzmap.study.products.thresholds import thresholds
+from hertzmap.study.products.thresholds import impact_onset, thresholds
 from hertzmap.study.products.traced_curves import isola_boundary
 
 __all__ = ["Figure", "Product", "Context", "PRODUCTS", "RUN_PRODUCTS", "WHICH", "MAX_LINES",
@@ -103,6 +103,10 @@ def _zeta_swept(ds: xr.Dataset, context: Context) -> bool:
     return ds.sizes["zeta"] >= 2
 
 
+def _zeta_swept_map(ds: xr.Dataset, context: Context) -> bool:
+    return _zeta_swept(ds, context) and ds.sizes["sigma"] >= 2
+
+
 def _stored(*names: str) -> Callable[[xr.Dataset, Context], bool]:
     """needs: the results hold these variables (the study's outputs stored them)."""
     return lambda ds, context: all(n in ds for n in names)
@@ -126,7 +130,7 @@ PRODUCTS: tuple[Product, ...] = (
             "coexistence, the census's attractors and the curves' indicators",
             _always, loss_of_contact_map,
             (Figure("map", "plot_loss_of_contact_map"), Figure("measures", "plot_map_measures"),
-             Figure("lyapunov", "plot_lyapunov_map"))),
+             Figure("lyapunov", "plot_lyapunov_map"), Figure("zeta_maps", "plot_zeta_maps"))),
     Product("bifurcation_curves", "contour lines of the map's indicators (flip, grazing, 2T "
             "boundary, isola)",
             _always, lambda ds, lcm: bifurcation_curves(lcm),
@@ -166,6 +170,11 @@ PRODUCTS: tuple[Product, ...] = (
             "values)",
             _zeta_swept, thresholds, (Figure("thresholds", "plot_thresholds"),),
             optional=("traced_curves", "isola_boundary")),
+    Product("impact_onset", "where vibro-impacts start: the lowest sigma at which a stable "
+            "response loses contact, over (omega, zeta), in the rig's units with a [rig] "
+            "(maps of two or more zeta values)",
+            _zeta_swept_map, lambda ds, lcm: impact_onset(lcm, rig_of(ds)),
+            (Figure("impact_onset", "plot_impact_onset"),), inputs=("loss_of_contact_map",)),
 )
 
 #: Every figure's --which name, in the registry's order.

@@ -187,3 +187,43 @@ def thresholds(ds: xr.Dataset, traced_curves: xr.Dataset | None = None,
                              + sum(j.maps for j in joins if j is not None)),
                  **notes}
     return out
+
+
+def impact_onset(lcm: xr.Dataset, rig=None) -> xr.Dataset:
+    """Where vibro-impacts start, a design chart over (omega, zeta): ``sigma_impact_onset``,
+    the lowest sigma of the grid at which a stable response loses contact
+    (loss_of_contact_map's ``contact_loss_possible``; NaN where none does in the window), and
+    ``sigma_below_onset``, the grid's sigma below it (the onset lies between the two: the
+    chart's accuracy is the grid's sigma step). With a rig (study.analytic.rig.Rig, paper
+    Eq. 1-8): ``force_amplitude_N`` (sigma N) and the coordinate ``frequency_hz``
+    (omega f0). Dims (omega, zeta)."""
+    possible = lcm["contact_loss_possible"] & lcm["computed"]
+    sig = lcm["sigma"].values
+    first = possible.transpose("omega", "zeta", "sigma").values
+    any_loss = first.any(axis=2)
+    k = np.argmax(first, axis=2)
+    onset = np.where(any_loss, sig[k], np.nan)
+    below = np.where(any_loss & (k > 0), sig[np.maximum(k - 1, 0)], np.nan)
+    out = xr.Dataset(
+        {"sigma_impact_onset": (("omega", "zeta"), onset, var_attrs(
+            "vibro-impact onset", "1", "lowest sigma of the grid at which a stable response "
+            "loses contact (min q < -n); NaN: none in the study's sigma window")),
+         "sigma_below_onset": (("omega", "zeta"), below, var_attrs(
+             "grid sigma below the onset", "1", "the sigma line below sigma_impact_onset, where "
+             "every stable response stays in contact (NaN at the window's first line): the "
+             "onset lies between the two"))},
+        coords={"omega": ("omega", lcm["omega"].values, dict(lcm["omega"].attrs)),
+                "zeta": ("zeta", lcm["zeta"].values, dict(lcm["zeta"].attrs))})
+    if rig is not None:
+        out["force_amplitude_N"] = (("omega", "zeta"),
+                                    np.asarray(rig.sigma_to_force_amplitude(onset), float),
+                                    var_attrs("excitation force amplitude at the onset", "N",
+                                              f"sigma N, N = {rig.N:g} N (the study's [rig])"))
+        out = out.assign_coords(frequency_hz=("omega", np.asarray(
+            rig.omega_to_frequency(lcm["omega"].values), float), var_attrs(
+            "excitation frequency", "Hz", f"omega f0, f0 = {rig.f0:.6g} Hz (the study's "
+            "[rig])")))
+    out.attrs = {"title": "vibro-impact onset over (omega, zeta): the lowest sigma at which a "
+                          "stable response loses contact",
+                 "source": "products/loss_of_contact_map (contact_loss_possible)"}
+    return out

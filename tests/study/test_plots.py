@@ -116,3 +116,13 @@ def test_the_thresholds_figure_from_its_product(tmp_path):
     paths = plots.plot_results(ds, {"thresholds": th}, tmp_path)
     assert [p.name for p in paths] == ["z_thresholds.png"]
     assert 1000 < paths[0].stat().st_size < 300_000
+
+
+def test_the_maps_of_several_zeta_side_by_side_and_the_impact_onset_chart(tmp_path):
+    ds = _two_zeta_map()
+    prods = {n: v for n, v in P.compute_products(ds, which=["map"]).items()
+             if n != "thresholds"}
+    paths = plots.plot_results(ds, prods, tmp_path, which=["zeta_maps", "impact_onset"])
+    assert sorted(p.name for p in paths) == ["z_impact_onset.png", "z_zeta_maps.png"]
+    for p in paths:
+        assert 1000 < p.stat().st_size < 300_000

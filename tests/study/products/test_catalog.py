@@ -16,10 +16,10 @@ from tests.helpers import (EVERY_OUTPUT_STUDY, blank_results, fake_traced_curves
 EVERY_PRODUCT = {"orbit_classes", "loss_of_contact_map", "bifurcation_curves",
                  "located_bifurcations", "mms_curves", "frequency_response", "mms_response",
                  "force_harmonics", "stroboscopic_diagram", "attractor_ids", "time_histories",
-                 "isola_boundary", "thresholds"}
-#: computed only for studies that sweep zeta (the real store has one zeta value: the product is
-#: checked on a store of two in tests/study/products/test_thresholds.py)
-ZETA_SWEPT = {"thresholds"}
+                 "isola_boundary", "thresholds", "impact_onset"}
+#: computed only for studies that sweep zeta (the real store has one zeta value: the products are
+#: checked on stores of two in tests/study/products/test_thresholds.py)
+ZETA_SWEPT = {"thresholds", "impact_onset"}
 
 
 @pytest.fixture(scope="module")

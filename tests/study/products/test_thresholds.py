@@ -67,3 +67,30 @@ def test_without_traced_curves_sigma_star_only_and_why():
 def test_only_studies_that_sweep_zeta_get_it():
     one = P.open_store(blank_results(GRID.replace("[0.008, 0.01]", "0.01")))
     assert "thresholds" not in P.compute_products(one, which=["map"])
+
+
+def test_impact_onset_is_the_lowest_sigma_where_a_stable_response_loses_contact():
+    """Made-up map: at zeta index k a stable 1T orbit loses contact from sigma line 2 + k on
+    (at omega index 0 never); the paper's rig gives N and Hz."""
+    from hertzmap.study.analytic.rig import Rig
+    from tests.helpers import set_orbit
+
+    raw = blank_results("[grid]\nomega = [1.9, 2.0]\nsigma = {start = 0.1, stop = 0.6, num = 6}"
+                        "\nzeta = [0.005, 0.01]\n")
+    for k in range(2):
+        for i in range(2):
+            for j in range(6):
+                set_orbit(raw, i, j, 0, period=1, stable=True, loses=i == 1 and j >= 2 + k,
+                          min_q=-2.0 if (i == 1 and j >= 2 + k) else -0.1, k=k)
+    ds = P.open_store(raw)
+    lcm = P.loss_of_contact_map(ds)
+    onset = P.impact_onset(lcm, Rig.paper())
+    sig = ds["sigma"].values
+    np.testing.assert_allclose(onset["sigma_impact_onset"].sel(omega=2.0).values, sig[[2, 3]])
+    np.testing.assert_allclose(onset["sigma_below_onset"].sel(omega=2.0).values, sig[[1, 2]])
+    assert np.all(np.isnan(onset["sigma_impact_onset"].sel(omega=1.9).values))
+    np.testing.assert_allclose(onset["force_amplitude_N"].values,
+                               onset["sigma_impact_onset"].values * Rig.paper().N)
+    np.testing.assert_allclose(onset["frequency_hz"].values, ds["omega"].values
+                               * Rig.paper().f0)
+    assert "impact_onset" in P.compute_products(ds, which=["map"])
