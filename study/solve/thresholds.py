@@ -187,7 +187,7 @@ DOUBLE_STAR_HALF_WIDTH = 0.05
 class ZetaCurve:
     """A minimum continued in zeta: its vertices (CurveMinimum, zeta increasing) and how each
     end stopped ("range": the end of the range asked; "lost": the minimum was not found
-    again with the shortest step)."""
+    again with the shortest step; "max_vertices": MAX_VERTICES on that side)."""
 
     vertices: list
     status: tuple = ("range", "range")
@@ -215,7 +215,10 @@ def continue_minimum(kind: str, period: int, start: CurveMinimum, zeta_range, *,
         path = [start]
         h = span / MIN_VERTICES
         how = "range"
-        while path[-1].zeta != end and len(path) < MAX_VERTICES:
+        while path[-1].zeta != end:
+            if len(path) >= MAX_VERTICES:
+                how = "max_vertices"
+                break
             z0 = path[-1].zeta
             step = min(h, span / MIN_VERTICES, abs(end - z0))
             z1 = z0 + math.copysign(step, end - z0)
@@ -230,19 +233,18 @@ def continue_minimum(kind: str, period: int, start: CurveMinimum, zeta_range, *,
             found = curve_minimum(kind, period, z1, guess,
                                   half_width=max(half_width(z1), 3.0 * w_move),
                                   exponent=exponent, model=model, rtol=rtol, max_steps=max_steps)
-            if found is not None:
-                maps += found.maps
-            miss = (abs(found.sigma - guess[3]) / max(found.sigma, 1e-12) if found is not None
-                    else math.inf)
             if found is None:
                 h = SHRINK * abs(z1 - z0)
                 if h < MIN_STEP_SHARE * span:
                     how = "lost"
                     break
                 continue
+            maps += found.maps
             path.append(found)
-            h = abs(z1 - z0) * (GROW if miss < 0.1 * PREDICTOR_TOL else
-                                SHRINK if miss > PREDICTOR_TOL else 1.0)
+            miss = abs(found.sigma - guess[3]) / max(found.sigma, 1e-12)
+            # a step shortened to land on a grid zeta says nothing against the step length
+            h = max(h, abs(z1 - z0)) * (GROW if miss < 0.1 * PREDICTOR_TOL else
+                                        SHRINK if miss > PREDICTOR_TOL else 1.0)
             h = max(h, MIN_STEP_SHARE * span)
         sides.append(path)
         status.append(how)
