@@ -33,7 +33,7 @@ from hertzmap.study.products.multiple_scales import (MMS_HALF_WIDTH, mms_curves_
                                                      mms_response_over, mms_window)
 from hertzmap.study.products.response import force_harmonics, frequency_response, time_histories
 from hertzmap.study.products.results import open_store, rig_of, source_attrs
-from hertzmap.study.products.thresholds import impact_onset, thresholds
+from hertzmap.study.products.damping import impact_onset, thresholds
 from hertzmap.study.products.traced_curves import isola_boundary
 
 __all__ = ["Figure", "Product", "Context", "PRODUCTS", "RUN_PRODUCTS", "WHICH", "MAX_LINES",

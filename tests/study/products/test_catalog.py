@@ -18,7 +18,7 @@ EVERY_PRODUCT = {"orbit_classes", "loss_of_contact_map", "bifurcation_curves",
                  "force_harmonics", "stroboscopic_diagram", "attractor_ids", "time_histories",
                  "isola_boundary", "thresholds", "impact_onset"}
 #: computed only for studies that sweep zeta (the real store has one zeta value: the products are
-#: checked on stores of two in tests/study/products/test_thresholds.py)
+#: checked on stores of two in tests/study/products/test_damping.py)
 ZETA_SWEPT = {"thresholds", "impact_onset"}
 
 

@@ -1,4 +1,4 @@
-"""study.products.thresholds: the product thresholds (dim zeta and the vertices continued in
+"""study.products.damping: the products thresholds (dim zeta and the vertices continued in
 zeta) on a study of two zeta values, with and without the traced isola it starts sigma**
 from; the registry computes it only for studies that sweep zeta. The numbers themselves are
 checked against the scipy oracle in tests/study/solve/test_thresholds.py."""

@@ -1,4 +1,5 @@
-"""The subharmonic thresholds as functions of damping (issue 33): the product ``thresholds``.
+"""The products of studies over damping (issue 33): ``thresholds`` (the subharmonic thresholds
+as functions of damping) and ``impact_onset`` (where vibro-impacts start over (omega, zeta)).
 
 For every zeta of a study: sigma* (the lowest point of the 1T flip curve, paper Eq. 26-27),
 sigma** (the lowest point of the isola's 2T fold curve, paper Fig. 8-9) and the join (where the
