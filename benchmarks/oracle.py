@@ -505,3 +505,29 @@ def fold_on_line(guess, *, fixed, free, params, m=1, half_width=0.05, rtol=1e-12
                           method="bounded", options={"xatol": 1e-9})
     p = branch(float(res.x))
     return p, np.array([float(res.x), state["v"]])
+
+
+def flip_curve_minimum(zeta, omega_bracket, sigma_bracket, guess, *, rtol=1e-11, n=1.5,
+                       omega_xtol=1e-7):
+    """(sigma*, omega*, x): the lowest point in sigma of the 1T flip curve at ``zeta`` (paper
+    Eq. 26-27 by multiple scales), the oracle's own way: at each trial omega, the flip
+    (multiplier -1 of the 1T orbit: :func:`shoot`, M from the variational equations at rtol =
+    atol = ``rtol``) located in sigma within ``sigma_bracket`` by brentq (:func:`flip_point`,
+    omega held); then scipy's bounded minimize_scalar over omega in ``omega_bracket`` (to
+    ``omega_xtol``: sigma is flat at the minimum, so sigma* moves by sigma'' xtol^2 / 2, ~1e-11
+    at zeta 0.005). ``guess``: the 1T orbit's start point near the bracket."""
+    from scipy.optimize import minimize_scalar
+
+    state = {"x": np.asarray(guess, float)}
+
+    def sigma_flip(w):
+        s, x = flip_point(state["x"], sigma_bracket, fixed="omega", free="sigma",
+                          params={"omega": w, "sigma": sigma_bracket[0], "zeta": zeta},
+                          rtol=rtol, n=n)
+        state["x"] = x
+        return s
+
+    res = minimize_scalar(sigma_flip, bounds=omega_bracket, method="bounded",
+                          options={"xatol": omega_xtol})
+    sigma = sigma_flip(float(res.x))
+    return sigma, float(res.x), state["x"]

@@ -238,7 +238,11 @@ def _plot_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, default=Path("results"), help="folder for the PNGs (default results/)")
     p.add_argument("--which", nargs="+", default=["auto"], metavar="FIG",
                    help="auto (default: every figure the store's products support) or: map "
-                   "measures lyapunov bifurcation response harmonics strobe histories")
+                   "measures lyapunov zeta_maps bifurcation response harmonics strobe "
+                   "histories thresholds impact_onset")
+    p.add_argument("--zeta", type=float, default=None, metavar="Z",
+                   help="draw the figures of this zeta only (the store's nearest value; by "
+                   "default the maps and the other per-zeta figures of every zeta)")
     p.add_argument("--paper", nargs="+", default=[], metavar="FIG",
                    help="the paper's analytic figures, no store needed: fig02 fig03 fig04 fig05")
     p.add_argument("--no-products", action="store_true",
@@ -276,7 +280,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
                 prods = {name: read_product(args.store, name) for name in prods}
             paths += plots.plot_results(ds, {**given, **prods}, args.out, args.which,
                                         prefix=ds.attrs.get("hertzmap_study_name")
-                                        or Path(args.store).stem)
+                                        or Path(args.store).stem, zeta=args.zeta)
     except (ValueError, KeyError, FileNotFoundError, StoreError) as exc:
         return _error(f"plot: {exc}")
     for p in paths:

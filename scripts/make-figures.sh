@@ -5,7 +5,8 @@
 # then the paper's analytic figures, the explore page's screenshots (the browser test, when
 # chromium is there) and a basin map of the default scene (hertzmap basins). Prints the wall time of each scene's run and plot.
 #
-#   bash scripts/make-figures.sh              # everything (about 10 minutes on 2 cores)
+#   bash scripts/make-figures.sh              # everything (about 10 minutes on 2 cores, and
+#                                             # the damping scene's 13 on one worker)
 #   bash scripts/make-figures.sh fig06 fig08  # those scenes only
 #   WORKERS=4 bash scripts/make-figures.sh    # workers of each run (default 2)
 #
@@ -30,8 +31,9 @@ declare -A FIGURES=(
     [fig14]="histories"
     [fig15]="histories"
     [vibro_impact]="map lyapunov strobe"
+    [damping]="thresholds zeta_maps impact_onset"
 )
-ORDER="default fig03 fig06 fig07 fig08 fig09 fig10 fig12 fig13 fig14 fig15 vibro_impact"
+ORDER="default fig03 fig06 fig07 fig08 fig09 fig10 fig12 fig13 fig14 fig15 vibro_impact damping"
 SCENES="${*:-$ORDER paper explore basins}"
 
 ms() { date +%s%3N; }

@@ -53,6 +53,9 @@ __all__ = [
     "plot_frequency_response",
     "plot_force_harmonics",
     "plot_time_histories",
+    "plot_thresholds",
+    "plot_zeta_maps",
+    "plot_impact_onset",
     "plot_lyapunov_map",
     "plot_bifurcation_diagram",
     "plot_basin_map",
@@ -237,13 +240,9 @@ def _grid_fallback(traced, zeta, names):
 # maps
 # ---------------------------------------------------------------------------------------------
 
-def plot_loss_of_contact_map(lcm, curves, path, *, zeta=None, mms=None, title=None,
-                             traced=None, isola=None) -> Path:
-    """Kinds of stable response over (omega, sigma) with the flip, grazing and isola curves
-    (traced ones where the study has them, ``traced``: products/traced_curves, with sigma**
-    from ``isola``, products/isola_boundary; else the grid's contours) and the MMS flip
-    curve."""
-    zeta = float(lcm["zeta"].values[0] if zeta is None else zeta)
+def _map_panel(ax, lcm, curves, zeta, mms, traced, isola) -> list:
+    """One map of stable responses at ``zeta`` into ``ax`` (see plot_loss_of_contact_map);
+    returns the legend's patches of the response kinds present."""
     m = lcm.sel(zeta=zeta, method="nearest")
     field = "map_class" if "map_class" in m else "stable_set"
     codes = m[field].transpose("sigma", "omega").values.astype(int)
@@ -252,7 +251,6 @@ def plot_loss_of_contact_map(lcm, curves, path, *, zeta=None, mms=None, title=No
     n = len(SET_COLORS)
     cmap = ListedColormap([SET_COLORS[c] for c in range(n)])
     norm = BoundaryNorm(np.arange(-0.5, n + 0.5), n)
-    fig, ax = plt.subplots(figsize=(8.2, 4.8), layout="constrained")
     ax.pcolormesh(m["omega"], m["sigma"], codes, cmap=cmap, norm=norm, shading="nearest",
                   rasterized=True)
     handles = [Patch(facecolor=SET_COLORS[c], edgecolor="0.6", label=SET_LABELS[c]) for c in present]
@@ -270,12 +268,72 @@ def plot_loss_of_contact_map(lcm, curves, path, *, zeta=None, mms=None, title=No
     _draw_mms(ax, mms, zeta, sigma1=False)
     ax.set_xlim(float(m["omega"].min()), float(m["omega"].max()))
     ax.set_ylim(float(m["sigma"].min()), float(m["sigma"].max()))
+    return handles
+
+
+def plot_loss_of_contact_map(lcm, curves, path, *, zeta=None, mms=None, title=None,
+                             traced=None, isola=None) -> Path:
+    """Kinds of stable response over (omega, sigma) with the flip, grazing and isola curves
+    (traced ones where the study has them, ``traced``: products/traced_curves, with sigma**
+    from ``isola``, products/isola_boundary; else the grid's contours) and the MMS flip
+    curve."""
+    zeta = float(lcm["zeta"].values[0] if zeta is None else zeta)
+    fig, ax = plt.subplots(figsize=(8.2, 4.8), layout="constrained")
+    handles = _map_panel(ax, lcm, curves, zeta, mms, traced, isola)
     ax.set_xlabel("omega (excitation frequency / natural frequency)")
     ax.set_ylabel("sigma (excitation amplitude / preload)")
     ax.set_title(title or f"Stable responses and contact loss, {_zlabel(zeta)}")
     h2, l2 = ax.get_legend_handles_labels()
     ax.legend(handles=handles + h2, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0),
               title="stable responses / curves", title_fontsize=7, frameon=False)
+    return _save(fig, path)
+
+
+#: the side-by-side maps of a study of several zeta values: at most this many, evenly spread
+#: from the first zeta to the last
+ZETA_MAPS = 4
+
+
+def plot_zeta_maps(lcm, curves, path, *, zetas, mms=None, traced=None, isola=None) -> Path:
+    """The maps of stable responses (plot_loss_of_contact_map) at the ``zetas`` side by side,
+    on one sigma axis: how damping moves the flip curve and the isola."""
+    fig, axes = plt.subplots(1, len(zetas), figsize=(3.6 * len(zetas) + 2.2, 4.4),
+                             layout="constrained", sharey=True, squeeze=False)
+    handles = {}
+    for ax, z in zip(axes[0], zetas):
+        for h in _map_panel(ax, lcm, curves, float(z), mms, traced, isola):
+            handles[h.get_label()] = h
+        ax.set_title(_zlabel(float(z)), fontsize=9)
+        ax.set_xlabel("omega")
+    axes[0, 0].set_ylabel("sigma")
+    h2, l2 = axes[0, -1].get_legend_handles_labels()
+    axes[0, -1].legend(handles=list(handles.values()) + h2, fontsize=6, loc="upper left",
+                       bbox_to_anchor=(1.01, 1.0), frameon=False)
+    fig.suptitle("Stable responses and contact loss as damping grows", fontsize=10)
+    return _save(fig, path)
+
+
+def plot_impact_onset(onset, path) -> Path:
+    """Where vibro-impacts start: the lowest sigma at which a stable response loses contact,
+    over (omega, zeta), from products/impact_onset; in the rig's units (Hz, N) when it has
+    them. A design chart: below the surface every stable response stays in contact."""
+    rig = "frequency_hz" in onset.coords
+    x = onset["frequency_hz"].values if rig else onset["omega"].values
+    value = onset["force_amplitude_N"] if rig else onset["sigma_impact_onset"]
+    z = value.transpose("zeta", "omega").values
+    fig, ax = plt.subplots(figsize=(7.6, 4.6), layout="constrained")
+    pc = ax.pcolormesh(x, onset["zeta"].values, z, cmap="viridis", shading="nearest",
+                       rasterized=True)
+    cb = fig.colorbar(pc, ax=ax)
+    cb.set_label("excitation force amplitude at the onset (N)" if rig else
+                 "sigma at the onset (excitation amplitude / preload)")
+    if np.isfinite(z).sum() > 3 and np.nanmax(z) > np.nanmin(z):
+        cs = ax.contour(x, onset["zeta"].values, z, levels=8, colors="k", linewidths=0.6)
+        ax.clabel(cs, fontsize=6, fmt="%.3g")
+    ax.set_xlabel("excitation frequency (Hz)" if rig else "omega")
+    ax.set_ylabel("damping ratio zeta")
+    ax.set_title("Vibro-impact onset: the lowest excitation at which a stable response loses "
+                 "contact (white: none in the window)", fontsize=9)
     return _save(fig, path)
 
 
@@ -700,6 +758,45 @@ def paper_fig05(path, sigma=0.5, zeta=0.01, fr=None) -> Path:
     return _save(fig, path)
 
 
+def plot_thresholds(th, path, *, measured=(None, None)) -> Path:
+    """The subharmonic thresholds against damping (issue 33), from products/thresholds: left,
+    sigma*/zeta and sigma**/zeta against zeta (the continued curves, the study's zeta values as
+    points), the multiple-scales 36 / (1 + 16 zeta^2 / 9) (paper Eq. 26) and the rig's measured
+    (sigma*/zeta)_exp (``measured`` = (zeta, ratio): paper section 4, ~40 at zeta = 0.005);
+    right, sigma*, sigma** and the isola's join against zeta."""
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4.2), layout="constrained")
+    for name, label, color in (("star", "sigma* (1T flip curve's lowest point)", "C0"),
+                               ("double_star", "sigma** (isola's lowest point)", "C1")):
+        z, s = th[f"{name}_zeta"].values, th[f"{name}_sigma"].values
+        if z.size:
+            ax.plot(z, s / z, "-", color=color, lw=1.4, label=label + " / zeta")
+            bx.plot(z, s, "-", color=color, lw=1.4, label=label)
+        zg, sg = th["zeta"].values, th[f"sigma_{name}"].values
+        ax.plot(zg, sg / zg, "o", color=color, ms=4)
+        bx.plot(zg, sg, "o", color=color, ms=4)
+    if th["star_zeta"].size:
+        z = th["star_zeta"].values
+        ax.plot(z, th["star_sigma_mms"].values / z, "--", color="0.3", lw=1.0,
+                label="multiple scales: 36 / (1 + 16 zeta^2 / 9) (Eq. 26)")
+        bx.plot(z, th["star_sigma_mms"].values, "--", color="0.3", lw=1.0,
+                label="sigma* by multiple scales (Eq. 26)")
+    bx.plot(th["zeta"].values, th["sigma_join"].values, "s", color="C2", ms=4, mfc="none",
+            label="the isola joins the flip-born branch")
+    z_exp, r_exp = measured
+    if z_exp is not None:
+        ax.plot([z_exp], [r_exp], "*", color="C3", ms=12,
+                label=f"measured on the rig: ~{r_exp:g} at zeta = {z_exp:g} (paper)")
+    ax.set_xlabel("damping ratio zeta")
+    ax.set_ylabel("threshold / zeta")
+    ax.set_title("thresholds over damping")
+    ax.legend(fontsize=7, loc="best")
+    bx.set_xlabel("damping ratio zeta")
+    bx.set_ylabel("sigma")
+    bx.set_title("sigma*, sigma** and the join")
+    bx.legend(fontsize=7, loc="upper left")
+    return _save(fig, path)
+
+
 PAPER_FIGURES = {"fig02": paper_fig02, "fig03": paper_fig03, "fig04": paper_fig04,
                  "fig05": paper_fig05}
 
@@ -738,6 +835,9 @@ class _Sheet:
     zeta: np.ndarray
     out: Path
     name: str
+    #: the store has several zeta values (its files of one zeta are tagged with it, also when
+    #: only one is drawn: plot_results' ``zeta``)
+    several_zeta: bool = False
 
     @property
     def is_map(self) -> bool:
@@ -758,11 +858,12 @@ class _Sheet:
         return self.out / f"{self.name}_{which}{tag}.png"
 
     def zeta_tag(self, z) -> str:
-        return f"_zeta{z:g}" if self.zeta.size > 1 else ""
+        return f"_zeta{z:g}" if self.several_zeta or self.zeta.size > 1 else ""
 
     def line_tag(self, s, z, *, always: bool = False) -> str:
         """The files' tag of line (s, z): none for a study of one line, unless ``always``."""
-        return f"_sigma{s:g}" + self.zeta_tag(z) if always or self.lines > 1 else ""
+        return (f"_sigma{s:g}" + self.zeta_tag(z) if always or self.lines > 1 or self.several_zeta
+                else "")
 
 
 def _map_figure(sheet, prods, asked) -> list[Path]:
@@ -837,10 +938,30 @@ def _strobe_figure(sheet, prods, asked) -> list[Path]:
     paths = []
     for i in range(diagrams.sizes["line"]):
         diag = P.diagram_line(diagrams, i)
-        if diag.sizes["point"]:
+        if diag.sizes["point"] and np.isclose(sheet.zeta, diag.attrs["zeta"]).any():
             paths.append(plot_bifurcation_diagram(diag, sheet.path("strobe", sheet.line_tag(
                 diag.attrs["sigma"], diag.attrs["zeta"], always=True))))
     return paths
+
+
+def _zeta_maps_figure(sheet, prods, asked) -> list[Path]:
+    if not sheet.is_map or sheet.zeta.size < 2:
+        return []
+    pick = np.unique(np.linspace(0, sheet.zeta.size - 1, min(ZETA_MAPS, sheet.zeta.size))
+                     .round().astype(int))
+    return [plot_zeta_maps(prods["loss_of_contact_map"], prods["bifurcation_curves"],
+                           sheet.path("zeta_maps"), zetas=sheet.zeta[pick],
+                           mms=prods["mms_curves"], traced=prods.get("traced_curves"),
+                           isola=prods.get("isola_boundary"))]
+
+
+def _impact_onset_figure(sheet, prods, asked) -> list[Path]:
+    return [plot_impact_onset(prods["impact_onset"], sheet.path("impact_onset"))]
+
+
+def _thresholds_figure(sheet, prods, asked) -> list[Path]:
+    return [plot_thresholds(prods["thresholds"], sheet.path("thresholds"),
+                            measured=(P.MEASURED_ZETA, P.MEASURED_STAR_RATIO))]
 
 
 def _histories_figure(sheet, prods, asked) -> list[Path]:
@@ -853,11 +974,23 @@ def _histories_figure(sheet, prods, asked) -> list[Path]:
 _DRAW = {"map": _map_figure, "measures": _measures_figure, "lyapunov": _lyapunov_figure,
          "bifurcation": _bifurcation_figure, "response": _response_figure,
          "harmonics": _harmonics_figure, "strobe": _strobe_figure,
-         "histories": _histories_figure}
+         "histories": _histories_figure, "thresholds": _thresholds_figure,
+         "zeta_maps": _zeta_maps_figure, "impact_onset": _impact_onset_figure}
+
+
+def chosen_zeta(zetas, zeta: float) -> float:
+    """The store's zeta value nearest ``zeta`` (``hertzmap plot --zeta``); ValueError naming
+    the option and the store's range when ``zeta`` lies outside it (beyond half a step)."""
+    zs = np.sort(np.asarray(zetas, float))
+    step = float(np.min(np.diff(zs))) if zs.size > 1 else 0.0
+    if not (zs[0] - 0.5 * step - 1e-12 <= zeta <= zs[-1] + 0.5 * step + 1e-12):
+        raise ValueError(f"--zeta {zeta:g} is outside the store's zeta values "
+                         f"{zs[0]:g} .. {zs[-1]:g} ({zs.size} values)")
+    return float(zs[np.argmin(np.abs(zs - zeta))])
 
 
 def plot_results(ds, prods, out: str | Path = "results", which: Sequence[str] = ("auto",),
-                 *, prefix: str | None = None) -> list[Path]:
+                 *, prefix: str | None = None, zeta: float | None = None) -> list[Path]:
     """The figures of the products ``prods`` (by name: ``hertzmap plot`` passes the groups it
     has just stored, read back from the store), into ``out`` as
     ``<study>_<figure>[_...].png``. Returns the paths.
@@ -867,11 +1000,16 @@ def plot_results(ds, prods, out: str | Path = "results", which: Sequence[str] = 
     ``which``: "auto" (every figure the products support), or names from :data:`WHICH`. Maps
     and bifurcation sets need >= 2 omega and >= 2 sigma; response curves are drawn unless asked
     for only for studies of at most :data:`RESPONSE_FIGURE_LINES` (sigma, zeta) lines and more
-    than a few named frequencies, harmonics only for the latter.
+    than a few named frequencies, harmonics only for the latter. ``zeta``: the figures of that
+    zeta value only (the store's nearest: :func:`chosen_zeta`); by default every figure drawn
+    per zeta is drawn for each of the store's zeta values.
     """
     which = check_which(which)
-    sheet = _Sheet(ds["omega"].values, ds["sigma"].values, ds["zeta"].values, Path(out),
-                   prefix or ds.attrs.get("hertzmap_study_name") or "study")
+    zetas = np.asarray(ds["zeta"].values, float)
+    sheet = _Sheet(ds["omega"].values, ds["sigma"].values,
+                   zetas if zeta is None else np.array([chosen_zeta(zetas, zeta)]), Path(out),
+                   prefix or ds.attrs.get("hertzmap_study_name") or "study",
+                   several_zeta=zetas.size > 1)
     paths: list[Path] = []
     for product in P.PRODUCTS:
         if product.name not in prods:

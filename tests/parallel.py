@@ -39,6 +39,7 @@ SECONDS: dict[str, float] = {
     "tests/scheduler/test_cli.py": 40,
     "tests/benchmarks/test_work_precision.py": 32,
     "tests/test_architecture.py": 30,
+    "tests/study/solve/test_thresholds.py": 25,
 }
 
 

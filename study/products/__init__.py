@@ -25,6 +25,9 @@ One module per topic (docs/products.md has the reference):
 * ``traced_curves``: the stored traced curves (``products/traced_curves``, written by
   ``hertzmap run`` for studies with the ``curves`` output): :func:`traced_segments`,
   :func:`failed_traces`, :func:`isola_boundary` (sigma** and where the isola joins the flip);
+* ``damping``: :func:`thresholds` (sigma*, sigma** and the isola's join at each zeta, and
+  continued in zeta: study.solve.thresholds), :func:`impact_onset` (where vibro-impacts
+  start, over (omega, zeta));
 * ``catalog``: the registry (:class:`Product`, :data:`PRODUCTS`), :func:`compute_products`.
 
 numpy / xarray / contourpy / scipy.ndimage only: no Dask, no scheduler, no writes.
@@ -42,6 +45,8 @@ from hertzmap.study.products.multiple_scales import (MMS_HALF_WIDTH, mms_curves,
                                                      mms_response, mms_response_over)
 from hertzmap.study.products.paper_numbers import branch_end, flip_minimum
 from hertzmap.study.products.response import force_harmonics, frequency_response, time_histories
+from hertzmap.study.products.damping import (MEASURED_STAR_RATIO, MEASURED_ZETA,
+                                               THRESHOLD_VARIABLES, impact_onset, thresholds)
 from hertzmap.study.products.traced_curves import (TRACED_VARIABLES, failed_traces, isola_boundary,
                                           traced_segments)
 from hertzmap.study.products.results import (completed, contact_threshold, exponent_of, open_store,
@@ -56,5 +61,6 @@ __all__ = [
     "flip_minimum", "branch_end", "compute_products", "stroboscopic_diagram", "MAP_CLASSES",
     "TRACED_VARIABLES", "traced_segments", "failed_traces", "isola_boundary",
     "stroboscopic_diagrams", "diagram_line", "mms_curves_over", "mms_response_over",
+    "thresholds", "impact_onset", "THRESHOLD_VARIABLES", "MEASURED_STAR_RATIO", "MEASURED_ZETA",
     "PRODUCTS", "RUN_PRODUCTS", "WHICH", "Context", "Figure", "Product",
 ]

@@ -6,8 +6,9 @@ after the products it takes) names
 
 * ``needs(ds, context)``: whether the results support it (``ds``: study.products.open_store;
   ``context``: a :class:`Context`, the figures asked for and the products at hand);
-* ``compute(ds, *inputs)``: the pure function, given the results and the products named in
-  ``inputs`` (earlier entries, or :data:`RUN_PRODUCTS`, written by ``hertzmap run``);
+* ``compute(ds, *inputs, **optional)``: the pure function, given the results and the products
+  named in ``inputs`` (earlier entries, or :data:`RUN_PRODUCTS`, written by ``hertzmap run``),
+  and those named in ``optional`` that are at hand, by name;
 * ``figures``: the figures of study/plots.py drawn from it, each a :class:`Figure` (its
   ``--which`` name and plotting function).
 
@@ -32,6 +33,7 @@ from hertzmap.study.products.multiple_scales import (MMS_HALF_WIDTH, mms_curves_
                                                      mms_response_over, mms_window)
 from hertzmap.study.products.response import force_harmonics, frequency_response, time_histories
 from hertzmap.study.products.results import open_store, rig_of, source_attrs
+from hertzmap.study.products.damping import impact_onset, thresholds
 from hertzmap.study.products.traced_curves import isola_boundary
 
 __all__ = ["Figure", "Product", "Context", "PRODUCTS", "RUN_PRODUCTS", "WHICH", "MAX_LINES",
@@ -66,6 +68,8 @@ class Product:
     compute: Callable[..., xr.Dataset]
     figures: tuple[Figure, ...] = ()
     inputs: tuple[str, ...] = ()
+    #: products it takes when at hand (keyword arguments of ``compute``, by name)
+    optional: tuple[str, ...] = ()
 
 
 #: Products that ``hertzmap run`` writes itself (the ``curves`` output) and the others may take.
@@ -95,6 +99,14 @@ def _mms_window_in_few_lines(ds: xr.Dataset, context: Context) -> bool:
     return _few_lines(ds, context) and mms_window(ds["omega"].values) is not None
 
 
+def _zeta_swept(ds: xr.Dataset, context: Context) -> bool:
+    return ds.sizes["zeta"] >= 2
+
+
+def _zeta_swept_map(ds: xr.Dataset, context: Context) -> bool:
+    return _zeta_swept(ds, context) and ds.sizes["sigma"] >= 2
+
+
 def _stored(*names: str) -> Callable[[xr.Dataset, Context], bool]:
     """needs: the results hold these variables (the study's outputs stored them)."""
     return lambda ds, context: all(n in ds for n in names)
@@ -118,7 +130,7 @@ PRODUCTS: tuple[Product, ...] = (
             "coexistence, the census's attractors and the curves' indicators",
             _always, loss_of_contact_map,
             (Figure("map", "plot_loss_of_contact_map"), Figure("measures", "plot_map_measures"),
-             Figure("lyapunov", "plot_lyapunov_map"))),
+             Figure("lyapunov", "plot_lyapunov_map"), Figure("zeta_maps", "plot_zeta_maps"))),
     Product("bifurcation_curves", "contour lines of the map's indicators (flip, grazing, 2T "
             "boundary, isola)",
             _always, lambda ds, lcm: bifurcation_curves(lcm),
@@ -153,6 +165,16 @@ PRODUCTS: tuple[Product, ...] = (
             "the traced curves",
             _at_hand("traced_curves"), lambda ds, traced: isola_boundary(traced),
             inputs=("traced_curves",)),
+    Product("thresholds", "sigma*, sigma** and the isola's join at each zeta, by continuation, "
+            "and sigma*(zeta), sigma**(zeta) continued in zeta (studies of two or more zeta "
+            "values)",
+            _zeta_swept, thresholds, (Figure("thresholds", "plot_thresholds"),),
+            optional=("traced_curves", "isola_boundary")),
+    Product("impact_onset", "where vibro-impacts start: the lowest sigma at which a stable "
+            "response loses contact, over (omega, zeta), in the rig's units with a [rig] "
+            "(maps of two or more zeta values)",
+            _zeta_swept_map, lambda ds, lcm: impact_onset(lcm, rig_of(ds)),
+            (Figure("impact_onset", "plot_impact_onset"),), inputs=("loss_of_contact_map",)),
 )
 
 #: Every figure's --which name, in the registry's order.
@@ -188,5 +210,7 @@ def compute_products(results: str | Path | xr.Dataset, *, which: Sequence[str] =
     context = Context(check_which(which), at_hand)
     for p in PRODUCTS:
         if p.needs(ds, context):
-            out[p.name] = at_hand[p.name] = p.compute(ds, *(at_hand[n] for n in p.inputs))
+            out[p.name] = at_hand[p.name] = p.compute(
+                ds, *(at_hand[n] for n in p.inputs),
+                **{n: at_hand[n] for n in p.optional if n in at_hand})
     return out

@@ -64,6 +64,10 @@ SMALL: dict[str, dict] = {
     "fig13": {},
     "fig14": {},
     "fig15": {},
+    # two zeta values (0.005, 0.01) near omega = 2 without the traced curves: the worked query
+    # "sigma* for each zeta" of dataset.md (sigma* needs no grid point; sigma** is NaN)
+    "damping": {"omega": slice(31, 33), "sigma": slice(2, 4), "zeta": [1, 3],
+                "outputs": ["orbits", "measures"]},
     # a chaotic point (0.5, 2.5) and its neighbours: the census query of dataset.md
     "vibro_impact": {"omega": slice(7, 9), "sigma": slice(48, 50)},
 }

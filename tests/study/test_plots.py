@@ -83,3 +83,46 @@ def test_every_figure_of_the_registry_is_drawn_from_its_product_alone(real, tmp_
          "real_histories.png"])
     with pytest.raises(ValueError, match="unknown figure"):
         plots.plot_results(ds, prods, tmp_path, which=["maps"])
+
+
+def _two_zeta_map():
+    """A small map of two zeta values, a smooth flip indicator through the 1T slot at each."""
+    toml = ("[grid]\nomega = {start = 1.9, stop = 2.1, num = 5}\n"
+            "sigma = {start = 0.1, stop = 0.5, num = 4}\nzeta = [0.005, 0.01]\n")
+    ds = blank_results(toml, "z")
+    for k in range(2):
+        for i, w in enumerate(ds["omega"].values):
+            for j, s in enumerate(ds["sigma"].values):
+                mu = -0.8 - (s - 0.2 * (k + 1) - 10 * (w - 2) ** 2)
+                set_orbit(ds, i, j, 0, period=1, stable=mu > -1, mult=(mu, 0.9 / mu), k=k)
+    return P.open_store(ds)
+
+
+def test_a_store_of_several_zeta_gets_one_figure_per_zeta_or_the_chosen_one(tmp_path):
+    ds = _two_zeta_map()
+    prods = {n: v for n, v in P.compute_products(ds, which=["map"]).items()
+             if n != "thresholds"}
+    names = {p.name for p in plots.plot_results(ds, prods, tmp_path / "all", which=["map"])}
+    assert names == {"z_map_zeta0.005.png", "z_map_zeta0.01.png"}
+    one = plots.plot_results(ds, prods, tmp_path / "one", which=["map"], zeta=0.0098)
+    assert [p.name for p in one] == ["z_map_zeta0.01.png"]
+    with pytest.raises(ValueError, match="--zeta 0.2 is outside the store's zeta values"):
+        plots.plot_results(ds, prods, tmp_path / "bad", which=["map"], zeta=0.2)
+
+
+def test_the_thresholds_figure_from_its_product(tmp_path):
+    ds = _two_zeta_map()
+    th = P.thresholds(ds)
+    paths = plots.plot_results(ds, {"thresholds": th}, tmp_path)
+    assert [p.name for p in paths] == ["z_thresholds.png"]
+    assert 1000 < paths[0].stat().st_size < 300_000
+
+
+def test_the_maps_of_several_zeta_side_by_side_and_the_impact_onset_chart(tmp_path):
+    ds = _two_zeta_map()
+    prods = {n: v for n, v in P.compute_products(ds, which=["map"]).items()
+             if n != "thresholds"}
+    paths = plots.plot_results(ds, prods, tmp_path, which=["zeta_maps", "impact_onset"])
+    assert sorted(p.name for p in paths) == ["z_impact_onset.png", "z_zeta_maps.png"]
+    for p in paths:
+        assert 1000 < p.stat().st_size < 300_000

@@ -1,0 +1,307 @@
+"""The subharmonic thresholds as functions of damping (issue 33), by continuation.
+
+* **sigma*(zeta)**: the lowest point of the 1T flip curve in the (omega, sigma) plane at fixed
+  zeta, above which the subharmonic resonance is always excited (paper Eq. 26-27: by multiple
+  scales 36 zeta / (1 + 16 zeta^2 / 9), 36 zeta as zeta -> 0; the rig measured
+  (sigma*/zeta)_exp ~ 40 at zeta = 0.005).
+* **sigma**(zeta)**: the lowest point of the isola's 2T fold curve (paper Fig. 8-9): below it
+  no isola.
+* **the join**: where the isola's 2T fold curve ends on the 1T flip curve (a fold_flip point:
+  the isola joins the flip-born branch), when it does at that zeta.
+
+**Extremum condition.** On a curve (Phi_{mT}(x) - x = 0, g = 0; g the flip or fold function of
+the period-m monodromy: kernels.continuation's extended system) the curve's sigma at fixed
+omega, sigma_c(omega), is the extended system solved by the chord corrector with omega held
+(three equations, three unknowns q, q', sigma; warm-started from the nearest omega solved). The
+lowest point is where d sigma_c / d omega = 0, found as the minimum of sigma_c by Brent's
+bounded search over omega (:func:`curve_minimum`), not as the zero of a difference-Jacobian
+tangent (which moved sigma** by 1e-6: docs/curves.md): sigma is flat there, so its value is
+exact to the corrector's tolerance (|du| <= 1e-11). **Accuracy**: in sigma, the change of
+sigma_c at the minimum when the integrator's tolerance is divided by ACCURACY_RTOL_FACTOR; in
+omega, the half-width of the interval over which sigma_c stays within that accuracy of its
+minimum (sqrt(2 accuracy / sigma_c''), the curvature from three points).
+
+**Continued in zeta** (:func:`continue_minimum`): the minimum is a point of codimension 2 in
+(omega, sigma, zeta) (a curve point with d sigma / d omega = 0) followed in zeta by natural-
+parameter continuation: a secant (then quadratic) predictor of (q, q', omega, sigma) in zeta,
+the minimum found again at each zeta around the predicted omega, the step grown when the
+predictor was good and shortened when it was not (or the corrector failed), landing on every
+zeta asked for (the study's grid values). The curves sigma*(zeta), sigma**(zeta) are these
+vertices.
+
+Pure (numpy, scipy and kernels; no xarray, no Dask). Dimensionless (paper Eq. 7 / 11).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from hertzmap.kernels import continuation as cont
+from hertzmap.kernels.continuation.extended_system import _chord, _CurveSystem
+from hertzmap.kernels.orbit import shoot
+from hertzmap.study.analytic import multiple_scales as mms
+
+#: The thresholds and the curve whose lowest point each is: (kind, period).
+THRESHOLD_CURVES = {"star": ("flip", 1), "double_star": ("fold", 2)}
+#: Brent's tolerance in omega for the minimum of sigma_c (the value of sigma there moves by
+#: sigma_c'' xatol^2 / 2 ~ 1e-15).
+OMEGA_XTOL = 1e-9
+#: The accuracy in sigma is the change of the minimum's sigma when the integrator's rtol is
+#: multiplied by this.
+ACCURACY_RTOL_FACTOR = 1e-2
+#: sigma_c'' from three points this far apart in omega (relative to the search's half-width).
+CURVATURE_SHARE = 0.05
+#: A minimum within this share of the half-width from an end of the search is on the edge: the
+#: search is recentred there (at most RECENTRE times).
+EDGE_SHARE = 0.02
+RECENTRE = 4
+#: Continuation in zeta: at least MIN_VERTICES vertices over the range (the step at most its
+#: 1/MIN_VERTICES), at most MAX_VERTICES; the step grows by GROW when the predictor missed sigma
+#: by less than PREDICTOR_TOL / 10 (relative), shrinks by SHRINK when it missed by more than
+#: PREDICTOR_TOL or the minimum was not found; it gives up below MIN_STEP_SHARE of the range.
+MIN_VERTICES = 40
+MAX_VERTICES = 400
+GROW, SHRINK = 1.5, 0.5
+PREDICTOR_TOL = 1e-3
+MIN_STEP_SHARE = 1e-4
+
+
+@dataclass
+class CurveMinimum:
+    """The lowest point of a fold or flip curve in (omega, sigma) at ``zeta``: the orbit's start
+    point (q0, v0), the accuracies (see the module's docstring), sigma_c'' there
+    (``curvature``) and the period maps it took."""
+
+    zeta: float
+    omega: float
+    sigma: float
+    q0: float
+    v0: float
+    sigma_accuracy: float
+    omega_accuracy: float
+    curvature: float
+    maps: int = 0
+
+    def u(self) -> np.ndarray:
+        return np.array([self.q0, self.v0, self.omega, self.sigma])
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+class _SigmaOnCurve:
+    """sigma_c(omega): the curve's sigma at fixed omega (the extended system's corrector with
+    omega held), each solve warm-started from the nearest omega solved before."""
+
+    _HOLD_OMEGA = np.array([0.0, 0.0, 1.0, 0.0])
+
+    def __init__(self, kind, period, zeta, exponent, model, rtol, max_steps):
+        self.system = _CurveSystem(kind, period, ("omega", "sigma"), zeta, exponent, model, rtol,
+                                   max_steps)
+        self.solved: dict[float, np.ndarray] = {}
+
+    def seed(self, u) -> bool:
+        r = _chord(self.system, np.asarray(u, float), self._HOLD_OMEGA, max_iter=30)
+        if r is not None:
+            self.solved[float(r.u[2])] = r.u.copy()
+        return r is not None
+
+    def __call__(self, omega: float) -> float:
+        known = np.array(list(self.solved))
+        u = self.solved[float(known[np.argmin(np.abs(known - omega))])].copy()
+        u[2] = omega
+        r = _chord(self.system, u, self._HOLD_OMEGA, max_iter=30)
+        if r is None:
+            return math.inf
+        self.solved[float(omega)] = r.u.copy()
+        return float(r.u[3])
+
+
+def curve_minimum(kind: str, period: int, zeta: float, start, *, half_width: float,
+                  exponent: float = 1.5, model: str = "hertz", rtol: float = 1e-10,
+                  max_steps: int = 10**6) -> CurveMinimum | None:
+    """The lowest point in sigma of the ``kind`` ("fold" or "flip") curve of period-``period``
+    orbits in (omega, sigma) at ``zeta``, searched within ``half_width`` of the omega of
+    ``start`` = (q0, v0, omega, sigma), a point near the curve (recentred when the minimum is
+    on the search's edge). None when the corrector does not reach the curve or the minimum
+    stays on the edge."""
+    from scipy.optimize import minimize_scalar
+
+    sig = _SigmaOnCurve(kind, period, zeta, exponent, model, rtol, max_steps)
+    if not sig.seed(start):
+        return None
+    centre = float(np.asarray(start, float)[2])
+    for _ in range(RECENTRE + 1):
+        lo, hi = centre - half_width, centre + half_width
+        with np.errstate(invalid="ignore", over="ignore"):
+            res = minimize_scalar(sig, bounds=(lo, hi), method="bounded",
+                                  options={"xatol": OMEGA_XTOL, "maxiter": 200})
+        w = float(res.x)
+        if not math.isfinite(res.fun) or w not in sig.solved:
+            return None
+        if min(w - lo, hi - w) > EDGE_SHARE * half_width:
+            break
+        centre = w
+    else:
+        return None
+    u = sig.solved[w]
+    d = CURVATURE_SHARE * half_width
+    s_lo, s_hi = sig(w - d), sig(w + d)
+    curvature = (s_lo + s_hi - 2.0 * u[3]) / d**2
+    fine = _SigmaOnCurve(kind, period, zeta, exponent, model, rtol * ACCURACY_RTOL_FACTOR,
+                         max_steps)
+    s_fine = fine(w) if fine.seed(u) else math.nan
+    acc = abs(s_fine - u[3]) if math.isfinite(s_fine) else math.nan
+    acc_w = (math.sqrt(2.0 * acc / curvature) if curvature > 0.0 and math.isfinite(acc)
+             else math.nan)
+    return CurveMinimum(float(zeta), w, float(u[3]), float(u[0]), float(u[1]), acc,
+                        max(acc_w, OMEGA_XTOL), float(curvature),
+                        sig.system.maps + fine.system.maps)
+
+
+def flip_start(zeta: float, *, exponent: float = 1.5, model: str = "hertz",
+               rtol: float = 1e-10, max_steps: int = 10**6):
+    """A point near the 1T flip curve's lowest point at ``zeta``: omega = 2, sigma of paper
+    Eq. 26 (multiple scales), the 1T orbit there shot from the static equilibrium (q = 0).
+    (q0, v0, omega, sigma), or None."""
+    sigma = float(mms.sigma_star(zeta, "paper"))
+    o = shoot(2.0, sigma, zeta, 1, (0.0, 0.0), exponent=exponent, model=model, rtol=rtol,
+              max_steps=max_steps)
+    return (float(o.x0[0]), float(o.x0[1]), 2.0, sigma) if o.converged else None
+
+
+def star_half_width(zeta: float) -> float:
+    """The half-width in omega of the search for sigma*: the flip curve's U is ~ 4 zeta wide
+    at twice its lowest sigma (paper Eq. 25b: sigma2 ~ 18 sqrt((omega - 2)^2 + 4 zeta^2))."""
+    return max(2.0 * float(zeta), 2e-3)
+
+
+#: The half-width in omega of the search for sigma**: the isola's fold curve is broad at its
+#: lowest point (sigma rises by ~0.3 over 1 in omega at zeta 0.01).
+DOUBLE_STAR_HALF_WIDTH = 0.05
+
+
+@dataclass
+class ZetaCurve:
+    """A minimum continued in zeta: its vertices (CurveMinimum, zeta increasing) and how each
+    end stopped ("range": the end of the range asked; "lost": the minimum was not found
+    again with the shortest step; "max_vertices": MAX_VERTICES on that side)."""
+
+    vertices: list
+    status: tuple = ("range", "range")
+    maps: int = 0
+
+
+def continue_minimum(kind: str, period: int, start: CurveMinimum, zeta_range, *,
+                     land_on=(), half_width=None, exponent: float = 1.5, model: str = "hertz",
+                     rtol: float = 1e-10, max_steps: int = 10**6) -> ZetaCurve:
+    """Continue the lowest point ``start`` of a ``kind`` curve in zeta, both ways across
+    ``zeta_range`` = (lo, hi), landing on every zeta of ``land_on`` in the range (the study's
+    grid values). ``half_width``: a function of zeta, the search's half-width (default
+    :func:`star_half_width` for the flip, DOUBLE_STAR_HALF_WIDTH for a fold). Returns a
+    :class:`ZetaCurve` (vertices in increasing zeta, ``start`` among them)."""
+    lo, hi = (float(z) for z in zeta_range)
+    if not lo <= start.zeta <= hi:
+        raise ValueError(f"start.zeta = {start.zeta} is outside zeta_range ({lo}, {hi})")
+    if half_width is None:
+        half_width = star_half_width if kind == "flip" else (lambda z: DOUBLE_STAR_HALF_WIDTH)
+    span = max(hi - lo, 1e-12)
+    targets = sorted(float(z) for z in land_on if lo <= z <= hi)
+    maps = 0
+    sides, status = [], []
+    for end in (lo, hi):
+        path = [start]
+        h = span / MIN_VERTICES
+        how = "range"
+        while path[-1].zeta != end:
+            if len(path) >= MAX_VERTICES:
+                how = "max_vertices"
+                break
+            z0 = path[-1].zeta
+            step = min(h, span / MIN_VERTICES, abs(end - z0))
+            z1 = z0 + math.copysign(step, end - z0)
+            # land on the grid's zeta values in the way
+            between = [t for t in targets if min(z0, z1) < t < max(z0, z1)]
+            if between:
+                z1 = min(between, key=lambda t: abs(t - z0))
+            if abs(end - z1) < 1e-12 * span:
+                z1 = end
+            guess = _predict(path, z1)
+            w_move = abs(guess[2] - path[-1].omega)
+            found = curve_minimum(kind, period, z1, guess,
+                                  half_width=max(half_width(z1), 3.0 * w_move),
+                                  exponent=exponent, model=model, rtol=rtol, max_steps=max_steps)
+            if found is None:
+                h = SHRINK * abs(z1 - z0)
+                if h < MIN_STEP_SHARE * span:
+                    how = "lost"
+                    break
+                continue
+            maps += found.maps
+            path.append(found)
+            miss = abs(found.sigma - guess[3]) / max(found.sigma, 1e-12)
+            # a step shortened to land on a grid zeta says nothing against the step length
+            h = max(h, abs(z1 - z0)) * (GROW if miss < 0.1 * PREDICTOR_TOL else
+                                        SHRINK if miss > PREDICTOR_TOL else 1.0)
+            h = max(h, MIN_STEP_SHARE * span)
+        sides.append(path)
+        status.append(how)
+    vertices = sides[0][::-1] + sides[1][1:]
+    return ZetaCurve(vertices, (status[0], status[1]), maps)
+
+
+def _predict(path: list, zeta: float) -> np.ndarray:
+    """(q0, v0, omega, sigma) at ``zeta`` extrapolated from the last vertices (secant, then a
+    quadratic through three)."""
+    k = min(len(path), 3)
+    if k == 1:
+        u = path[-1].u()
+        return u
+    zs = np.array([p.zeta for p in path[-k:]])
+    U = np.array([p.u() for p in path[-k:]])
+    return np.array([np.polyval(np.polyfit(zs, U[:, j], k - 1), zeta) for j in range(4)])
+
+
+@dataclass
+class Join:
+    """Where the isola's 2T fold curve ends on the 1T flip curve (fold_flip), with the spread
+    of its extrapolation onto the 1T orbit (``accuracy``, in omega and sigma)."""
+
+    zeta: float
+    omega: float
+    sigma: float
+    accuracy: float
+    maps: int = 0
+
+
+#: The isola's fold curve is traced from its lowest point towards the flip curve within these
+#: bounds (omega up to the subharmonic resonance's side beyond 2, sigma up to where the paper's
+#: maps stop).
+JOIN_BOUNDS = {"omega": 2.6, "sigma": 3.0}
+#: The trace starts this far in omega to the right of sigma** (sigma then rises along it; from
+#: 1e-2 the start corrector failed at zeta 0.0025, where the orbit moves fast with omega).
+JOIN_START_OFFSET = 1e-3
+
+
+def isola_join(lowest: CurveMinimum, *, exponent: float = 1.5, model: str = "hertz",
+               rtol: float = 1e-10, max_steps: int = 10**6) -> Join | None:
+    """The isola's join with the flip-born branch at ``lowest.zeta``: its 2T fold curve traced
+    (kernels.continuation.trace_curve) from just right of its lowest point (``lowest``, sigma**)
+    towards higher omega until it ends on the 1T orbit, where its end is extrapolated (the
+    fold_flip point). None when the curve leaves the bounds or fails before that (the isola
+    does not join the flip-born branch there)."""
+    curve = cont.trace_curve(
+        (lowest.q0, lowest.v0), lowest.omega + JOIN_START_OFFSET, lowest.sigma, lowest.zeta,
+        kind="fold", period=2, pair=("omega", "sigma"), hold="omega", both_ways=False,
+        direction=1.0, exponent=exponent, model=model, rtol=rtol, max_steps=max_steps,
+        bounds={"omega": (lowest.omega, JOIN_BOUNDS["omega"]),
+                "sigma": (0.0, JOIN_BOUNDS["sigma"])},
+        ds_max=0.5, max_points=1500)
+    joins = [p for p in curve.codim2 if p.kind == "fold_flip"]
+    if not joins:
+        return None
+    p = joins[0]
+    return Join(float(p.zeta), float(p.omega), float(p.sigma), float(p.accuracy),
+                int(curve.maps))
