@@ -43,7 +43,7 @@ import numpy as np
 
 from benchmarks.run_summary import run_summary
 from hertzmap.kernels import continuation as cont
-from hertzmap.kernels.continuation.extended_system import _chord, _CurveSystem
+from hertzmap.kernels.continuation.extended_system import CurveSystem, chord_correct
 from hertzmap.kernels import shoot, shoot_batch
 from hertzmap.study.products.curves import contour_lines
 from hertzmap.study.solve.discovery import discover_line
@@ -79,14 +79,14 @@ def grazing_seed():
 
 def accuracy(curve, kind, period, zeta, sample=12):
     """Largest change of a vertex's sigma (omega held) when re-solved at rtol 1e-12."""
-    system = _CurveSystem(kind, period, ("omega", "sigma"), zeta, 1.5, "hertz", 1e-12, 10**6)
+    system = CurveSystem(kind, period, ("omega", "sigma"), zeta, 1.5, "hertz", 1e-12, 10**6)
     V = curve.vertices
     worst = 0.0
     for i in np.linspace(1, len(curve) - 2, sample).astype(int):
         if int(V["flag"][i]) & cont.VERTEX_END:
             continue
         u = np.array([V["q0"][i], V["v0"][i], V["omega"][i], V["sigma"][i]])
-        r = _chord(system, u, np.array([0.0, 0.0, 1.0, 0.0]), max_iter=30)
+        r = chord_correct(system, u, np.array([0.0, 0.0, 1.0, 0.0]), max_iter=30)
         if r is not None:
             worst = max(worst, abs(r.u[3] - u[3]))
     return worst
@@ -132,13 +132,13 @@ def on_curve(curve, kind, period, zeta, sigma, near_omega):
     """The traced curve's exact crossing of the sigma line near ``near_omega``: the curve's
     equations solved with sigma held, from the interpolated polyline."""
     V = curve.vertices
-    system = _CurveSystem(kind, period, ("omega", "sigma"), zeta, 1.5, "hertz", 1e-10, 10**6)
+    system = CurveSystem(kind, period, ("omega", "sigma"), zeta, 1.5, "hertz", 1e-10, 10**6)
     k = np.nonzero(np.diff(np.sign(V["sigma"] - sigma)))[0]
     k = k[np.argmin(np.abs(V["omega"][k] - near_omega))]
     th = (sigma - V["sigma"][k]) / (V["sigma"][k + 1] - V["sigma"][k])
     u = np.array([V[n][k] + th * (V[n][k + 1] - V[n][k]) for n in ("q0", "v0", "omega")]
                  + [sigma])
-    r = _chord(system, u, np.array([0.0, 0.0, 0.0, 1.0]), max_iter=30)
+    r = chord_correct(system, u, np.array([0.0, 0.0, 0.0, 1.0]), max_iter=30)
     return (r.u[2], r.u[:2]) if r is not None else (np.nan, u[:2])
 
 

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hertzmap.kernels.continuation.core import illinois_bracket, illinois_trial
-from hertzmap.kernels.continuation.extended_system import _chord
+from hertzmap.kernels.continuation.extended_system import chord_correct
 
 #: codimension-2 points along a curve
 CODIM2_KINDS = ("cusp", "fold_flip", "fold_grazing", "flip_grazing")
@@ -61,7 +61,7 @@ def locate_zero(system, ua, ub, ga, gb, gfun, J=None, max_iter=30):
     wp = float(np.linalg.norm(c[2:]))
     for _ in range(max_iter):
         th = illinois_trial(ta, tb, ga, gb)
-        r = _chord(system, ua + th * c, normal, J=J)
+        r = chord_correct(system, ua + th * c, normal, J=J)
         if r is None:
             return best
         u, F, aux, Jt, _ = r
@@ -96,7 +96,7 @@ def locate_extremum(system, ua, ub, J, d, maximum):
     found = {}
 
     def phi(th):
-        r = _chord(system, ua + th * c, normal, J=J)
+        r = chord_correct(system, ua + th * c, normal, J=J)
         if r is None:
             return np.inf
         found[th] = r

@@ -27,7 +27,7 @@ from hertzmap.kernels.continuation.core import (BOUNDARY, BRANCH_POINT, BRANCH_S
                                                 flip_function, floquet_multipliers, null_vector,
                                                 predict_correct, tangent)
 from hertzmap.kernels.continuation.extended_system import (CURVE_KINDS, CURVE_PARAMS,
-                                                           _chord, _CurveSystem)
+                                                           CurveSystem, chord_correct)
 from hertzmap.kernels.orbit import DEFAULT_MAX_STEPS, DEFAULT_RTOL, shoot
 
 #: vertex flags (bit mask): why a vertex is where it is
@@ -130,9 +130,9 @@ class _Tracer:
         guess[2 + j] = bound
         normal = np.zeros(4)
         normal[2 + j] = 1.0
-        r = _chord(self.sys, guess, normal, J=J)
+        r = chord_correct(self.sys, guess, normal, J=J)
         if r is None:
-            r = _chord(self.sys, guess, normal)
+            r = chord_correct(self.sys, guess, normal)
         return r
 
     def inside(self, u):
@@ -161,7 +161,7 @@ class _Tracer:
             # the Jacobian is built at each prediction (the last vertex's, Broyden-updated, saved
             # 4 maps a vertex but took 6-12 corrections each and lost the isola's fold curve)
             step, tn, h = predict_correct(
-                lambda u_pred, normal: _chord(self.sys, u_pred, normal), u, t, h, self.ds_min)
+                lambda u_pred, normal: chord_correct(self.sys, u_pred, normal), u, t, h, self.ds_min)
             if step is None:
                 status = STEP_FAIL
                 if self.m == 2 and len(recs) >= 3:
@@ -360,7 +360,7 @@ def trace_curve(x0, omega, sigma, zeta, *, kind, period=1, pair=("omega", "sigma
     default = {"omega": (1e-3, 10.0), "sigma": (0.0, 10.0), "zeta": (0.0, 10.0)}
     bounds = dict(bounds or {})
     bnd = (tuple(bounds.get(pair[0], default[pair[0]])), tuple(bounds.get(pair[1], default[pair[1]])))
-    system = _CurveSystem(kind, period, pair, p0[fixed_name], exponent, model, rtol, max_steps)
+    system = CurveSystem(kind, period, pair, p0[fixed_name], exponent, model, rtol, max_steps)
     curve = Curve(kind=kind, period=int(period), pair=pair, fixed=p0[fixed_name])
     tracer = _Tracer(system, bnd, ds, ds_min, ds_max, dp_frac, max_points)
     u0 = np.array([x0[0], x0[1], p0[pair[0]], p0[pair[1]]], float)
@@ -370,7 +370,7 @@ def trace_curve(x0, omega, sigma, zeta, *, kind, period=1, pair=("omega", "sigma
     for held in ((2, 3) if hold == pair[0] else (3, 2)):
         normal = np.zeros(4)
         normal[held] = 1.0
-        start = _chord(system, u0, normal, max_iter=30)
+        start = chord_correct(system, u0, normal, max_iter=30)
         if start is not None:
             break
     if start is None:

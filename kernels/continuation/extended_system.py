@@ -132,7 +132,7 @@ def curve_system_into(u, pa, pb, fixed, kind, m, n, model, rtol, atol, max_steps
     return code
 
 
-class _CurveSystem:
+class CurveSystem:
     """The compiled extended system with its fixed arguments, counting the maps it costs."""
 
     def __init__(self, kind, m, pair, fixed, exponent, model, rtol, max_steps):
@@ -212,7 +212,7 @@ def _solve4(A, b, x):
 @kernel("int64(float64[::1], float64[::1], float64[:, ::1], boolean, int64, int64, float64, int64, int64, float64, int64, float64, float64, int64, float64, float64, int64, float64, boolean, float64[::1], float64[::1], float64[::1], float64[::1])")
 def _chord_into(u_pred, normal, J, have_J, pa, pb, fixed, kind, m, n, model, rtol, atol,
                 max_steps, level, fd_step, max_iter, xtol, broyden, u, F, aux, maps):
-    """Corrector on F(u) = 0, normal . (u - u_pred) = 0 (see :func:`_chord`), compiled: u, F,
+    """Corrector on F(u) = 0, normal . (u - u_pred) = 0 (see :func:`chord_correct`), compiled: u, F,
     aux and J are updated in place, maps[0] counts the period maps. Returns the iterations
     (>= 1) on convergence, -1 on failure."""
     A = np.empty((4, 4))
@@ -315,7 +315,7 @@ class ChordCorrection(NamedTuple):
     iterations: int
 
 
-def _chord(system, u_pred, normal, J=None, max_iter=CURVE_MAX_ITER, xtol=CURVE_XTOL):
+def chord_correct(system, u_pred, normal, J=None, max_iter=CURVE_MAX_ITER, xtol=CURVE_XTOL):
     """Corrector on F(u) = 0, normal . (u - u_pred) = 0 with a Jacobian ``J`` built once (at
     u_pred when None, else the one given) and then updated, not rebuilt: the Phi rows' x
     columns are the exact M - I of every map, the rest Broyden's rank-1 secant update. It is

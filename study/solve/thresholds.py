@@ -39,7 +39,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from hertzmap.kernels import continuation as cont
-from hertzmap.kernels.continuation.extended_system import _chord, _CurveSystem
+from hertzmap.kernels.continuation.extended_system import CurveSystem, chord_correct
 from hertzmap.kernels.orbit import shoot
 from hertzmap.study.analytic import multiple_scales as mms
 
@@ -98,12 +98,12 @@ class _SigmaOnCurve:
     _HOLD_OMEGA = np.array([0.0, 0.0, 1.0, 0.0])
 
     def __init__(self, kind, period, zeta, exponent, model, rtol, max_steps):
-        self.system = _CurveSystem(kind, period, ("omega", "sigma"), zeta, exponent, model, rtol,
+        self.system = CurveSystem(kind, period, ("omega", "sigma"), zeta, exponent, model, rtol,
                                    max_steps)
         self.solved: dict[float, np.ndarray] = {}
 
     def seed(self, u) -> bool:
-        r = _chord(self.system, np.asarray(u, float), self._HOLD_OMEGA, max_iter=30)
+        r = chord_correct(self.system, np.asarray(u, float), self._HOLD_OMEGA, max_iter=30)
         if r is not None:
             self.solved[float(r.u[2])] = r.u.copy()
         return r is not None
@@ -112,7 +112,7 @@ class _SigmaOnCurve:
         known = np.array(list(self.solved))
         u = self.solved[float(known[np.argmin(np.abs(known - omega))])].copy()
         u[2] = omega
-        r = _chord(self.system, u, self._HOLD_OMEGA, max_iter=30)
+        r = chord_correct(self.system, u, self._HOLD_OMEGA, max_iter=30)
         if r is None:
             return math.inf
         self.solved[float(omega)] = r.u.copy()
