@@ -3,18 +3,19 @@ until no point gains an orbit, so that the map does not depend on where the grid
 probes fell (an orbit exists on a connected region of parameter space bounded by its folds,
 flips and the window; continuing it point to point fills that region).
 
-Jacobi rounds over tiles (the grid's task blocks): round r reads the stored orbits as they were
-after round r - 1 (the snapshot; round 1 reads the grid's). At a tile, each orbit on offer (round
-1: every grid orbit of the tile and its one-point halo; later: the halo's orbits that round
-r - 1 added) is continued into its neighbours in the tile: natural continuation, Newton shooting
-at the neighbour's (omega, sigma, zeta) from the orbit's start point, at its period
-(study.solve.point.shoot_targets: the shots of a pass in one kernel call); a shot that fails
-from an orbit far from its fold is tried again in two half steps (FAR_FROM_FOLD: the
-fold-aware step). An orbit that the continuity rule already pairs with
-one of the neighbour's (study.orbits.match_neighbours) is not shot. A converged orbit new there
-by the identity rule (study.orbits.same_orbit) joins the point with ``atlas_round = r`` and is
-offered in turn to its neighbours in the tile, until the tile gains nothing more; the halo gets
-it next round. The point's slots are ordered again (stable ones first where they overflow:
+Jacobi rounds over tiles (blocks of the grid, of any shape: the scheduler chooses them): round
+r reads the stored orbits as they were after round r - 1 (the snapshot; round 1 reads the
+grid's). At a tile, each orbit on offer (round 1: every grid orbit of the tile and its
+one-point halo; later: the halo's orbits that round r - 1 added) is continued into its
+neighbours in the tile: natural continuation, Newton shooting at the neighbour's (omega, sigma,
+zeta) from the orbit's start point, at its period (study.solve.point.shoot_targets: the shots
+of a pass in one kernel call; Newton gives up once its residual creeps: STALL_RATIO); a shot
+that fails from an orbit far from its fold is tried again in two half steps (FAR_FROM_FOLD: the
+fold-aware step). An orbit that the continuity rule already pairs with one of the neighbour's
+(study.orbits.match_neighbours) is not shot. A converged orbit new there by the identity rule
+(study.orbits.same_orbit) joins the point with ``atlas_round = r`` and is offered in turn to
+its neighbours in the tile, until the tile gains nothing more; the halo gets it next round. The
+point's slots are ordered again (stable ones first where they overflow:
 study.solve.block.slot_order), its census attractors keep their orbits (``attractor_solution``
 follows them) and the crossings of its line are found again (the traced curves' seeds see the
 new orbits).
