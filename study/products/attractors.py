@@ -87,17 +87,20 @@ _LINE_VARIABLES = ("line_sigma", "line_zeta", "strobe_line", "orbit_line")
 
 def stroboscopic_diagrams(ds: xr.Dataset, *, sigma_lines: int, zeta_lines: int) -> xr.Dataset:
     """:func:`stroboscopic_diagram` along a few lines in one Dataset: at most ``sigma_lines``
-    sigma values (all of them, or that many evenly spread from the first to the last) at each of
-    the first ``zeta_lines`` zeta values. Dim ``line`` (``line_sigma``, ``line_zeta``); the
+    sigma values at each of at most ``zeta_lines`` zeta values (all of them, or that many evenly
+    spread from the first to the last). Dim ``line`` (``line_sigma``, ``line_zeta``); the
     lines' points and orbits one after the other along ``point`` and ``orbit``, each with the
     index of its line (``strobe_line``, ``orbit_line``)."""
     if "computed" not in ds:
         ds = open_store(ds)
-    sigmas = ds["sigma"].values
-    if sigmas.size > sigma_lines:
-        sigmas = sigmas[np.round(np.linspace(0, sigmas.size - 1, sigma_lines)).astype(int)]
+    def spread(values, n):
+        if values.size <= n:
+            return values
+        return values[np.round(np.linspace(0, values.size - 1, n)).astype(int)]
+
     parts = [stroboscopic_diagram(ds, float(s), float(z))
-             for s in sigmas for z in ds["zeta"].values[:zeta_lines]]
+             for s in spread(ds["sigma"].values, sigma_lines)
+             for z in spread(ds["zeta"].values, zeta_lines)]
     data = {name: (var.dims, np.concatenate([p[name].values for p in parts]), var.attrs)
             for name, var in parts[0].data_vars.items()}
     for dim, name in (("point", "strobe_line"), ("orbit", "orbit_line")):

@@ -94,24 +94,25 @@ def test_products_of_stored_outputs_and_of_the_runs_curves():
 
 def test_stroboscopic_diagram_of_four_sigma_lines_at_two_zeta():
     """6 sigma x 3 zeta: the lines are sigma 0.1, 0.3, 0.4, 0.6 (the first, the last and two
-    evenly between) at zeta 0.01 and 0.02; one hand-set 2T attractor and one stored orbit."""
+    evenly between) at zeta 0.01 and 0.03 (the first and the last, never only the first ones);
+    one hand-set 2T attractor and one stored orbit."""
     ds = blank_results("[grid]\nomega = [1.9, 2.0]\nsigma = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6]\n"
                        "zeta = [0.01, 0.02, 0.03]\n[search]\nattractors = \"always\"\n"
                        "[products]\noutputs = [\"orbits\", \"measures\", \"attractors\"]\n")
-    at = dict(omega=1, sigma=2, zeta=1, attractor=0)                  # sigma 0.3, zeta 0.02
+    at = dict(omega=1, sigma=2, zeta=2, attractor=0)                  # sigma 0.3, zeta 0.03
     ds["attractor_kind"][at] = 1
     ds["attractor_period"][at] = 2
     ds["strobe_q"][at] = np.nan
     ds["strobe_v"][at] = np.nan
     ds["strobe_q"][dict(at, strobe=[0, 1])] = [-0.5, 0.25]
     ds["strobe_v"][dict(at, strobe=[0, 1])] = [0.125, -0.75]
-    set_orbit(ds, 0, 2, 0, period=1, stable=True, k=1)
+    set_orbit(ds, 0, 2, 0, period=1, stable=True, k=2)
     diagrams = catalog.product("stroboscopic_diagram").compute(P.open_store(ds))
     np.testing.assert_allclose(diagrams["line_sigma"], [0.1, 0.1, 0.3, 0.3, 0.4, 0.4, 0.6, 0.6])
-    np.testing.assert_allclose(diagrams["line_zeta"], [0.01, 0.02] * 4)
+    np.testing.assert_allclose(diagrams["line_zeta"], [0.01, 0.03] * 4)
     assert diagrams.sizes["point"] == 2 and diagrams.sizes["orbit"] == 1
     one = P.diagram_line(diagrams, 3)
-    assert (one.attrs["sigma"], one.attrs["zeta"]) == (0.3, 0.02)
+    assert (one.attrs["sigma"], one.attrs["zeta"]) == (0.3, 0.03)
     np.testing.assert_array_equal(one["strobe_q"], [-0.5, 0.25])
     np.testing.assert_array_equal(one["strobe_v"], [0.125, -0.75])
     np.testing.assert_array_equal(one["strobe_omega"], [2.0, 2.0])
