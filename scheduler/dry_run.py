@@ -3,6 +3,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from hertzmap.scheduler.atlas_tasks import NEEDS as ATLAS_NEEDS
+from hertzmap.scheduler.atlas_tasks import TILE_BLOCKS, atlas_chunks
 from hertzmap.scheduler.plan import Plan, choose_chunks, make_plan
 from hertzmap.scheduler.report import fmt_bytes, fmt_time
 from hertzmap.scheduler.resources import check_resources
@@ -50,11 +52,22 @@ def describe(study: Study, store_path: Path, task_seconds: float, cluster) -> st
         f"tasks        {len(plan.tasks)} (chunk {plan.chunks[0]} omega x {plan.chunks[1]} sigma x "
         f"{plan.chunks[2]} zeta; about {fmt_time(est / max(1, len(plan.tasks)))} each)",
         f"compute      about {fmt_time(est)} of one core{per_worker} (estimate)",
+        *([atlas_line(study, plan)] if all(n in stored_variables(study) for n in ATLAS_NEEDS)
+          else []),
         *([curves_line(study)] if "curves" in study.outputs else []),
         f"store        {store_path} ({note}); about {fmt_bytes(size)} uncompressed",
         f"runs on      {cluster.describe()}",
     ]
     return "\n".join(lines)
+
+
+def atlas_line(study: Study, plan: Plan) -> str:
+    """The dry run's line on the atlas (scheduler.atlas_tasks): its tiles per round. Its time
+    is not estimated (it depends on the orbits the grid finds); BENCHMARKS.md measures it."""
+    tiles = len(make_plan(study, atlas_chunks(plan.chunks)).tasks)
+    return (f"atlas        after the grid, every orbit continued into its grid neighbours in "
+            f"rounds of at most {tiles} tile(s) ({TILE_BLOCKS} tasks' blocks along sigma "
+            "each); not in the estimate (20-40 % of the grid's compute on the shipped scenes)")
 
 
 def curves_line(study: Study) -> str:
