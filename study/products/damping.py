@@ -7,7 +7,8 @@ isola's fold curve ends on the 1T flip curve), each with its accuracy, computed 
 (study.solve.thresholds: the extremum of the traced curve, refined by Brent on the curve's
 sigma at fixed omega), not read off the grid; and, between the study's zeta values, sigma* and
 sigma** continued in zeta as curves (dims ``star_vertex``, ``double_star_vertex``: dense,
-adaptive-step vertices, the study's zeta values among them).
+adaptive-step vertices, the study's zeta values among them), and the join traced from each
+vertex of sigma**(zeta) (dim ``join_vertex``).
 
 sigma* starts from the multiple-scales estimate (no store data needed); sigma** from the isola
 boundary read off the traced curves (``products/isola_boundary``: a refined vertex of the
@@ -73,6 +74,13 @@ THRESHOLD_VARIABLES: dict[str, tuple[str, str, str, str]] = {
     "double_star_sigma": ("double_star_vertex", "sigma**", "1", ""),
     "double_star_sigma_accuracy": ("double_star_vertex", "accuracy of sigma**", "1",
                                    "as sigma_star_accuracy"),
+    "join_zeta": ("join_vertex", "damping ratio", "1",
+                  "vertices of the join as a function of zeta: the join traced from each "
+                  "vertex of sigma**(zeta) where it exists (the study's zeta values among "
+                  "them)"),
+    "join_omega": ("join_vertex", "omega where the isola joins the flip-born branch", "1", ""),
+    "join_sigma": ("join_vertex", "sigma where the isola joins the flip-born branch", "1", ""),
+    "join_vertex_accuracy": ("join_vertex", "accuracy of the join", "1", "as join_accuracy"),
 }
 
 
@@ -144,7 +152,13 @@ def thresholds(ds: xr.Dataset, traced_curves: xr.Dataset | None = None,
             double_curve = th.continue_minimum("fold", 2, low2, zrange, land_on=zetas, **kw)
             notes["hertzmap_double_star_ends"] = " ".join(double_curve.status)
     star_at, double_at = _at(star_curve, zetas), _at(double_curve, zetas)
-    joins = [th.isola_join(p, **kw) if p is not None else None for p in double_at]
+    # the join from every vertex of sigma**(zeta): a curve in zeta like sigma* and sigma**
+    # (the study's zeta values are vertices: their joins are read from it)
+    join_path = [(p.zeta, th.isola_join(p, **kw))
+                 for p in (double_curve.vertices if double_curve is not None else [])]
+    joins = [next((j for z, j in join_path if p is not None and z == p.zeta), None)
+             for p in double_at]
+    join_curve = [j for _, j in join_path if j is not None]
 
     def col(points, field):
         return np.array([getattr(p, field) if p is not None else np.nan for p in points], float)
@@ -171,6 +185,10 @@ def thresholds(ds: xr.Dataset, traced_curves: xr.Dataset | None = None,
         "double_star_omega": verts(double_curve, "omega"),
         "double_star_sigma": verts(double_curve, "sigma"),
         "double_star_sigma_accuracy": verts(double_curve, "sigma_accuracy"),
+        "join_zeta": np.array([j.zeta for j in join_curve], float),
+        "join_omega": np.array([j.omega for j in join_curve], float),
+        "join_sigma": np.array([j.sigma for j in join_curve], float),
+        "join_vertex_accuracy": np.array([j.accuracy for j in join_curve], float),
     }
     values["star_sigma_mms"] = np.asarray(mms.sigma_star(values["star_zeta"], "paper"), float)
     out = xr.Dataset(
@@ -185,7 +203,7 @@ def thresholds(ds: xr.Dataset, traced_curves: xr.Dataset | None = None,
                            "continued in zeta (study.solve.thresholds)",
                  "maps": int((star_curve.maps if star_curve else 0)
                              + (double_curve.maps if double_curve else 0)
-                             + sum(j.maps for j in joins if j is not None)),
+                             + sum(j.maps for j in join_curve)),
                  **notes}
     return out
 

@@ -51,6 +51,15 @@ def test_the_thresholds_at_each_zeta_and_continued_between(two_zeta):
     assert np.all(th["sigma_join"].values > th["sigma_star"].values)
     assert np.all(np.abs(th["omega_join"].values - 2.0) < 0.01)
     assert np.all(th["join_accuracy"].values <= 1e-6)
+    # the join continued with sigma**: traced from each of its vertices, the study's zeta
+    # values among them, its sigma growing with damping as sigma*'s does
+    jz = th["join_zeta"].values
+    assert jz.size == th.sizes["double_star_vertex"] and np.all(np.diff(jz) > 0)
+    for k, zg in enumerate(th["zeta"].values):
+        i = int(np.argmin(np.abs(jz - zg)))
+        assert jz[i] == zg and th["sigma_join"].values[k] == th["join_sigma"].values[i]
+    assert np.all(np.diff(th["join_sigma"].values) > 0)
+    assert np.all(th["join_vertex_accuracy"].values <= 1e-6)
     # multiple scales (paper Eq. 26) beside it, within 1 % at these zeta
     np.testing.assert_allclose(th["sigma_star"].values, th["sigma_star_mms"].values, rtol=1e-2)
 
@@ -60,7 +69,7 @@ def test_without_traced_curves_sigma_star_only_and_why():
     th = P.thresholds(ds)
     assert np.all(np.isfinite(th["sigma_star"].values))
     assert np.all(np.isnan(th["sigma_double_star"].values))
-    assert th.sizes["double_star_vertex"] == 0
+    assert th.sizes["double_star_vertex"] == 0 and th.sizes["join_vertex"] == 0
     assert "curves output" in th.attrs["hertzmap_double_star_ends"]
 
 
