@@ -40,6 +40,7 @@ def describe(study: Study, store_path: Path, task_seconds: float, cluster) -> st
     n_o, n_s, n_z = study.shape
     size = study.size * bytes_per_point(study)
     est = plan.estimated_seconds()
+    stored = stored_variables(study)
     workers = cluster.workers if cluster.kind == "local" else None
     per_worker = f", about {fmt_time(est / (workers or 1))} on {workers} workers" if workers else ""
     lines = [
@@ -48,12 +49,11 @@ def describe(study: Study, store_path: Path, task_seconds: float, cluster) -> st
         f"{study.max_solutions} solution slots, periods {list(study.periods)}",
         f"model        {study.model}" + (f" exponent {study.exponent}" if study.exponent else "")
         + f", rtol {study.rtol:g}",
-        f"outputs      {', '.join(study.outputs)} -> {', '.join(stored_variables(study))}",
+        f"outputs      {', '.join(study.outputs)} -> {', '.join(stored)}",
         f"tasks        {len(plan.tasks)} (chunk {plan.chunks[0]} omega x {plan.chunks[1]} sigma x "
         f"{plan.chunks[2]} zeta; about {fmt_time(est / max(1, len(plan.tasks)))} each)",
         f"compute      about {fmt_time(est)} of one core{per_worker} (estimate)",
-        *([atlas_line(study, plan)] if all(n in stored_variables(study) for n in ATLAS_NEEDS)
-          else []),
+        *([atlas_line(study, plan)] if all(n in stored for n in ATLAS_NEEDS) else []),
         *([curves_line(study)] if "curves" in study.outputs else []),
         f"store        {store_path} ({note}); about {fmt_bytes(size)} uncompressed",
         f"runs on      {cluster.describe()}",

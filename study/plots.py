@@ -780,7 +780,7 @@ def plot_thresholds(th, path, *, measured=(None, None)) -> Path:
                 label="multiple scales: 36 / (1 + 16 zeta^2 / 9) (Eq. 26)")
         bx.plot(z, th["star_sigma_mms"].values, "--", color="0.3", lw=1.0,
                 label="sigma* by multiple scales (Eq. 26)")
-    if "join_zeta" in th and th["join_zeta"].size:
+    if th["join_zeta"].size:
         bx.plot(th["join_zeta"].values, th["join_sigma"].values, "-", color="C2", lw=1.0)
     bx.plot(th["zeta"].values, th["sigma_join"].values, "s", color="C2", ms=4, mfc="none",
             label="the isola joins the flip-born branch")

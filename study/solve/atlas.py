@@ -53,12 +53,10 @@ MAX_ITER = 10
 #: above this share of the last (kernels.shooting.shoot_into's stall_ratio; the grid's searches
 #: from seeds use 1: no decrease at all). From a neighbour's orbit, Newton either converges
 #: fast or creeps: where the orbit ends between the two points, the residual settles on a
-#: floor (a minimum of |P(x) - x| that is not a zero) and Newton crept there for all its
-#: iterations, with line searches. Measured on the default scene's first round (4,369 shots,
-#: each solved with 1 to 10 iterations to trace its residuals): failed shots took 77 % of the
-#: integration steps; this rule ends 1,163 of them early and halves the round's steps, at the
-#: cost of 8 shots that would have converged after such creeping (their orbits arrive through
-#: other neighbours: benchmarks/atlas_rules.py stall).
+#: floor (a minimum of |P(x) - x| that is not a zero), and Newton crept there for all its
+#: iterations, with line searches: most of the atlas's shooting work. Over the whole atlas
+#: (benchmarks/atlas_rules.py stall) the default scene's counts are identical and the
+#: vibro-impact scene loses no stable orbit at any point.
 STALL_RATIO = 0.9
 #: A shot that failed from an orbit whose fold function (study.orbits.fold_function) is at least
 #: this far from zero is tried again in two half steps (the fold-aware step): no multiplier is
