@@ -252,7 +252,8 @@ def attractor(omega: float, sigma: float, zeta: float, x0=(0.0, 0.0), *,
     # the batch kernel with one state: one compiled entry point serves both calls
     att.attractor_batch_into(omega, sigma, zeta, np.array([q0]), np.array([v0]),
                              check_exponent(exponent), model_code(model), *opts,
-                             bool(harmonics), row, orbit, strobe)
+                             bool(harmonics), *att.known_attractors((), (), (), ()),
+                             att.NO_LABEL, row, orbit, strobe)
     return Attractor.from_rows(omega, sigma, zeta, (q0, v0), row[0], orbit[0], strobe[0])
 
 
@@ -283,7 +284,9 @@ def attractor_batch(omega: float, sigma: float, zeta: float, x0, *,
     strobes = np.empty((k, cap, 2))
     att.attractor_batch_into(omega, sigma, zeta, np.ascontiguousarray(x0[:, 0]),
                              np.ascontiguousarray(x0[:, 1]), check_exponent(exponent),
-                             model_code(model), *opts, bool(harmonics), rows, orbits, strobes)
+                             model_code(model), *opts, bool(harmonics),
+                             *att.known_attractors((), (), (), ()), att.NO_LABEL, rows, orbits,
+                             strobes)
     out = {name: rows[:, i].copy() for i, name in enumerate(att.ATTRACTOR_FIELDS)}
     out["orbit"] = orbits
     out["strobe"] = strobes

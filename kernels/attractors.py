@@ -79,12 +79,22 @@ N_ATTRACTOR_FIELDS = len(ATTRACTOR_FIELDS)
 (A_STATUS, A_PERIOD, A_RUN, A_SETTLED, A_CYCLE_RES, A_QEND, A_VEND, A_LYAP, A_LYAP_ERR,
  A_LYAP_HALVES, A_LYAP_PERIODS, A_LIOU, A_LYAP_SUM, A_WINDOW, A_FLIGHT, A_IMPACT, A_MINQ,
  A_MAXQ, A_PEAKF, A_RMSF, A_MEANF, A_QUAD_ERR, A_STEPS, A_REJ, A_EVENTS, A_REFINE,
- A_ORBIT_PERIOD, A_STROBE_COUNT) = (A[c] for c in (
+ A_ORBIT_PERIOD, A_STROBE_COUNT, A_RECOGNISED) = (A[c] for c in (
     "status", "period", "periods_run", "settled_at", "cycle_residual", "q_end", "v_end",
     "lyapunov", "lyapunov_error", "lyapunov_halves", "lyapunov_periods", "liouville_error",
     "lyapunov_sum_error", "window_periods", "flight_fraction", "max_impact_velocity", "min_q",
     "max_q", "peak_force", "rms_force", "mean_force", "force_quadrature_error", "steps",
-    "rejected", "events", "refinements", "orbit_period", "strobe_count"))
+    "rejected", "events", "refinements", "orbit_period", "strobe_count", "recognised_as"))
+
+#: Columns of a known attractor point (recognition: known_near): q, q', how near a
+#: transient's stroboscopic point must come, and for how many consecutive periods
+K_Q, K_V, K_TOL, K_VISITS = 0, 1, 2, 3
+N_KNOWN_FIELDS = 4
+#: The cell grid over the known points (grid argument): origin q, origin q', cell side, cells
+#: along q (cells along q' follow from len(cell_start))
+G_Q, G_V, G_SIDE, G_NQ = 0, 1, 2, 3
+#: a label no known point has (own_label when every known attractor may be recognised)
+NO_LABEL = -(1 << 62)
 
 LYAPUNOV_FIELDS = ("status", "lyapunov", "lyapunov_error", "lyapunov_halves", "periods",
                    "liouville_error", "q_end", "v_end", "steps", "lyapunov_sum_error")
@@ -145,6 +155,39 @@ def detect_period_in(points, count, m_max, tol, repeats):
         ring[j, 1] = points[j, 1]
     m, _ = detect_period(ring, count, m_max, tol, repeats)
     return m
+
+
+# ---- recognition ---------------------------------------------------------------------------
+
+@kernel("int64(float64[:, ::1], int64[::1], int64[::1], float64[::1], int64, float64, float64)")
+def known_near(known, labels, cell_start, grid, own_label, q, v):
+    """Row of the known point nearest (q, v) among those within their own tolerance
+    known[:, K_TOL] and not labelled ``own_label``; -1 if none. ``known`` is sorted by cell of
+    a grid of side grid[G_SIDE] >= every tolerance (cell_start[c]: the first row in cell c),
+    so only the 3 x 3 cells around (q, v) are looked at."""
+    count = known.shape[0]
+    if count == 0:
+        return -1
+    side = grid[G_SIDE]
+    nq = int(grid[G_NQ])
+    nv = (cell_start.shape[0] - 1) // nq
+    cq = int(np.floor((q - grid[G_Q]) / side))
+    cv = int(np.floor((v - grid[G_V]) / side))
+    if cq < -1 or cq > nq or cv < -1 or cv > nv:
+        return -1
+    best = -1
+    best_d = np.inf
+    for a in range(max(cq - 1, 0), min(cq + 2, nq)):
+        for b in range(max(cv - 1, 0), min(cv + 2, nv)):
+            c = a * nv + b
+            for i in range(cell_start[c], cell_start[c + 1]):
+                if labels[i] == own_label:
+                    continue
+                d = hypot(q - known[i, K_Q], v - known[i, K_V])
+                if d <= known[i, K_TOL] and d < best_d:
+                    best = i
+                    best_d = d
+    return best
 
 
 # ---- one forcing period ------------------------------------------------------------------
@@ -367,10 +410,11 @@ def _flip_unstable(orbit):
             and (orbit[I_M1R] < -1.0 or orbit[I_M2R] < -1.0))
 
 
-@kernel("void(float64, float64, float64, float64, float64, float64, int64, int64, int64, boolean, int64, int64, float64, int64, float64, float64, float64, int64, boolean, float64[::1], float64[::1], float64[:, ::1])", inline="ir")
+@kernel("void(float64, float64, float64, float64, float64, float64, int64, int64, int64, boolean, int64, int64, float64, int64, float64, float64, float64, int64, boolean, float64[:, ::1], int64[::1], int64[::1], float64[::1], int64, float64[::1], float64[::1], float64[:, ::1])", inline="ir")
 def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, record_periods,
                    lyapunov, lyapunov_discard, force_samples, cycle_tol, cycle_repeats, rtol,
-                   atol, shoot_rtol, max_steps, harmonics, row, orbit, strobe):
+                   atol, shoot_rtol, max_steps, harmonics, known, known_label, cell_start,
+                   grid, own_label, row, orbit, strobe):
     """The long-time response of paper Eq. 7 from (q0, v0) at tau = 0 (module docstring).
 
     Inputs (dimensionless): omega > 0, sigma >= 0, zeta >= 0, n > 0, model (kernels.model);
@@ -380,6 +424,13 @@ def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, reco
     least 32); cycle_tol, cycle_repeats: the detection test; rtol/atol: the transient's
     integrator tolerances; shoot_rtol: the refinement's; max_steps per period; harmonics: the
     refined orbit's contact-force harmonics (kernels.shooting).
+
+    Recognition (known, known_label, cell_start, grid: the known attractors' stroboscopic
+    points, see known_near; none when known has no rows): the transient stops as soon as its
+    stroboscopic points have stayed within tolerance of the points of one known attractor
+    (label) other than ``own_label`` for that point's K_VISITS consecutive periods; the row's
+    status is then RECOGNISED and its recognised_as the label (no measures: the attractor's
+    own transient has them).
 
     Outputs: row (ATTRACTOR_FIELDS), orbit (kernels.shooting.FIELDS: the refined orbit, NaN if
     none was tried), strobe (cap, 2): the last min(strobe_count, cap) stroboscopic points in
@@ -434,6 +485,10 @@ def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, reco
     settled = False
     last_m = 0
     last_res = np.inf
+    recognising = known.shape[0] > 0
+    recognised = False
+    streak = 0
+    streak_label = NO_LABEL
     k = 0
     while k < budget:
         recording = k >= transient_periods
@@ -476,6 +531,20 @@ def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, reco
         ring[count % cap, 0] = y[0]
         ring[count % cap, 1] = y[1]
         count += 1
+        if recognising:
+            near = known_near(known, known_label, cell_start, grid, own_label, y[0], y[1])
+            if near < 0:
+                streak = 0
+                streak_label = NO_LABEL
+            else:
+                if known_label[near] == streak_label:
+                    streak += 1
+                else:
+                    streak = 1
+                    streak_label = known_label[near]
+                if streak >= known[near, K_VISITS]:
+                    recognised = True
+                    break
         if k < next_check or fails >= MAX_REFINEMENTS:
             continue
         m, res = detect_period(ring, count, M_MAX, cycle_tol, cycle_repeats)
@@ -500,7 +569,7 @@ def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, reco
         fails += 1
         next_check = k + 16 * (1 << fails)
 
-    if code == st.CONVERGED and not settled:
+    if code == st.CONVERGED and not settled and not recognised:
         # the budget is spent: one last look at the points (a cycle that appeared while the
         # checks were backed off is still refined)
         m, res = detect_period(ring, count, M_MAX, cycle_tol, cycle_repeats)
@@ -526,6 +595,10 @@ def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, reco
     row[A_STROBE_COUNT] = kept
     if code != st.CONVERGED:
         row[A_STATUS] = code
+        return
+    if recognised:
+        row[A_STATUS] = st.RECOGNISED
+        row[A_RECOGNISED] = streak_label
         return
     if settled:
         m = last_m
@@ -585,15 +658,49 @@ def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, reco
         row[A_STATUS] = st.UNSETTLED
 
 
+#: The most cells along each axis of the grid over known points (larger sides beyond it)
+KNOWN_GRID_CELLS = 128
+
+
+def known_attractors(points, labels, tol, visits):
+    """The arrays attractor_into recognises known attractors by (known, known_label,
+    cell_start, grid; see known_near) from stroboscopic points (n, 2), each with its
+    attractor's label, tolerance (distance in the (q, q') plane) and consecutive visits.
+    No points: nothing is recognised."""
+    points = np.asarray(points, float).reshape(-1, 2)
+    n = points.shape[0]
+    labels = np.broadcast_to(np.asarray(labels, np.int64), (n,))
+    tol = np.broadcast_to(np.asarray(tol, float), (n,))
+    visits = np.broadcast_to(np.asarray(visits, float), (n,))
+    if n == 0:
+        return (np.empty((0, N_KNOWN_FIELDS)), np.empty(0, np.int64), np.zeros(2, np.int64),
+                np.array([0.0, 0.0, 1.0, 1.0]))
+    lo = points.min(axis=0) - tol.max()
+    span = points.max(axis=0) + tol.max() - lo
+    side = max(float(tol.max()), float(span.max()) / KNOWN_GRID_CELLS, 1e-300)
+    nq, nv = (np.floor(span / side).astype(np.int64) + 1)
+    cells = (np.floor((points[:, 0] - lo[0]) / side).astype(np.int64) * nv
+             + np.floor((points[:, 1] - lo[1]) / side).astype(np.int64))
+    order = np.argsort(cells, kind="stable")
+    known = np.empty((n, N_KNOWN_FIELDS))
+    known[:, K_Q], known[:, K_V] = points[order, 0], points[order, 1]
+    known[:, K_TOL], known[:, K_VISITS] = tol[order], visits[order]
+    cell_start = np.searchsorted(cells[order], np.arange(nq * nv + 1)).astype(np.int64)
+    return (known, np.ascontiguousarray(labels[order]), cell_start,
+            np.array([lo[0], lo[1], side, float(nq)]))
+
+
 @kernel("void(float64, float64, float64, float64[::1], float64[::1], float64, int64, int64, int64, "
         "boolean, int64, int64, float64, int64, float64, float64, float64, int64, boolean, "
+        "float64[:, ::1], int64[::1], int64[::1], float64[::1], int64, "
         "float64[:, ::1], float64[:, ::1], float64[:, :, ::1])")
 def attractor_batch_into(omega, sigma, zeta, q0, v0, n, model, transient_periods,
                          record_periods, lyapunov, lyapunov_discard, force_samples, cycle_tol,
-                         cycle_repeats, rtol, atol, shoot_rtol, max_steps, harmonics, rows,
-                         orbits, strobes):
-    """attractor_into for each initial state (q0[i], v0[i]) at one parameter point: rows
-    (k, N_ATTRACTOR_FIELDS), orbits (k, N_FIELDS), strobes (k, cap, 2).
+                         cycle_repeats, rtol, atol, shoot_rtol, max_steps, harmonics, known,
+                         known_label, cell_start, grid, own_label, rows, orbits, strobes):
+    """attractor_into for each initial state (q0[i], v0[i]) at one parameter point, with the
+    same known attractors to recognise: rows (k, N_ATTRACTOR_FIELDS), orbits (k, N_FIELDS),
+    strobes (k, cap, 2).
 
     The census's one compiled entry point (attractor_into is copied into it);
     kernels.attractor calls it with k = 1. Every compiled entry point carries its own
@@ -601,6 +708,7 @@ def attractor_batch_into(omega, sigma, zeta, q0, v0, n, model, transient_periods
     for i in range(q0.shape[0]):
         attractor_into(omega, sigma, zeta, q0[i], v0[i], n, model, transient_periods,
                        record_periods, lyapunov, lyapunov_discard, force_samples, cycle_tol,
-                       cycle_repeats, rtol, atol, shoot_rtol, max_steps, harmonics, rows[i],
-                       orbits[i], strobes[i])
+                       cycle_repeats, rtol, atol, shoot_rtol, max_steps, harmonics, known,
+                       known_label, cell_start, grid, own_label, rows[i], orbits[i],
+                       strobes[i])
 

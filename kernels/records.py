@@ -314,6 +314,8 @@ ATTRACTOR = Record("attractor", (
         ("refinements", "shooting attempts"),
         ("orbit_period", "period m of the orbit row (the last shooting attempt; 0: none)"),
         ("strobe_count", "stroboscopic points written to the strobe array"),
+        ("recognised_as", "label of the known attractor the transient was recognised on "
+                          "(status recognised; NaN otherwise)"),
     ),
 ))
 

@@ -12,6 +12,7 @@ SINGULAR = 5           # I - M singular (multiplier +1 to machine precision): no
 TIME_LIMIT = 6         # not solved: the task's time budget ran out first (grid studies only)
 UNSETTLED = 7          # attractor: no repeating stroboscopic cycle (m <= 16) within the budget
 UNCONFIRMED = 8        # attractor: the points repeat, but shooting confirmed no stable orbit
+RECOGNISED = 9         # attractor: the transient stayed by a known attractor's points (the census's)
 EMPTY = -1             # no solution in this slot (used by the store, never returned by a solve)
 
 NAMES = {
@@ -24,5 +25,6 @@ NAMES = {
     TIME_LIMIT: "time_limit",
     UNSETTLED: "unsettled",
     UNCONFIRMED: "unconfirmed",
+    RECOGNISED: "recognised",
     EMPTY: "empty",
 }

@@ -36,6 +36,13 @@ beyond about k P periods, and the contact is chaotic for that long) or once they
 their periods; where no stable orbit is known, a positive exponent suffices. The others stay
 unsettled with the reason (``unsettled_reason``: the period limit, or the work budget).
 
+Recognition (study.solve.recognition): the transients run one after another, and one stops as
+soon as it is recognised on what the point's earlier ones found: a periodic attractor's points
+(then it counts with it, without its own refinement and measures) or, where the point has no
+stable orbit, the open set of one of its first OPEN_LEADERS unsettled transients (then it
+shares that transient's fate, and the longer passes run without it). The order is fixed, so a
+block gives the same arrays on any worker.
+
 Basin fractions: the share of the initial states ending on each attractor. Where none of the
 first FULL_BUDGET_STATES transients settles within the whole budget, the others run for a fifth
 of it, to screen for a periodic attractor with a quick transient; those that have not settled
@@ -50,7 +57,7 @@ import numpy as np
 
 from hertzmap.kernels import status as st
 from hertzmap.kernels.attractors import (A, LYAPUNOV_FIELDS, N_ATTRACTOR_FIELDS, N_LYAPUNOV_FIELDS,
-                                attractor_batch_into, lyapunov_into)
+                                NO_LABEL, attractor_batch_into, lyapunov_into)
 from hertzmap.kernels.model import MODELS
 from hertzmap.kernels.records import ATTRACTOR
 from hertzmap.kernels.shooting import N_FIELDS
@@ -58,6 +65,8 @@ from hertzmap.study.basins import BasinEntropy, scattered_basin_entropy
 from hertzmap.study.orbits import same_orbit
 from hertzmap.study.schema import ATTRACTOR_KINDS, ATTRACTOR_SLOTS, STROBE_POINTS
 from hertzmap.study.solve.point import shoot_seeds, solutions_from_rows
+from hertzmap.study.solve.recognition import (NOTHING_KNOWN, OPEN_LEADERS, KnownAttractors,
+                                              periodic_index, periodic_label)
 from hertzmap.study.solve.seeds import TRANSIENT_BOX, initial_states, reach_box
 
 #: The transients' integrator tolerance: looser than the shooting's (a transient is refined by
@@ -93,6 +102,9 @@ PERIOD_LIMIT = 1
 WORK_BUDGET = 2
 #: (not stored) a longer pass ended with none of its runs settled
 QUIET = -1
+#: transients stop once recognised on what the point's earlier ones found
+#: (study.solve.recognition); off, every transient runs its budget (benchmarks compare both)
+RECOGNITION = True
 
 
 @dataclass
@@ -161,24 +173,35 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
     # the last STROBE_POINTS
     strobes = np.empty((k, int(record_periods), 2))
 
-    def transients(lo, hi, budget):
-        run_transients(omega, sigma, zeta, states[lo:hi, 0], states[lo:hi, 1], options, budget,
-                       record_periods, rows[lo:hi], orbit_rows[lo:hi], strobes[lo:hi])
-
-    first = min(k, FULL_BUDGET_STATES)
-    transients(0, first, transient_periods)
-    settled = [int(rows[r, A["status"]]) == st.CONVERGED for r in range(first)]
-    # None of the first states settled within the whole budget: the point is held by a motion
-    # that does not repeat. The others only screen for a periodic attractor with a quick
-    # transient beside it; one that has not settled by then joins the unsettled ones.
-    rest_budget = transient_periods if any(settled) else max(
-        10, int(transient_periods * SCREEN_SHARE))
-    if k > first:
-        transients(first, k, rest_budget)
     known = list(orbits)
     new: list[dict] = []
     periodic: list[Attractor] = []
-    open_runs, failed = [], []
+    # recognition (study.solve.recognition): what the point's earlier transients found; open
+    # sets only while the point has no stable orbit
+    recognised = KnownAttractors()
+    follows: dict[int, int] = {}        # run -> the open set's label it was recognised on
+    settled_on: dict[int, Attractor] = {}
+    open_sets = [not has_stable_orbit(orbits)]
+    # the first OPEN_LEADERS open runs keep their own evidence (each samples the escape from
+    # the set: study.solve.recognition)
+    leaders: list[int] = []
+
+    def open_set(r) -> None:
+        """Run r did not settle: its record window becomes a set later runs may be recognised
+        on, once OPEN_LEADERS runs are open (their sets then all at once)."""
+        if not (open_sets[0] and RECOGNITION):
+            return
+        if r in leaders or len(leaders) >= OPEN_LEADERS:
+            recognised.add_open(r, strobe_points(strobes[r], rows[r]))
+            return
+        leaders.append(r)
+        if len(leaders) == OPEN_LEADERS:
+            for lead in leaders:
+                recognised.add_open(lead, strobe_points(strobes[lead], rows[lead]))
+
+    def count_with(a: Attractor, r: int) -> None:
+        a.count += 1
+        a.states.append(tuple(states[r]))
 
     def settle(r) -> bool:
         """Run r's transient ended on a stable orbit: count it with that orbit's attractor."""
@@ -196,9 +219,74 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
             a = Attractor("periodic", orbit=match, row=rows[r].copy(),
                           strobe=strobe_points(strobes[r], rows[r]))
             periodic.append(a)
-        a.count += 1
-        a.states.append(tuple(states[r]))
+            m = a.period
+            if RECOGNITION:
+                recognised.add_periodic(periodic_label(len(periodic) - 1), a.strobe[-m:],
+                                        CYCLE_TOL, (CYCLE_REPEATS + 1) * m)
+        if open_sets[0]:
+            # beside a stable orbit, chaos needs each transient's own evidence
+            open_sets[0] = False
+            recognised.remove_open()
+        count_with(a, r)
+        settled_on[r] = a
         return True
+
+    def take(r) -> str:
+        """Where run r's transient ended: "settled" (counted with a periodic attractor),
+        "follows" (recognised on an open set), "open" or "failed"."""
+        status = int(rows[r, A["status"]])
+        if status == st.RECOGNISED:
+            label = int(rows[r, A["recognised_as"]])
+            if label < 0:
+                a = periodic[periodic_index(label)]
+                count_with(a, r)
+                settled_on[r] = a
+                return "settled"
+            follows[r] = label
+            return "follows"
+        if status == st.CONVERGED and settle(r):
+            return "settled"
+        if status in (st.CONVERGED, st.UNSETTLED, st.UNCONFIRMED):
+            open_set(r)
+            return "open"
+        return "failed"
+
+    def transient(r, budget, start=None) -> None:
+        """Run r's transient for ``budget`` periods from its initial state, or on from
+        ``start`` (its periods_run and steps then add to those so far)."""
+        before = rows[r].copy() if start is not None else None
+        q, v = start if start is not None else states[r]
+        run_transients(omega, sigma, zeta, np.array([q], float), np.array([v], float), options,
+                       budget, record_periods, rows[r:r + 1], orbit_rows[r:r + 1],
+                       strobes[r:r + 1], recognised, own_label=r, open_sets=r not in leaders)
+        if before is not None:
+            rows[r, A["periods_run"]] += before[A["periods_run"]]
+            rows[r, A["steps"]] += before[A["steps"]]
+
+    first = min(k, FULL_BUDGET_STATES)
+    outcome = {}
+    for r in range(first):
+        transient(r, transient_periods)
+        outcome[r] = take(r)
+    # None of the first states settled within the whole budget: the point is held by a motion
+    # that does not repeat. The others only screen for a periodic attractor with a quick
+    # transient beside it; one that has not settled by then joins the unsettled ones.
+    rest_budget = transient_periods if "settled" in outcome.values() else max(
+        10, int(transient_periods * SCREEN_SHARE))
+    for r in range(first, k):
+        transient(r, rest_budget)
+        outcome[r] = take(r)
+    open_runs = [r for r in range(k) if outcome[r] == "open"]
+    failed = [r for r in range(k) if outcome[r] == "failed"]
+
+    def detach() -> list[int]:
+        """The point has a stable orbit: the runs recognised on an open set become open runs
+        of their own (each needs its own evidence, module docstring); returns them."""
+        runs = sorted(follows)
+        follows.clear()
+        recognised.remove_open()
+        open_sets[0] = False
+        return runs
 
     def representative(runs, window=int(record_periods)):
         """The run with the longest record window, its exponent by Benettin over ``window``
@@ -216,7 +304,8 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
         """Continue the runs that did not settle from their last states, each pass LONGER
         times the last, until they settle, ``limit`` periods are run in all (PERIOD_LIMIT), or
         the point's work budget is spent (WORK_BUDGET); ``until_quiet``: or a pass ends in
-        which no run settled (QUIET). Returns the runs still open and why."""
+        which no run settled (QUIET). A run recognised on another's open set leaves the passes
+        and shares that set's fate. Returns the runs still open and why."""
         run_so_far = float(np.nanmax(rows[runs, A["periods_run"]]))
         while True:
             if run_so_far >= limit:
@@ -230,37 +319,29 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
             if affordable < transient_periods:
                 return runs, WORK_BUDGET
             budget[0] = int(min(LONGER * budget[0], limit - run_so_far, affordable))
-            idx = np.array(runs)
-            sub_rows = np.empty((idx.size, N_ATTRACTOR_FIELDS))
-            sub_orbits = np.empty((idx.size, N_FIELDS))
-            sub_strobes = np.empty((idx.size, int(record_periods), 2))
-            run_transients(omega, sigma, zeta, rows[idx, A["q_end"]], rows[idx, A["v_end"]],
-                           options, budget[0], record_periods, sub_rows, sub_orbits,
-                           sub_strobes)
-            sub_rows[:, A["periods_run"]] += rows[idx, A["periods_run"]]
-            left[0] -= float(np.nansum(sub_rows[:, A["steps"]]))
-            sub_rows[:, A["steps"]] += rows[idx, A["steps"]]
-            rows[idx], orbit_rows[idx], strobes[idx] = sub_rows, sub_orbits, sub_strobes
-            run_so_far = float(np.nanmax(rows[idx, A["periods_run"]]))
-            still = [r for r in runs if not (int(rows[r, A["status"]]) == st.CONVERGED
-                                              and settle(r))]
+            still, settled_now = [], 0
+            for r in runs:
+                steps_before = rows[r, A["steps"]]
+                transient(r, budget[0], (rows[r, A["q_end"]], rows[r, A["v_end"]]))
+                left[0] -= float(np.nan_to_num(rows[r, A["steps"]] - steps_before))
+                recognised.remove(r)
+                outcome = take(r)
+                settled_now += outcome == "settled"
+                if outcome in ("open", "failed"):
+                    still.append(r)
+            run_so_far = float(np.nanmax(rows[runs, A["periods_run"]]))
+            if follows and has_stable_orbit(known):
+                # a run escaped from an open set to a stable orbit: the runs recognised on
+                # the set go on with their own evidence
+                still = sorted(still + detach())
             if not still:
                 return still, 0
-            if until_quiet and len(still) == len(runs):
+            if until_quiet and not settled_now:
                 return still, QUIET
             runs = still
 
-    for r in range(k):
-        status = int(rows[r, A["status"]])
-        if status == st.CONVERGED:
-            if not settle(r):
-                open_runs.append(r)
-        elif status in (st.UNSETTLED, st.UNCONFIRMED):
-            open_runs.append(r)
-        else:
-            failed.append(r)
     others: list[Attractor] = []
-    if open_runs:
+    if open_runs or follows:
         has_stable = has_stable_orbit(known)
         if not has_stable:
             # close returns of an unsettled transient: Newton seeds of orbits it passes near
@@ -277,6 +358,8 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
                             known.append(sol)
                             new.append(sol)
             has_stable = has_stable_orbit(known)
+        if has_stable and follows:
+            open_runs = sorted(open_runs + detach())
         rep, row = representative(open_runs)
         chaotic = (not has_stable) and is_chaotic(row) and any(
             int(rows[r, A["status"]]) == st.UNSETTLED for r in open_runs)
@@ -300,12 +383,22 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
                         rep, row = representative(open_runs, LONGER * int(record_periods))
                         chaotic = reason == PERIOD_LIMIT and is_chaotic(row) and any(
                             int(rows[r, A["status"]]) == st.UNSETTLED for r in open_runs)
+        # a run recognised on an open set shares the fate of that set's transient
+        attached = []
+        for r, label in sorted(follows.items()):
+            while label in follows:
+                label = follows[label]
+            if label in settled_on:
+                count_with(settled_on[label], r)
+            else:
+                attached.append(r)
         if open_runs:
+            runs = sorted(open_runs + attached)
             others.append(Attractor("non_periodic" if chaotic else "unsettled",
-                                    count=len(open_runs), row=row,
+                                    count=len(runs), row=row,
                                     strobe=strobe_points(strobes[rep], rows[rep]),
                                     reason=0 if chaotic else reason,
-                                    states=[tuple(states[r]) for r in open_runs]))
+                                    states=[tuple(states[r]) for r in runs]))
     if failed:
         others.append(Attractor("failed", count=len(failed), row=rows[failed[0]].copy(),
                                 states=[tuple(states[r]) for r in failed]))
@@ -347,18 +440,22 @@ def transient_settings(options: dict) -> tuple[float, object, float, float]:
 
 
 def run_transients(omega, sigma, zeta, q0, v0, options: dict, budget: int,
-                   record_periods: int, rows, orbit_rows, strobes) -> None:
+                   record_periods: int, rows, orbit_rows, strobes,
+                   known: KnownAttractors = NOTHING_KNOWN, own_label: int = NO_LABEL,
+                   open_sets: bool = True) -> None:
     """Transients from the states (q0, v0) for ``budget`` periods, then a record window of
     ``record_periods``, into the kernel's rows, refined orbit rows and stroboscopic points
     (kernels.attractors.attractor_batch_into), with the census's detection settings; without
     the tangent integration (2-D: a third of the work: the exponent of the runs that do not
-    settle is computed once, from one of them: window_exponent)."""
+    settle is computed once, from one of them: window_exponent). A transient stops once it is
+    recognised on one of the ``known`` attractors not labelled ``own_label`` (the periodic
+    ones only, without ``open_sets``; study.solve.recognition)."""
     n_exp, model, t_rtol, rtol = transient_settings(options)
     attractor_batch_into(float(omega), float(sigma), float(zeta), np.ascontiguousarray(q0),
                          np.ascontiguousarray(v0), n_exp, model, int(budget),
                          int(record_periods), False, 0, 0, CYCLE_TOL, CYCLE_REPEATS, t_rtol,
-                         t_rtol, rtol, 200_000, bool(options.get("harmonics", True)), rows,
-                         orbit_rows, strobes)
+                         t_rtol, rtol, 200_000, bool(options.get("harmonics", True)),
+                         *known.arrays(open_sets), int(own_label), rows, orbit_rows, strobes)
 
 
 def window_exponent(omega, sigma, zeta, end, options: dict, window: int,

@@ -316,3 +316,70 @@ def test_bad_input_is_a_value_error(kwargs):
     name = next(iter(kwargs))
     with pytest.raises(ValueError, match=name):
         attractor(args.pop("omega"), args.pop("sigma"), args.pop("zeta"), args.pop("x0"), **args)
+
+
+# ---- recognition ----------------------------------------------------------------------------
+
+def _recognising_run(omega, sigma, x0, points, label, tol, visits, own_label=None,
+                     budget=3000):
+    """One transient of the batch kernel with known points to recognise."""
+    from hertzmap.kernels import attractors as att
+    from hertzmap.kernels.api import _attractor_options
+    from hertzmap.kernels.shooting import N_FIELDS
+    opts, cap = _attractor_options(budget, 64, False, None, 0, 1e-6, 3, 1e-8, None, 1e-10,
+                                   200_000, None)
+    rows = np.empty((1, att.N_ATTRACTOR_FIELDS))
+    orbits = np.empty((1, N_FIELDS))
+    strobes = np.empty((1, cap, 2))
+    known = att.known_attractors(points, label, tol, visits)
+    att.attractor_batch_into(omega, sigma, ZETA, np.array([x0[0]], float),
+                             np.array([x0[1]], float), 1.5, 0, *opts, False, *known,
+                             att.NO_LABEL if own_label is None else own_label, rows, orbits,
+                             strobes)
+    return {name: rows[0, i] for i, name in enumerate(att.ATTRACTOR_FIELDS)}
+
+
+def test_known_near_is_the_nearest_point_within_its_tolerance():
+    """The cell grid's lookup against a brute-force search over every known point, with
+    per-point tolerances, several labels and an excluded label."""
+    from hertzmap.kernels.attractors import K_Q, K_TOL, K_V, known_attractors, known_near
+    rng = np.random.default_rng(7)
+    for n, spread in ((1, 1.0), (50, 3.0), (600, 40.0)):
+        pts = rng.normal(0.0, spread, (n, 2))
+        labels = rng.integers(-3, 3, n)
+        tol = rng.uniform(0.01, 0.6, n)
+        known, lab, start, grid = known_attractors(pts, labels, tol, 1.0)
+        for _ in range(400):
+            q, v = rng.normal(0.0, spread * 1.2, 2)
+            own = int(rng.integers(-3, 4))
+            d = np.hypot(known[:, K_Q] - q, known[:, K_V] - v)
+            ok = (d <= known[:, K_TOL]) & (lab != own)
+            expect = int(np.argmin(np.where(ok, d, np.inf))) if ok.any() else -1
+            assert known_near(known, lab, start, grid, own, q, v) == expect
+
+
+def test_a_transient_near_a_known_orbit_is_recognised_on_it():
+    """(2.0, 1.0): from (2, 2) the transient settles on a stable 3T orbit (scipy's shooting
+    confirms it). Told the orbit's three points, the same transient stops on them after the
+    stated consecutive visits, labelled as told and there; not with its own label excluded,
+    nor with points elsewhere."""
+    plain = attractor(2.0, 1.0, ZETA, (2.0, 2.0), transient_periods=3000, record_periods=64,
+                      lyapunov=False)
+    assert plain.status == status.CONVERGED and plain.period == 3
+    x_ref, _ = oracle.shoot_period(plain.orbit.x0, 2.0, 1.0, ZETA, 3)
+    pts = [x_ref] + [oracle.period_map(x_ref, 2.0, 1.0, ZETA, j) for j in (1, 2)]
+    tol = 1e-2 * (1 + np.hypot(*np.array(pts).T))
+    row = _recognising_run(2.0, 1.0, (2.0, 2.0), pts, -1, tol, 12)
+    assert row["status"] == status.RECOGNISED and row["recognised_as"] == -1
+    assert row["periods_run"] < plain["periods_run"]
+    last = np.array([row["q_end"], row["v_end"]])
+    assert min(np.hypot(*(last - p)) for p in pts) <= tol.max()
+    # its own label is never recognised; points elsewhere are not either
+    assert _recognising_run(2.0, 1.0, (2.0, 2.0), pts, -1, tol, 12, own_label=-1)[
+        "status"] == status.CONVERGED
+    far = np.array(pts) + 5.0
+    assert _recognising_run(2.0, 1.0, (2.0, 2.0), far, -1, tol, 12)[
+        "status"] == status.CONVERGED
+    # the visits are consecutive: more of them than the run has periods, never recognised
+    assert _recognising_run(2.0, 1.0, (2.0, 2.0), pts, -1, tol, 10_000, budget=200)[
+        "status"] != status.RECOGNISED

@@ -1,0 +1,106 @@
+"""The attractor census with recognition against the same census without it (every transient
+its whole budget), on the vibro-impact scene's lines, same run: CPU, and what each names.
+
+    .venv/bin/python -m benchmarks.census_recognition                 # every 8th sigma line
+    .venv/bin/python -m benchmarks.census_recognition --lines 16 --offset 4
+
+Each chosen sigma line is searched twice (sweeps and fold turning, then the census at the
+points the study asks it at: study.solve.line), once per mode, the modes' order alternating
+from line to line so that a drift of the machine's speed falls on both; only the census's CPU
+(time.process_time of this process) is counted. Printed per mode: census CPU, census points,
+points per kind of attractor set, points holding a stable orbit (per period, and in all),
+points named (a periodic or non-periodic attractor), and for the points both call chaotic how
+many exponents differ by more than three combined standard errors.
+"""
+from __future__ import annotations
+
+import argparse
+import collections
+import math
+import time
+
+import hertzmap.study.solve.census as census_module
+import hertzmap.study.solve.line as line_module
+from hertzmap.study.solve.line import LineSearch
+from hertzmap.study.spec import load_study
+
+MODES = ("recognition", "full transients")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--study", default="studies/vibro_impact.toml")
+    ap.add_argument("--lines", type=int, default=8, help="every k-th sigma line")
+    ap.add_argument("--offset", type=int, default=0, help="the first line's index")
+    a = ap.parse_args(argv)
+    s = load_study(a.study)
+    kw = s.solver_kwargs()
+    omega, zeta = s.axis("omega"), float(s.axis("zeta")[0])
+    options = dict(exponent=s.exponent or 1.5, model=s.model, rtol=s.rtol, harmonics=False,
+                   seeds=())
+    census = census_module.census
+    spent = collections.Counter()
+    mode_now = [MODES[0]]
+
+    def timed(*args, **kwargs):
+        t0 = time.process_time()
+        out = census(*args, **kwargs)
+        spent[mode_now[0]] += time.process_time() - t0
+        return out
+
+    line_module.census = timed
+    LineSearch(omega[:3], float(s.axis("sigma")[-1]), zeta, s.periods, options).sweep()
+    census(1.0, 2.0, zeta, [], options, 2, 20, 32)          # compile
+    kinds = {m: collections.Counter() for m in MODES}
+    stable = {m: collections.Counter() for m in MODES}
+    named = collections.Counter()
+    points = collections.Counter()
+    exponents = {m: {} for m in MODES}
+    sigmas = s.axis("sigma")[a.offset::a.lines]
+    for n, sigma in enumerate(sigmas):
+        for mode in (MODES if n % 2 == 0 else MODES[::-1]):
+            mode_now[0] = mode
+            census_module.RECOGNITION = mode == MODES[0]
+            ls = LineSearch(omega, float(sigma), zeta, s.periods, options)
+            ls.sweep()
+            ls.turn_folds()
+            ls.run_census(s.attractors, s.initial_states, s.transient_periods,
+                          s.record_periods, kw.get("max_transient_periods"),
+                          kw.get("point_steps", 2_000_000), kw.get("lyapunov_error"))
+            for i, found in ls.attractors.items():
+                points[mode] += 1
+                kinds[mode][tuple(sorted({f.kind for f in found}))] += 1
+                named[mode] += any(f.kind in ("periodic", "non_periodic") for f in found)
+                for f in found:
+                    if f.kind == "non_periodic":
+                        exponents[mode][(i, float(sigma))] = (
+                            f.row[census_module.A["lyapunov"]],
+                            f.row[census_module.A["lyapunov_error"]])
+            for orbits in ls.per_point:
+                periods = {o["period"] for o in orbits if o.get("stable") and o["status"] == 0}
+                stable[mode]["any"] += bool(periods)
+                for m in periods:
+                    stable[mode][m] += 1
+    census_module.RECOGNITION = True
+    line_module.census = census
+    print(f"{len(sigmas)} sigma lines of {a.study} (every {a.lines}th from {a.offset}), "
+          f"{len(omega)} omega points each")
+    for mode in MODES:
+        per_period = ", ".join(f"{m}T {c}" for m, c in sorted(
+            (k, v) for k, v in stable[mode].items() if k != "any"))
+        print(f"{mode}: census {spent[mode]:.1f} s CPU at {points[mode]} points; named "
+              f"{named[mode]}; with a stable orbit {stable[mode]['any']} ({per_period})")
+        print("  kinds: " + "; ".join(f"{'+'.join(k)} {v}" for k, v in
+                                      sorted(kinds[mode].items(), key=lambda kv: -kv[1])))
+    both = set(exponents[MODES[0]]) & set(exponents[MODES[1]])
+    apart = sum(1 for p in both if abs(exponents[MODES[0]][p][0] - exponents[MODES[1]][p][0])
+                > 3 * math.hypot(exponents[MODES[0]][p][1], exponents[MODES[1]][p][1]))
+    print(f"chaotic in both: {len(both)} points, exponents more than 3 combined standard "
+          f"errors apart: {apart}")
+    print(f"census CPU, full transients / recognition: "
+          f"{spent[MODES[1]] / max(spent[MODES[0]], 1e-9):.2f}x")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

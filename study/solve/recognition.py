@@ -1,0 +1,140 @@
+"""Recognition: a census transient stops as soon as it is recognised on an attractor its point
+already knows, instead of running its whole budget (the idea of Attractors.jl's recurrences
+mapper, on the stroboscopic map of paper Eq. 7).
+
+What is known at a grid point is what its earlier transients found, in their order (the census
+runs them one after another, so the result does not depend on the machine):
+
+* **a periodic attractor** (a stable orbit of period m a transient settled on, confirmed by
+  shooting): its m stroboscopic points, each with the tolerance CYCLE_TOL (1 + |x|) of the
+  census's period detection. A transient is on it once its points stayed that near them for
+  (CYCLE_REPEATS + 1) m consecutive periods: the detection's own evidence, without its Newton
+  confirmation and its measures pass.
+* **an open set** (a transient that did not settle within its budget), only where the point
+  has no stable orbit: its record window's points, each with the tolerance OPEN_QUANTILE of the
+  set's own spacing (the distance from each point of the window's second half to the nearest
+  of its first half: a point of the same set lands that near a known point with about that
+  probability), at most OPEN_TOL_CAP (1 + |x|). A transient is on it once it stayed that near
+  for OPEN_VISITS consecutive periods; it then shares the set's fate (the longer passes run the
+  set's own transients, not every transient on it). Beside a stable orbit the census needs
+  each transient's own evidence that it does not escape to the orbit (study.solve.census,
+  "Unsettled"), so open sets are not recognised there: once a transient reaches a stable
+  orbit, those recognised on an open set go on from where they stopped, each on its own.
+
+Why OPEN_LEADERS transients keep their own evidence before any is recognised on their sets: a
+set that looks chaotic can be a long chaotic transient, and the census learns so only when a
+transient escapes from it. Each open transient samples that escape; recognising every later
+one on the first set left one sampler. On the vibro-impact scene at (0.70, 3.25), 6 of 16
+transients escape to a stable 6T orbit after 1,000-9,000 periods; with one open transient
+followed by all others the census missed the orbit, with four it finds it (and the others
+then go on with their own evidence: tests/study/solve/test_recognition.py).
+
+Labels: an open set is labelled by its transient's index (>= 0), a periodic attractor by
+-1 - (its index among the point's periodic attractors).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from hertzmap.kernels.attractors import NO_LABEL, known_attractors
+
+#: an open set's tolerance: this quantile of its own spacing ...
+OPEN_QUANTILE = 0.9
+#: ... at most this share of (1 + |x|)
+OPEN_TOL_CAP = 0.05
+#: consecutive periods near an open set's points that recognise a transient on it
+OPEN_VISITS = 8
+#: open transients that keep their own evidence before later ones may be recognised on their
+#: sets (module docstring)
+OPEN_LEADERS = 4
+
+
+def periodic_label(index: int) -> int:
+    """The label of the point's periodic attractor number ``index``."""
+    return -1 - int(index)
+
+
+def periodic_index(label: int) -> int:
+    """The index of the periodic attractor a (negative) label names."""
+    return -1 - int(label)
+
+
+def open_tolerance(points: np.ndarray) -> float:
+    """The tolerance of an open set's points (module docstring): OPEN_QUANTILE of the distances
+    from its second half to the nearest point of its first half, at most OPEN_TOL_CAP
+    (1 + the median |x|)."""
+    half = points.shape[0] // 2
+    cap = OPEN_TOL_CAP * (1.0 + float(np.median(np.hypot(points[:, 0], points[:, 1]))))
+    if half < 1:
+        return cap
+    first, second = points[:half], points[half:]
+    d = np.hypot(second[:, None, 0] - first[None, :, 0],
+                 second[:, None, 1] - first[None, :, 1]).min(axis=1)
+    return float(min(np.quantile(d, OPEN_QUANTILE), cap))
+
+
+class KnownAttractors:
+    """The attractors a point's transients may be recognised on: labelled sets of
+    stroboscopic points with their tolerance and visits (kernels.attractors.known_near), and
+    the kernel's arrays of them (rebuilt when a set is added or removed)."""
+
+    def __init__(self):
+        self._sets: dict[int, tuple[np.ndarray, np.ndarray, int]] = {}
+        self._arrays = None
+
+    def __contains__(self, label: int) -> bool:
+        return label in self._sets
+
+    def labels(self) -> list[int]:
+        return list(self._sets)
+
+    def add_periodic(self, label: int, points: np.ndarray, cycle_tol: float,
+                     visits: int) -> None:
+        """A stable orbit's m stroboscopic points, each within cycle_tol (1 + |x|)."""
+        points = np.asarray(points, float).reshape(-1, 2)
+        self._add(label, points, cycle_tol * (1.0 + np.hypot(points[:, 0], points[:, 1])),
+                  visits)
+
+    def add_open(self, label: int, points: np.ndarray) -> None:
+        """A transient's record window that did not settle (module docstring)."""
+        points = np.asarray(points, float).reshape(-1, 2)
+        points = points[np.all(np.isfinite(points), axis=1)]
+        if points.shape[0] >= 2:
+            self._add(label, points, np.full(points.shape[0], open_tolerance(points)),
+                      OPEN_VISITS)
+
+    def remove(self, label: int) -> None:
+        if self._sets.pop(label, None) is not None:
+            self._arrays = None
+
+    def remove_open(self) -> None:
+        """Forget every open set (the point turned out to have a stable orbit)."""
+        for label in [lab for lab in self._sets if lab >= 0]:
+            self.remove(label)
+
+    def _add(self, label, points, tol, visits) -> None:
+        self._sets[int(label)] = (points, np.asarray(tol, float), int(visits))
+        self._arrays = None
+
+    def arrays(self, open_sets: bool = True) -> tuple:
+        """(known, known_label, cell_start, grid) for kernels.attractors.attractor_batch_into:
+        every known attractor, or (``open_sets`` False) the periodic ones only."""
+        if self._arrays is None:
+            self._arrays = {}
+        if open_sets not in self._arrays:
+            sets = [(lab, v) for lab, v in self._sets.items() if open_sets or lab < 0]
+            if sets:
+                self._arrays[open_sets] = known_attractors(
+                    np.concatenate([p for _, (p, _, _) in sets]),
+                    np.concatenate([np.full(len(p), lab, np.int64) for lab, (p, _, _) in sets]),
+                    np.concatenate([t for _, (_, t, _) in sets]),
+                    np.concatenate([np.full(len(p), v, float) for _, (p, _, v) in sets]))
+            else:
+                self._arrays[open_sets] = known_attractors((), (), (), ())
+        return self._arrays[open_sets]
+
+
+#: nothing to recognise (a transient that runs its whole budget)
+NOTHING_KNOWN = KnownAttractors()
+__all__ = ["KnownAttractors", "NOTHING_KNOWN", "NO_LABEL", "OPEN_LEADERS", "OPEN_QUANTILE",
+           "OPEN_TOL_CAP", "OPEN_VISITS", "open_tolerance", "periodic_index", "periodic_label"]
