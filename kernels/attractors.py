@@ -685,7 +685,8 @@ def known_attractors(points, labels, tol, visits):
     known = np.empty((n, N_KNOWN_FIELDS))
     known[:, K_Q], known[:, K_V] = points[order, 0], points[order, 1]
     known[:, K_TOL], known[:, K_VISITS] = tol[order], visits[order]
-    cell_start = np.searchsorted(cells[order], np.arange(nq * nv + 1)).astype(np.int64)
+    cell_start = np.zeros(nq * nv + 1, np.int64)
+    np.cumsum(np.bincount(cells, minlength=nq * nv), out=cell_start[1:])
     return (known, np.ascontiguousarray(labels[order]), cell_start,
             np.array([lo[0], lo[1], side, float(nq)]))
 

@@ -38,10 +38,11 @@ unsettled with the reason (``unsettled_reason``: the period limit, or the work b
 
 Recognition (study.solve.recognition): the transients run one after another, and one stops as
 soon as it is recognised on what the point's earlier ones found: a periodic attractor's points
-(then it counts with it, without its own refinement and measures) or, where the point has no
-stable orbit, the open set of one of its first OPEN_LEADERS unsettled transients (then it
-shares that transient's fate, and the longer passes run without it). The order is fixed, so a
-block gives the same arrays on any worker.
+(then it counts with it, without its own refinement and measures) or, in the longer passes of
+a point without a stable orbit, the open set of one of its first OPEN_LEADERS unsettled
+transients (then it shares that transient's fate, and the passes go on without it until a
+transient reaches a stable orbit). The order is fixed, so a block gives the same arrays on
+any worker.
 
 Basin fractions: the share of the initial states ending on each attractor. Where none of the
 first FULL_BUDGET_STATES transients settles within the whole budget, the others run for a fifth
@@ -182,8 +183,8 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
     follows: dict[int, int] = {}        # run -> the open set's label it was recognised on
     settled_on: dict[int, Attractor] = {}
     open_sets = [not has_stable_orbit(orbits)]
-    # the first OPEN_LEADERS open runs keep their own evidence (each samples the escape from
-    # the set: study.solve.recognition)
+    # the first OPEN_LEADERS open runs keep their own evidence in the longer passes (each
+    # samples the escape from the set: study.solve.recognition)
     leaders: list[int] = []
 
     def open_set(r) -> None:
@@ -258,7 +259,8 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
         q, v = start if start is not None else states[r]
         run_transients(omega, sigma, zeta, np.array([q], float), np.array([v], float), options,
                        budget, record_periods, rows[r:r + 1], orbit_rows[r:r + 1],
-                       strobes[r:r + 1], recognised, own_label=r, open_sets=r not in leaders)
+                       strobes[r:r + 1], recognised, own_label=r,
+                       open_sets=start is not None and r not in leaders)
         if before is not None:
             rows[r, A["periods_run"]] += before[A["periods_run"]]
             rows[r, A["steps"]] += before[A["steps"]]
@@ -299,13 +301,15 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
 
     left = [float(point_steps)]
     budget = [int(transient_periods)]
+    behind: dict[int, int] = {}         # detached run -> periods it is behind the others
 
     def longer_passes(runs, limit, until_quiet=False):
         """Continue the runs that did not settle from their last states, each pass LONGER
         times the last, until they settle, ``limit`` periods are run in all (PERIOD_LIMIT), or
         the point's work budget is spent (WORK_BUDGET); ``until_quiet``: or a pass ends in
         which no run settled (QUIET). A run recognised on another's open set leaves the passes
-        and shares that set's fate. Returns the runs still open and why."""
+        and shares that set's fate, until a run reaches a stable orbit (then it goes on, and
+        first catches up). Returns the runs still open and why."""
         run_so_far = float(np.nanmax(rows[runs, A["periods_run"]]))
         while True:
             if run_so_far >= limit:
@@ -322,7 +326,8 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
             still, settled_now = [], 0
             for r in runs:
                 steps_before = rows[r, A["steps"]]
-                transient(r, budget[0], (rows[r, A["q_end"]], rows[r, A["v_end"]]))
+                transient(r, budget[0] + behind.pop(r, 0),
+                          (rows[r, A["q_end"]], rows[r, A["v_end"]]))
                 left[0] -= float(np.nan_to_num(rows[r, A["steps"]] - steps_before))
                 recognised.remove(r)
                 outcome = take(r)
@@ -332,8 +337,12 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
             run_so_far = float(np.nanmax(rows[runs, A["periods_run"]]))
             if follows and has_stable_orbit(known):
                 # a run escaped from an open set to a stable orbit: the runs recognised on
-                # the set go on with their own evidence
-                still = sorted(still + detach())
+                # the set go on with their own evidence, first catching up with the periods
+                # the others ran (each samples the escape as long as it would have)
+                detached = detach()
+                for r in detached:
+                    behind[r] = max(0, int(run_so_far - rows[r, A["periods_run"]]))
+                still = sorted(still + detached)
             if not still:
                 return still, 0
             if until_quiet and not settled_now:

@@ -10,24 +10,26 @@ runs them one after another, so the result does not depend on the machine):
   census's period detection. A transient is on it once its points stayed that near them for
   (CYCLE_REPEATS + 1) m consecutive periods: the detection's own evidence, without its Newton
   confirmation and its measures pass.
-* **an open set** (a transient that did not settle within its budget), only where the point
-  has no stable orbit: its record window's points, each with the tolerance OPEN_QUANTILE of the
-  set's own spacing (the distance from each point of the window's second half to the nearest
-  of its first half: a point of the same set lands that near a known point with about that
-  probability), at most OPEN_TOL_CAP (1 + |x|). A transient is on it once it stayed that near
-  for OPEN_VISITS consecutive periods; it then shares the set's fate (the longer passes run the
-  set's own transients, not every transient on it). Beside a stable orbit the census needs
-  each transient's own evidence that it does not escape to the orbit (study.solve.census,
-  "Unsettled"), so open sets are not recognised there: once a transient reaches a stable
-  orbit, those recognised on an open set go on from where they stopped, each on its own.
+* **an open set** (a transient that did not settle within its first budget), only where the
+  point has no stable orbit and only in the census's longer passes: its record window's
+  points, each with the tolerance OPEN_QUANTILE of the set's own spacing (the distance from
+  each point of the window's second half to the nearest of its first half: a point of the same
+  set lands that near a known point with about that probability), at most OPEN_TOL_CAP
+  (1 + |x|). A transient is on it once it stayed that near for OPEN_VISITS consecutive
+  periods; it then leaves the longer passes and shares the fate of the set's transient.
 
-Why OPEN_LEADERS transients keep their own evidence before any is recognised on their sets: a
-set that looks chaotic can be a long chaotic transient, and the census learns so only when a
-transient escapes from it. Each open transient samples that escape; recognising every later
-one on the first set left one sampler. On the vibro-impact scene at (0.70, 3.25), 6 of 16
-transients escape to a stable 6T orbit after 1,000-9,000 periods; with one open transient
-followed by all others the census missed the orbit, with four it finds it (and the others
-then go on with their own evidence: tests/study/solve/test_recognition.py).
+Why open sets only in the longer passes, and only those of the first OPEN_LEADERS open
+transients, which keep running on their own: a set that looks chaotic can be a long chaotic
+transient, and the census learns so only when a transient escapes from it; every transient
+that runs samples that escape. On the vibro-impact scene (zeta 0.01), at (1.175, 2.65) one
+of 16 first-pass transients leaves the chaotic-looking set for a stable 7T orbit after about
+100 periods, and at (0.70, 3.25) 6 of 16 escape to a stable 6T orbit after 1,000-9,000
+periods: recognising first-pass transients on an open set lost the 7T orbit, and letting one
+transient run for all lost the 6T orbit. Beside a stable orbit the census needs each
+transient's own evidence that it does not escape to the orbit (study.solve.census,
+"Unsettled"): open sets are not recognised there, and once a transient of the longer passes
+reaches a stable orbit, those recognised on an open set go on, each first running the periods
+the others ran meanwhile.
 
 Labels: an open set is labelled by its transient's index (>= 0), a periodic attractor by
 -1 - (its index among the point's periodic attractors).
