@@ -39,9 +39,9 @@ unsettled with the reason (``unsettled_reason``: the period limit, or the work b
 Recognition (study.solve.recognition): the transients run one after another, and one stops as
 soon as it is recognised on what the point's earlier ones found: a periodic attractor's points
 (then it counts with it, without its own refinement and measures) or, in the longer passes of
-a point without a stable orbit, the open set of one of its first OPEN_LEADERS unsettled
-transients (then it shares that transient's fate, and the passes go on without it until a
-transient reaches a stable orbit). The order is fixed, so a block gives the same arrays on
+a point without a stable orbit, the open set of another unsettled transient (then it shares
+that transient's fate, and the passes go on without it until a transient reaches a stable
+orbit); the first OPEN_LEADERS unsettled transients are never recognised so. The order is fixed, so a block gives the same arrays on
 any worker.
 
 Basin fractions: the share of the initial states ending on each attractor. Where none of the

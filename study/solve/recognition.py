@@ -18,8 +18,8 @@ runs them one after another, so the result does not depend on the machine):
   (1 + |x|). A transient is on it once it stayed that near for OPEN_VISITS consecutive
   periods; it then leaves the longer passes and shares the fate of the set's transient.
 
-Why open sets only in the longer passes, and only those of the first OPEN_LEADERS open
-transients, which keep running on their own: a set that looks chaotic can be a long chaotic
+Why open sets only in the longer passes, and why the first OPEN_LEADERS open transients (whose
+sets are known once there are that many) are never recognised on one: a set that looks chaotic can be a long chaotic
 transient, and the census learns so only when a transient escapes from it; every transient
 that runs samples that escape. On the vibro-impact scene (zeta 0.01), at (1.175, 2.65) one
 of 16 first-pass transients leaves the chaotic-looking set for a stable 7T orbit after about
