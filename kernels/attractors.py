@@ -171,10 +171,14 @@ def known_near(known, labels, cell_start, grid, own_label, q, v):
     side = grid[G_SIDE]
     nq = int(grid[G_NQ])
     nv = (cell_start.shape[0] - 1) // nq
-    cq = int(np.floor((q - grid[G_Q]) / side))
-    cv = int(np.floor((v - grid[G_V]) / side))
-    if cq < -1 or cq > nq or cv < -1 or cv > nv:
+    fq = np.floor((q - grid[G_Q]) / side)
+    fv = np.floor((v - grid[G_V]) / side)
+    # compared as floats first: a state far off the grid (or a tiny cell) must not overflow
+    # the integer conversion
+    if not (fq >= -1.0 and fq <= nq and fv >= -1.0 and fv <= nv):
         return -1
+    cq = int(fq)
+    cv = int(fv)
     best = -1
     best_d = np.inf
     for a in range(max(cq - 1, 0), min(cq + 2, nq)):

@@ -356,6 +356,11 @@ def test_known_near_is_the_nearest_point_within_its_tolerance():
             ok = (d <= known[:, K_TOL]) & (lab != own)
             expect = int(np.argmin(np.where(ok, d, np.inf))) if ok.any() else -1
             assert known_near(known, lab, start, grid, own, q, v) == expect
+    # points that coincide (a zero tolerance, the smallest cell) and states far off the grid
+    known, lab, start, grid = known_attractors([(1.0, 2.0)] * 3, 4, 0.0, 1.0)
+    assert known_near(known, lab, start, grid, -1, 1.0, 2.0) >= 0
+    for q, v in ((1.0 + 1e-9, 2.0), (1e300, -1e300), (np.nan, 0.0), (np.inf, 2.0)):
+        assert known_near(known, lab, start, grid, -1, q, v) == -1
 
 
 def test_a_transient_near_a_known_orbit_is_recognised_on_it():
