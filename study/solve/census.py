@@ -350,7 +350,8 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
             runs = still
 
     others: list[Attractor] = []
-    if open_runs or follows:
+    if open_runs:
+        # (no run follows an open set yet: they are recognised in the longer passes only)
         has_stable = has_stable_orbit(known)
         if not has_stable:
             # close returns of an unsettled transient: Newton seeds of orbits it passes near
@@ -367,8 +368,6 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
                             known.append(sol)
                             new.append(sol)
             has_stable = has_stable_orbit(known)
-        if has_stable and follows:
-            open_runs = sorted(open_runs + detach())
         rep, row = representative(open_runs)
         chaotic = (not has_stable) and is_chaotic(row) and any(
             int(rows[r, A["status"]]) == st.UNSETTLED for r in open_runs)

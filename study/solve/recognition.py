@@ -81,58 +81,56 @@ class KnownAttractors:
     the kernel's arrays of them (rebuilt when a set is added or removed)."""
 
     def __init__(self):
-        self._sets: dict[int, tuple[np.ndarray, np.ndarray, int]] = {}
-        self._arrays = None
-
-    def __contains__(self, label: int) -> bool:
-        return label in self._sets
-
-    def labels(self) -> list[int]:
-        return list(self._sets)
+        # label -> (points, tolerance per point (None: an open set's, not computed yet), visits)
+        self._sets: dict[int, tuple] = {}
+        self._arrays: dict[bool, tuple] = {}
 
     def add_periodic(self, label: int, points: np.ndarray, cycle_tol: float,
                      visits: int) -> None:
         """A stable orbit's m stroboscopic points, each within cycle_tol (1 + |x|)."""
         points = np.asarray(points, float).reshape(-1, 2)
-        self._add(label, points, cycle_tol * (1.0 + np.hypot(points[:, 0], points[:, 1])),
-                  visits)
+        self._sets[int(label)] = (points, cycle_tol * (1.0 + np.hypot(points[:, 0], points[:, 1])),
+                                  int(visits))
+        self._arrays.clear()
 
     def add_open(self, label: int, points: np.ndarray) -> None:
-        """A transient's record window that did not settle (module docstring)."""
+        """A transient's record window that did not settle (module docstring). Its tolerance
+        is computed when a transient may first be recognised on it (arrays(open_sets=True)):
+        a point whose census ends with its first pass never needs it."""
         points = np.asarray(points, float).reshape(-1, 2)
         points = points[np.all(np.isfinite(points), axis=1)]
         if points.shape[0] >= 2:
-            self._add(label, points, np.full(points.shape[0], open_tolerance(points)),
-                      OPEN_VISITS)
+            self._sets[int(label)] = (points, None, OPEN_VISITS)
+            self._arrays.pop(True, None)
 
     def remove(self, label: int) -> None:
-        if self._sets.pop(label, None) is not None:
-            self._arrays = None
+        if self._sets.pop(label, None) is None:
+            return
+        if label >= 0:
+            self._arrays.pop(True, None)    # the periodic-only arrays hold no open set
+        else:
+            self._arrays.clear()
 
     def remove_open(self) -> None:
         """Forget every open set (the point turned out to have a stable orbit)."""
         for label in [lab for lab in self._sets if lab >= 0]:
             self.remove(label)
 
-    def _add(self, label, points, tol, visits) -> None:
-        self._sets[int(label)] = (points, np.asarray(tol, float), int(visits))
-        self._arrays = None
-
     def arrays(self, open_sets: bool = True) -> tuple:
         """(known, known_label, cell_start, grid) for kernels.attractors.attractor_batch_into:
         every known attractor, or (``open_sets`` False) the periodic ones only."""
-        if self._arrays is None:
-            self._arrays = {}
         if open_sets not in self._arrays:
-            sets = [(lab, v) for lab, v in self._sets.items() if open_sets or lab < 0]
-            if sets:
-                self._arrays[open_sets] = known_attractors(
-                    np.concatenate([p for _, (p, _, _) in sets]),
-                    np.concatenate([np.full(len(p), lab, np.int64) for lab, (p, _, _) in sets]),
-                    np.concatenate([t for _, (_, t, _) in sets]),
-                    np.concatenate([np.full(len(p), v, float) for _, (p, _, v) in sets]))
-            else:
-                self._arrays[open_sets] = known_attractors((), (), (), ())
+            sets = []
+            for lab, (p, tol, visits) in self._sets.items():
+                if lab < 0 or open_sets:
+                    if tol is None:
+                        tol = np.full(p.shape[0], open_tolerance(p))
+                        self._sets[lab] = (p, tol, visits)
+                    sets.append((p, np.full(p.shape[0], lab, np.int64), tol,
+                                 np.full(p.shape[0], float(visits))))
+            self._arrays[open_sets] = known_attractors(
+                *(np.concatenate(column) for column in zip(*sets))) if sets else \
+                known_attractors((), (), (), ())
         return self._arrays[open_sets]
 
 
