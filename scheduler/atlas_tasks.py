@@ -27,7 +27,7 @@ from hertzmap.scheduler.store import (ATLAS_ATTR, Store, read_atlas_tile, read_r
                                       remove_atlas_stage, stage_atlas_tile, staged_atlas_tiles)
 from hertzmap.study.schema import (ATTRACTOR_VARIABLES, CROSSING_VARIABLES, ORBIT_VARIABLES,
                                    VARIABLES, stored_variables)
-from hertzmap.study.solve.atlas import HALO_NAMES, atlas_names, census_points
+from hertzmap.study.solve.atlas import HALO_NAMES, NEIGHBOUR_NAMES, atlas_names, census_points
 from hertzmap.study.spec import Study
 
 #: the stored variables the atlas needs (the orbits' identity and continuity invariants)
@@ -71,11 +71,7 @@ def atlas_task(spec: dict[str, Any]) -> dict[str, Any]:
     t0 = time.perf_counter()
     tile = tuple(slice(*s) for s in spec["slices"])
     census = spec.get("census")
-    if census is None:
-        region, own = _region(tile, tuple(spec["shape"]))
-    else:
-        # a census round reads and writes its tile only
-        region, own = tile, tuple(slice(0, s.stop - s.start) for s in tile)
+    region, own = _region(tile, tuple(spec["shape"]))
     names = spec["names"]
     ib = tile[0].start // int(spec["chunk_omega"])
     # the halo's orbit rules and start points over the region; the other slot variables, the
@@ -85,7 +81,10 @@ def atlas_task(spec: dict[str, Any]) -> dict[str, Any]:
     where = {n: region if n in HALO_NAMES else tile for n in names if n in ORBIT_VARIABLES
              or n in ("orbits_found", "orbits_dropped")}
     if census is not None:
-        where.update({n: tile for n in names if n in ATTRACTOR_VARIABLES})
+        # a census round writes its tile's attractors; its transients also start from the
+        # halo's (study.solve.atlas.neighbour_starts)
+        where.update({n: region if n in NEIGHBOUR_NAMES else tile for n in names
+                      if n in ATTRACTOR_VARIABLES})
     elif "attractor_solution" in names:
         where["attractor_solution"] = tile
     where.update({n: (slice(ib, ib + 1), tile[1], tile[2]) for n in names

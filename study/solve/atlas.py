@@ -39,7 +39,8 @@ from hertzmap.study.schema import (ATTRACTOR_KINDS, ATTRACTOR_VARIABLES, BIFURCA
                                    CROSSING_SLOTS, CROSSING_VARIABLES, ORBIT_VARIABLES,
                                    VARIABLES)
 from hertzmap.study.solve.block import record_line, slot_order, slot_rank
-from hertzmap.study.solve.census import census, first_pass_only, record_attractors
+from hertzmap.study.solve.census import (NEIGHBOUR_KINDS, census, first_pass_only,
+                                         record_attractors)
 from hertzmap.study.solve.curves import line_crossings
 from hertzmap.study.solve.point import shoot_targets
 
@@ -95,6 +96,9 @@ RULE_FIELDS = ("period", "status", "stable", "atlas_round", "min_q", "max_q", "p
 #: the slot variables a tile reads of its halo (its neighbours' orbits: their rules and start
 #: points); the others are read, rewritten and written over the tile's own cells only
 HALO_NAMES = RULE_FIELDS + ("q0", "v0")
+#: what a census round reads of its halo besides: the neighbours' attractors, whose states
+#: its transients also start from (neighbour_starts)
+NEIGHBOUR_NAMES = ("attractor_kind", "strobe_q", "strobe_v")
 
 
 class _Lazy(dict):
@@ -331,7 +335,7 @@ def census_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
         known = _converged(orbits[idx])
         w = float(omega[idx[0]])
         found, new = census(w, float(sigma[idx[1]]), float(zeta[idx[2]]), known, options,
-                            **search)
+                            **search, neighbour_starts=neighbour_starts(region, idx))
         for sol in new:
             sol["atlas_round"] = round_
         current[idx] = known + new
@@ -352,6 +356,21 @@ def census_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
         _recount_crossings(out, own_shape, lo, gained, before, now, omega[own[0]], level,
                            periods)
     return result
+
+
+def neighbour_starts(region: dict[str, np.ndarray], idx: tuple) -> list[tuple[float, float]]:
+    """States on the attractors stored at the grid neighbours of ``region``'s point ``idx``
+    along every axis (the snapshot's), as study.solve.census.attractor_starts takes them: the
+    last stroboscopic point of each periodic or chaotic attractor."""
+    kinds, q, v = (region[n] for n in NEIGHBOUR_NAMES)
+    wanted = [ATTRACTOR_KINDS[k] for k in NEIGHBOUR_KINDS]
+    out = []
+    for at in neighbours(idx, kinds.shape[:3]):
+        for slot in np.flatnonzero(np.isin(kinds[at], wanted)):
+            x = (float(q[at + (slot, -1)]), float(v[at + (slot, -1)]))
+            if np.all(np.isfinite(x)):
+                out.append(x)
+    return out
 
 
 def _full_rank(orbits, max_solutions):

@@ -44,6 +44,19 @@ that transient's fate, and the passes go on without it until a transient reaches
 orbit); the first OPEN_LEADERS unsettled transients are never recognised so. The order is fixed, so a block gives the same arrays on
 any worker.
 
+Neighbours: the caller may pass states on the neighbouring grid points' attractors
+(attractor_starts: the last stroboscopic point of each periodic or chaotic attractor there;
+study.solve.line passes those of the line's neighbours whose census ran, study.solve.atlas
+those of every axis). After the first pass of the point's own states, a transient runs from
+each, recognised on everything the own runs found (their periodic attractors and every open
+run's set, in the first pass too: these runs decide nothing about the own states) and on what
+the earlier neighbour starts found. Where the neighbour's attractor is here too, the run stops
+within a few periods and adds nothing. One that settles on a stable orbit no own state reached
+adds the orbit and a periodic attractor with basin fraction 0; one that stays open joins the
+open runs (their longer passes and chaos test, beside any stable orbit now known), and alone
+makes an attractor only once shown chaotic (basin fraction 0 again). Basin fractions and the
+basin entropy count the point's own states only.
+
 Basin fractions: the share of the initial states ending on each attractor. Where none of the
 first FULL_BUDGET_STATES transients settles within the whole budget, the others run for a fifth
 of it, to screen for a periodic attractor with a quick transient; those that have not settled
@@ -103,9 +116,15 @@ PERIOD_LIMIT = 1
 WORK_BUDGET = 2
 #: (not stored) a longer pass ended with none of its runs settled
 QUIET = -1
+#: the kinds of a neighbour's attractors a point's transients also start from (an unsettled
+#: group is no attractor yet, a failed one none)
+NEIGHBOUR_KINDS = ("periodic", "non_periodic")
 #: transients stop once recognised on what the point's earlier ones found
 #: (study.solve.recognition); off, every transient runs its budget (benchmarks compare both)
 RECOGNITION = True
+#: transients also start from the neighbouring points' attractors (``neighbour_starts``); off,
+#: from the point's own states only (benchmarks compare both)
+NEIGHBOUR_STARTS = True
 
 
 @dataclass
@@ -153,7 +172,8 @@ def recurrence_seeds(strobe: np.ndarray, periods=RECURRENCE_PERIODS) -> list[tup
 def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options: dict,
            n_states: int, transient_periods: int, record_periods: int,
            max_transient_periods: int | None = None, point_steps: int = 2_000_000,
-           lyapunov_error: float | None = None) -> tuple[list[Attractor], list[dict]]:
+           lyapunov_error: float | None = None,
+           neighbour_starts=()) -> tuple[list[Attractor], list[dict]]:
     """The attractors at (omega, sigma, zeta) from ``n_states`` initial states, and the orbits
     the census found that ``orbits`` (the point's known orbits, not changed here) lacks.
 
@@ -162,17 +182,25 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
     docstring, "Unsettled") up to ``max_transient_periods`` periods in all, within
     ``point_steps`` integration steps summed over its open transients. ``lyapunov_error``:
     the exponent's target standard error (window_exponent; None: one window).
+    ``neighbour_starts``: states (q, q') on the neighbouring points' attractors
+    (attractor_starts; module docstring, "Neighbours").
     """
     # half of the states where the largest known orbits go (long flights), when they leave
     # the fixed box
     states = np.array(initial_states(n_states, reach_box(
         [o for o in orbits if o["status"] == st.CONVERGED and o["period"] > 0])), float)
     k = states.shape[0]
-    rows = np.empty((k, N_ATTRACTOR_FIELDS))
-    orbit_rows = np.empty((k, N_FIELDS))
+    starts = np.asarray(neighbour_starts if NEIGHBOUR_STARTS else (), float).reshape(-1, 2)
+    starts = starts[np.all(np.isfinite(starts), axis=1)]
+    # runs 0..k-1 from the point's own states (they alone make the basin fractions), then one
+    # from each neighbour start
+    n = k + starts.shape[0]
+    states = np.concatenate([states.reshape(-1, 2), starts])
+    rows = np.empty((n, N_ATTRACTOR_FIELDS))
+    orbit_rows = np.empty((n, N_FIELDS))
     # the whole record window's points (close returns are searched on them); the store keeps
     # the last STROBE_POINTS
-    strobes = np.empty((k, int(record_periods), 2))
+    strobes = np.empty((n, int(record_periods), 2))
 
     known = list(orbits)
     new: list[dict] = []
@@ -201,8 +229,9 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
                 recognised.add_open(lead, strobe_points(strobes[lead], rows[lead]))
 
     def count_with(a: Attractor, r: int) -> None:
-        a.count += 1
-        a.states.append(tuple(states[r]))
+        if r < k:
+            a.count += 1
+            a.states.append(tuple(states[r]))
 
     def settle(r) -> bool:
         """Run r's transient ended on a stable orbit: count it with that orbit's attractor."""
@@ -252,15 +281,16 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
             return "open"
         return "failed"
 
-    def transient(r, budget, start=None) -> None:
+    def transient(r, budget, start=None, known=None) -> None:
         """Run r's transient for ``budget`` periods from its initial state, or on from
-        ``start`` (its periods_run and steps then add to those so far)."""
+        ``start`` (its periods_run and steps then add to those so far); recognised on
+        ``known`` (every set of it) instead of the point's running recognition."""
         before = rows[r].copy() if start is not None else None
         q, v = start if start is not None else states[r]
         run_transients(omega, sigma, zeta, np.array([q], float), np.array([v], float), options,
                        budget, record_periods, rows[r:r + 1], orbit_rows[r:r + 1],
-                       strobes[r:r + 1], recognised, own_label=r,
-                       open_sets=start is not None and r not in leaders)
+                       strobes[r:r + 1], recognised if known is None else known, own_label=r,
+                       open_sets=known is not None or (start is not None and r not in leaders))
         if before is not None:
             rows[r, A["periods_run"]] += before[A["periods_run"]]
             rows[r, A["steps"]] += before[A["steps"]]
@@ -278,7 +308,37 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
     for r in range(first, k):
         transient(r, rest_budget)
         outcome[r] = take(r)
-    open_runs = [r for r in range(k) if outcome[r] == "open"]
+    if n > k:
+        # from the neighbours' attractors, recognised on everything the own runs found: one
+        # that is here too stops within a few periods and adds nothing; one whose basin none
+        # of the own states fell in is found (a stable orbit, or a motion the passes below
+        # show chaotic)
+        here = KnownAttractors()
+        in_here = 0
+
+        def know(runs) -> None:
+            nonlocal in_here
+            for index in range(in_here, len(periodic)):
+                a = periodic[index]
+                # fewer periods than the detection's (CYCLE_REPEATS + 1) m: a run that is
+                # next to the orbit from its start stops before its detection and Newton
+                here.add_periodic(periodic_label(index), a.strobe[-a.period:], CYCLE_TOL,
+                                  CYCLE_REPEATS * a.period)
+            in_here = len(periodic)
+            runs = [r for r in runs if outcome[r] == "open"]
+            if runs:
+                # one set of all their points (its tolerance from their joint spacing): a
+                # run's visits count on one label, and the own runs' sets are most often the
+                # same set, its points spread over their labels
+                here.add_open(runs[0], np.concatenate([strobe_points(strobes[r], rows[r])
+                                                       for r in runs]))
+
+        know(range(k))
+        for r in range(k, n):
+            transient(r, transient_periods, known=here)
+            outcome[r] = "known" if int(rows[r, A["status"]]) == st.RECOGNISED else take(r)
+            know([r])
+    open_runs = [r for r in range(n) if outcome[r] == "open"]
     failed = [r for r in range(k) if outcome[r] == "failed"]
 
     def detach() -> list[int]:
@@ -400,8 +460,10 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
                 count_with(settled_on[label], r)
             else:
                 attached.append(r)
-        if open_runs:
-            runs = sorted(open_runs + attached)
+        runs = [r for r in sorted(open_runs + attached) if r < k]
+        # open runs from neighbour starts alone: an attractor only once shown chaotic (their
+        # motion says nothing of the point's own states otherwise)
+        if open_runs and (runs or chaotic):
             others.append(Attractor("non_periodic" if chaotic else "unsettled",
                                     count=len(runs), row=row,
                                     strobe=strobe_points(strobes[rep], rows[rep]),
@@ -414,6 +476,13 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
     found = sorted(periodic, key=lambda a: -a.count) + sorted(others, key=lambda a: -a.count)
     found.sort(key=lambda a: -a.count)
     return found, new
+
+
+def attractor_starts(found: list[Attractor]) -> list[tuple[float, float]]:
+    """A state on each periodic or chaotic attractor of a census (its last stroboscopic
+    point): the neighbour starts of the points next to it (module docstring, "Neighbours")."""
+    return [(float(a.strobe[-1, 0]), float(a.strobe[-1, 1])) for a in found
+            if a.kind in NEIGHBOUR_KINDS and a.strobe.shape[0]]
 
 
 def has_stable_orbit(orbits: list[dict]) -> bool:

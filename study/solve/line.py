@@ -31,7 +31,7 @@ from hertzmap.kernels import continuation as cont
 from hertzmap.kernels import status as st
 from hertzmap.study.orbits import (CONTINUITY_SHARE, continuity_distance, fold_function,
                           match_neighbours, same_orbit)
-from hertzmap.study.solve.census import census, needs_second_census
+from hertzmap.study.solve.census import attractor_starts, census, needs_second_census
 from hertzmap.study.solve.point import merge_new_orbits, shoot_seeds_minimal, solve_point
 from hertzmap.study.solve.seeds import mms_seeds
 
@@ -358,7 +358,8 @@ class LineSearch:
                 continue
             found, new = census(self.omega[i], self.sigma, self.zeta, self.per_point[i],
                                 self.options, n_states, transient_periods, record_periods,
-                                max_transient_periods, point_steps, lyapunov_error)
+                                max_transient_periods, point_steps, lyapunov_error,
+                                self.neighbour_starts(int(i)))
             self.attractors[int(i)] = found
             for sol in new:
                 sol["omega"] = self.omega[i]
@@ -379,12 +380,20 @@ class LineSearch:
                 continue
             found, new = census(self.omega[i], self.sigma, self.zeta, self.per_point[i],
                                 self.options, n_states, transient_periods, record_periods,
-                                max_transient_periods, point_steps, lyapunov_error)
+                                max_transient_periods, point_steps, lyapunov_error,
+                                self.neighbour_starts(i))
             self.attractors[i] = found
             for sol in new:
                 sol["omega"] = self.omega[i]
                 self.per_point[i].append(sol)
         self.seconds["census"] = time.perf_counter() - t0
+
+    def neighbour_starts(self, i: int) -> list[tuple[float, float]]:
+        """States on the attractors of grid point i's neighbours along the line, where their
+        census ran (so far: the first sweep knows the lower one)."""
+        return [x for d in (-1, +1) for j in [self.neighbour(i, d)]
+                if j is not None and j in self.attractors
+                for x in attractor_starts(self.attractors[j])]
 
     # -- results --------------------------------------------------------------------------
     def solutions(self, i: int) -> list[dict]:

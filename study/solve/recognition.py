@@ -37,6 +37,7 @@ Labels: an open set is labelled by its transient's index (>= 0), a periodic attr
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from hertzmap.kernels.attractors import NO_LABEL, known_attractors
 
@@ -69,9 +70,7 @@ def open_tolerance(points: np.ndarray) -> float:
     cap = OPEN_TOL_CAP * (1.0 + float(np.median(np.hypot(points[:, 0], points[:, 1]))))
     if half < 1:
         return cap
-    first, second = points[:half], points[half:]
-    d = np.hypot(second[:, None, 0] - first[None, :, 0],
-                 second[:, None, 1] - first[None, :, 1]).min(axis=1)
+    d, _ = cKDTree(points[:half]).query(points[half:])
     return float(min(np.quantile(d, OPEN_QUANTILE), cap))
 
 

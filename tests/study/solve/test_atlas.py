@@ -196,3 +196,31 @@ def test_a_census_round_runs_the_census_again_where_a_stable_orbit_came():
     assert out["attractor_solution"][0, 0, 0, 1] == 0 and out["period"][0, 0, 0, 0] == 5
     assert _orbits(out, 0, 0) == _orbits(region, 0, 0)
     assert not census_points(out, 500, 128).any()
+
+
+def test_a_census_round_starts_from_the_neighbours_periodic_and_chaotic_attractors():
+    """neighbour_starts: the last stroboscopic point of each periodic or non-periodic
+    attractor stored at the point's grid neighbours along every axis (lower first, in axis
+    order), none of an unsettled or failed group, an empty slot or a missing point."""
+    from hertzmap.study.schema import ATTRACTOR_KINDS, ATTRACTOR_VARIABLES, STROBE_POINTS
+    from hertzmap.study.solve.atlas import neighbour_starts
+
+    region = empty_arrays((3, 3, 2), 4, ATTRACTOR_VARIABLES)
+    kinds, q, v = region["attractor_kind"], region["strobe_q"], region["strobe_v"]
+
+    def put(at, slot, kind, x):
+        kinds[at + (slot,)] = ATTRACTOR_KINDS[kind]
+        q[at + (slot, slice(None))] = np.linspace(-1, x[0], STROBE_POINTS)
+        v[at + (slot, slice(None))] = np.linspace(-1, x[1], STROBE_POINTS)
+
+    put((0, 1, 0), 0, "non_periodic", (1.0, 2.0))
+    put((2, 1, 0), 1, "periodic", (3.0, 4.0))
+    put((2, 1, 0), 0, "unsettled", (9.0, 9.0))
+    put((1, 0, 0), 0, "failed", (9.0, 9.0))
+    put((1, 2, 0), 2, "periodic", (5.0, 6.0))
+    put((1, 1, 1), 0, "non_periodic", (7.0, 8.0))
+    put((1, 1, 1), 1, "periodic", (np.nan, 8.0))
+    put((0, 0, 0), 0, "periodic", (9.0, 9.0))                   # not a neighbour
+    assert neighbour_starts(region, (1, 1, 0)) == [(1.0, 2.0), (3.0, 4.0), (5.0, 6.0),
+                                                   (7.0, 8.0)]
+    assert neighbour_starts(region, (2, 2, 1)) == []

@@ -121,3 +121,67 @@ def test_beside_a_stable_orbit_chaos_needs_a_longer_pass_none_escapes():
     ref, err, _ = oracle.lyapunov_benettin((row[A["q_end"]], row[A["v_end"]]), w, s, ZETA,
                                            periods=200, rtol=1e-8)
     assert ref > 3 * err
+
+
+def _statuses_of_runs(monkeypatch):
+    """Record the kernel status of every transient the census runs (one per kernel call)."""
+    import hertzmap.study.solve.census as census_module
+
+    seen = []
+    run = census_module.run_transients
+
+    def recording(*args, **kwargs):
+        run(*args, **kwargs)
+        seen.append(int(args[8][0, A["status"]]))
+
+    monkeypatch.setattr(census_module, "run_transients", recording)
+    return seen
+
+
+def test_a_neighbour_s_attractor_no_own_state_reaches_is_found(monkeypatch):
+    """(0.95, 1.8) knowing no orbit: the own states find chaos only (the 5T orbit's long
+    flight leaves their box). Started also from the 5T orbit of the neighbour (0.96, 1.8),
+    the census finds the 5T orbit here with no own state in its basin (count 0), and the
+    chaos beside it now needs a longer pass. The orbit is a fixed point of the oracle's own
+    period map at (0.95, 1.8)."""
+    from hertzmap.study.solve.point import shoot_seeds_minimal
+
+    w, s, m, guess = FIVE_T
+    neighbour = shoot_seeds_minimal(0.96, s, ZETA, m, [guess], OPTIONS)[0]
+    x_nb = np.asarray(neighbour["x0"], float)
+    assert np.max(np.abs(oracle.period_map(x_nb, 0.96, s, ZETA, m) - x_nb)) < 1e-7 * (
+        1 + np.hypot(*x_nb))
+    seen = _statuses_of_runs(monkeypatch)
+    found, new = census(w, s, ZETA, [], OPTIONS, 16, 500, 128, 20_000, 2_000_000,
+                        neighbour_starts=[tuple(x_nb)])
+    assert [(a.kind, a.count, a.period) for a in found] == [("non_periodic", 16, 0),
+                                                            ("periodic", 0, 5)]
+    assert len(seen) > 17 and not found[1].states
+    x = np.asarray(found[1].orbit["x0"], float)
+    assert found[1].orbit["stable"] and new == [found[1].orbit]
+    assert np.max(np.abs(oracle.period_map(x, w, s, ZETA, m) - x)) < 1e-7 * (1 + np.hypot(*x))
+    assert found[0].row[A["periods_run"]] >= 500 + 500 + 128
+
+
+def test_a_neighbour_s_attractor_already_here_is_recognised_and_adds_nothing(monkeypatch):
+    """The 2T orbit of (1.07, 1.85) and the chaotic set of (0.755, 3.05) started from at their
+    neighbours (1.075, 1.85) and (0.75, 3.05), where the same attractors hold: the census
+    names the same attractors with the same counts as without the start; the run from the
+    chaotic set is recognised on the own runs' sets (the kernel's status 9) instead of running
+    its budget, the one from the 2T orbit (a slow spiral: its multipliers' modulus 0.88) ends
+    on the orbit by recognition or by its own detection."""
+    from hertzmap.kernels import status as st
+    from hertzmap.study.solve.census import attractor_starts
+
+    for (w, s), (w_nb, s_nb) in (((1.075, 1.85), (1.07, 1.85)), ((0.75, 3.05), (0.755, 3.05))):
+        at_neighbour, _ = census(w_nb, s_nb, ZETA, [], OPTIONS, 16, 500, 128, 20_000,
+                                 2_000_000)
+        starts = attractor_starts(at_neighbour)
+        assert len(starts) == 1
+        plain, _ = census(w, s, ZETA, [], OPTIONS, 16, 500, 128, 20_000, 2_000_000)
+        seen = _statuses_of_runs(monkeypatch)
+        with_start, _ = census(w, s, ZETA, [], OPTIONS, 16, 500, 128, 20_000, 2_000_000,
+                               neighbour_starts=starts)
+        monkeypatch.undo()
+        assert _kinds(with_start) == _kinds(plain)
+        assert seen[16] in ((st.RECOGNISED,) if w == 0.75 else (st.RECOGNISED, st.CONVERGED))

@@ -3,7 +3,7 @@ recognition as without it (each transient its whole budget), with fewer transien
 points of the vibro-impact scene (zeta 0.01) where it matters: a chaotic attractor, a long
 chaotic transient whose escapes reach a stable 6T orbit, and a long transient onto a 2T orbit.
 The open sets' tolerance is checked against fresh points of a set of known shape. (The scene's
-lines with and without recognition: benchmarks/census_recognition.py.)"""
+lines with and without recognition: benchmarks/census_ab.py.)"""
 from __future__ import annotations
 
 import math

@@ -1,16 +1,23 @@
-"""The attractor census with recognition against the same census without it (every transient
-its whole budget), on the vibro-impact scene's lines, same run: CPU, and what each names.
+"""The attractor census with one of its shortcuts against the same census without it, on the
+vibro-impact scene's lines, same run: CPU, and what each names.
 
-    .venv/bin/python -m benchmarks.census_recognition                 # every 8th sigma line
-    .venv/bin/python -m benchmarks.census_recognition --lines 16 --offset 4
+    .venv/bin/python -m benchmarks.census_ab                          # recognition, every 8th line
+    .venv/bin/python -m benchmarks.census_ab --lines 16 --offset 4
+    .venv/bin/python -m benchmarks.census_ab --compare neighbours
+
+``--compare recognition``: transients stop once recognised on what the point's earlier ones
+found (study.solve.recognition) / every transient runs its whole budget.
+``--compare neighbours``: transients also start from the neighbouring points' attractors
+(study.solve.census, "Neighbours") / from the point's own states only.
 
 Each chosen sigma line is searched twice (sweeps and fold turning, then the census at the
 points the study asks it at: study.solve.line), once per mode, the modes' order alternating
 from line to line so that a drift of the machine's speed falls on both; only the census's CPU
 (time.process_time of this process) is counted. Printed per mode: census CPU, census points,
 points per kind of attractor set, points holding a stable orbit (per period, and in all),
-points named (a periodic or non-periodic attractor), and for the points both call chaotic how
-many exponents differ by more than three combined standard errors.
+points named (a periodic or non-periodic attractor), attractors no own state reached (basin
+fraction 0: found from a neighbour), and for the points both call chaotic how many exponents
+differ by more than three combined standard errors.
 """
 from __future__ import annotations
 
@@ -24,7 +31,9 @@ import hertzmap.study.solve.line as line_module
 from hertzmap.study.solve.line import LineSearch
 from hertzmap.study.spec import load_study
 
-MODES = ("recognition", "full transients")
+#: per comparison: the census module's switch, and the two modes (on, off)
+COMPARISONS = {"recognition": ("RECOGNITION", ("recognition", "full transients")),
+               "neighbours": ("NEIGHBOUR_STARTS", ("neighbour starts", "own states only"))}
 
 
 def main(argv=None) -> int:
@@ -32,7 +41,9 @@ def main(argv=None) -> int:
     ap.add_argument("--study", default="studies/vibro_impact.toml")
     ap.add_argument("--lines", type=int, default=8, help="every k-th sigma line")
     ap.add_argument("--offset", type=int, default=0, help="the first line's index")
+    ap.add_argument("--compare", choices=sorted(COMPARISONS), default="recognition")
     a = ap.parse_args(argv)
+    switch, modes = COMPARISONS[a.compare]
     s = load_study(a.study)
     kw = s.solver_kwargs()
     omega, zeta = s.axis("omega"), float(s.axis("zeta")[0])
@@ -40,7 +51,7 @@ def main(argv=None) -> int:
                    seeds=())
     census = census_module.census
     spent = collections.Counter()
-    mode_now = [MODES[0]]
+    mode_now = [modes[0]]
 
     def timed(*args, **kwargs):
         t0 = time.process_time()
@@ -51,16 +62,17 @@ def main(argv=None) -> int:
     line_module.census = timed
     LineSearch(omega[:3], float(s.axis("sigma")[-1]), zeta, s.periods, options).sweep()
     census(1.0, 2.0, zeta, [], options, 2, 20, 32)          # compile
-    kinds = {m: collections.Counter() for m in MODES}
-    stable = {m: collections.Counter() for m in MODES}
+    kinds = {m: collections.Counter() for m in modes}
+    stable = {m: collections.Counter() for m in modes}
     named = collections.Counter()
     points = collections.Counter()
-    exponents = {m: {} for m in MODES}
+    exponents = {m: {} for m in modes}
+    unreached = {m: collections.Counter() for m in modes}
     sigmas = s.axis("sigma")[a.offset::a.lines]
     for n, sigma in enumerate(sigmas):
-        for mode in (MODES if n % 2 == 0 else MODES[::-1]):
+        for mode in (modes if n % 2 == 0 else modes[::-1]):
             mode_now[0] = mode
-            census_module.RECOGNITION = mode == MODES[0]
+            setattr(census_module, switch, mode == modes[0])
             ls = LineSearch(omega, float(sigma), zeta, s.periods, options)
             ls.sweep()
             ls.turn_folds()
@@ -72,6 +84,8 @@ def main(argv=None) -> int:
                 kinds[mode][tuple(sorted({f.kind for f in found}))] += 1
                 named[mode] += any(f.kind in ("periodic", "non_periodic") for f in found)
                 for f in found:
+                    if f.count == 0:
+                        unreached[mode][f"{f.period}T" if f.period else f.kind] += 1
                     if f.kind == "non_periodic":
                         exponents[mode][(i, float(sigma))] = (
                             f.row[census_module.A["lyapunov"]],
@@ -81,24 +95,26 @@ def main(argv=None) -> int:
                 stable[mode]["any"] += bool(periods)
                 for m in periods:
                     stable[mode][m] += 1
-    census_module.RECOGNITION = True
+    setattr(census_module, switch, True)
     line_module.census = census
     print(f"{len(sigmas)} sigma lines of {a.study} (every {a.lines}th from {a.offset}), "
           f"{len(omega)} omega points each")
-    for mode in MODES:
+    for mode in modes:
         per_period = ", ".join(f"{m}T {c}" for m, c in sorted(
             (k, v) for k, v in stable[mode].items() if k != "any"))
         print(f"{mode}: census {spent[mode]:.1f} s CPU at {points[mode]} points; named "
               f"{named[mode]}; with a stable orbit {stable[mode]['any']} ({per_period})")
+        print("  attractors no own state reached: " + (", ".join(
+            f"{k} {v}" for k, v in sorted(unreached[mode].items())) or "none"))
         print("  kinds: " + "; ".join(f"{'+'.join(k)} {v}" for k, v in
                                       sorted(kinds[mode].items(), key=lambda kv: -kv[1])))
-    both = set(exponents[MODES[0]]) & set(exponents[MODES[1]])
-    apart = sum(1 for p in both if abs(exponents[MODES[0]][p][0] - exponents[MODES[1]][p][0])
-                > 3 * math.hypot(exponents[MODES[0]][p][1], exponents[MODES[1]][p][1]))
+    both = set(exponents[modes[0]]) & set(exponents[modes[1]])
+    apart = sum(1 for p in both if abs(exponents[modes[0]][p][0] - exponents[modes[1]][p][0])
+                > 3 * math.hypot(exponents[modes[0]][p][1], exponents[modes[1]][p][1]))
     print(f"chaotic in both: {len(both)} points, exponents more than 3 combined standard "
           f"errors apart: {apart}")
-    print(f"census CPU, full transients / recognition: "
-          f"{spent[MODES[1]] / max(spent[MODES[0]], 1e-9):.2f}x")
+    print(f"census CPU, {modes[1]} / {modes[0]}: "
+          f"{spent[modes[1]] / max(spent[modes[0]], 1e-9):.2f}x")
     return 0
 
 
