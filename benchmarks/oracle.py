@@ -431,13 +431,15 @@ def _line_params(fixed_name, fixed_value, free_name, free_value, others):
     return p["omega"], p["sigma"], p["zeta"]
 
 
-def flip_point(guess, bracket, *, fixed, free, params, m=1, rtol=1e-13, n=1.5):
+def flip_point(guess, bracket, *, fixed, free, params, m=1, rtol=1e-13, n=1.5, xtol=1e-13):
     """The flip of the period-m orbit on the line where ``fixed`` (a name of omega, sigma,
     zeta) keeps its value in ``params`` and ``free`` varies in ``bracket``: the zero of
     1 + tr M + det M by brentq, the orbit re-solved at every trial from the last one by
     :func:`shoot` (M from the variational equations at rtol = atol = ``rtol``: exact to the
     integration tolerance; the central or Richardson-extrapolated differences used before
-    limited 3T and 5T flips with long flights to 1e-8..3e-7 in omega). Returns (free value,
+    limited 3T and 5T flips with long flights to 1e-8..3e-7 in omega), to ``xtol`` in the
+    free parameter (a test that checks to 1e-8 passes 1e-11: each brentq step is a shooting
+    at rtol 1e-13, and a 5T flip took 12 of them to 1e-13, 5 to 1e-11). Returns (free value,
     orbit start point)."""
     state = {"x": np.asarray(guess, float)}
 
@@ -449,7 +451,7 @@ def flip_point(guess, bracket, *, fixed, free, params, m=1, rtol=1e-13, n=1.5):
             raise RuntimeError(f"oracle orbit failed at {free} = {p}: {e}") from None
         state["x"] = x
         return flip_function(M)
-    root_p = brentq(g, *bracket, xtol=1e-13, rtol=1e-15)
+    root_p = brentq(g, *bracket, xtol=xtol, rtol=1e-15)
     return root_p, state["x"]
 
 

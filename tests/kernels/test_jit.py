@@ -109,36 +109,38 @@ def test_a_second_process_waits_for_the_compile_and_loads_it(tmp_path):
 @pytest.mark.slow
 def test_a_plain_njit_caller_of_a_kernel_is_cached_and_loads_alone(tmp_path):
     """A user's cached njit function that calls a kernel (the fixed signature's lazy compile
-    included) compiles once, and a new process loads it from numba's cache and runs it before
-    any kernel is loaded."""
+    included, and the kernels it calls in turn: flight_state -> _state, _phi12E -> _phi12)
+    compiles once, and a new process loads it from numba's cache and runs it before any
+    kernel is loaded. The flight it returns is scipy's (benchmarks.oracle.flow: the contact
+    force is zero below q = -n)."""
+    from benchmarks import oracle
+
     (tmp_path / "caller.py").write_text(textwrap.dedent("""
         from numba import njit
-        from hertzmap.kernels.shooting import shoot_into
+        from hertzmap.kernels.flight import flight_state
 
         @njit(cache=True)
-        def first_orbit(out):
-            shoot_into(1.5, 0.2, 0.01, 1, -0.16, 0.006, 1.5, 0, 1e-10, 1e-10, 30, 1.0, 100000,
-                       True, out)
+        def fly(q0, v0, s):
+            return flight_state(q0, v0, 0.3, s, 1.5, 0.2, 0.01)
     """))
     code = """
         import sys
         sys.path.insert(0, {folder!r})
-        import numpy as np
-        from caller import first_orbit
-        from hertzmap.kernels.shooting import N_FIELDS
-        out = np.empty(N_FIELDS)
-        first_orbit(out)
-        print(json.dumps({{"q0": out[1], "status": out[0],
+        from caller import fly
+        q, v, _, _ = fly(-3.0, 0.5, 0.4)
+        print(json.dumps({{"q": q, "v": v,
                           "compiled": [k for k in compiled if k.startswith("hertzmap.kernels.")],
                           "caller": [k for k in compiled if k.startswith("caller.")]}}))
     """.format(folder=str(tmp_path))
     cache = tmp_path / "cache"
     first = _run(code, cache, HERTZMAP_COMPILE_HELPERS="0")
     again = _run(code, cache, HERTZMAP_COMPILE_HELPERS="0")
-    assert first["status"] == 0.0 and abs(first["q0"] + 0.1616) < 1e-3, first
-    assert first["caller"] == ["caller.first_orbit"]
+    assert first["caller"] == ["caller.fly"]
+    assert "hertzmap.kernels.flight.flight_state" in first["compiled"]
     assert again["caller"] == [] and again["compiled"] == []
-    assert again["q0"] == first["q0"]
+    assert (again["q"], again["v"]) == (first["q"], first["v"])
+    q, v = oracle.flow((-3.0, 0.5), 0.3, 0.7, 1.5, 0.2, 0.01)
+    assert q < -1.5 and abs(first["q"] - q) < 1e-10 and abs(first["v"] - v) < 1e-10
 
 
 def test_the_installed_numba_is_one_the_lazy_signature_was_checked_on():

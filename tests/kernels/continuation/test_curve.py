@@ -192,7 +192,7 @@ def test_curves_in_the_omega_zeta_and_sigma_zeta_planes():
         i = len(c) // 3
         w, s, z, x = _vertex(c, i)
     zo, _ = O.flip_point(x, (z - 5e-4, z + 5e-4), fixed="omega", free="zeta",
-                         params=dict(omega=w, sigma=s, zeta=z))
+                         params=dict(omega=w, sigma=s, zeta=z), xtol=1e-11)
     assert abs(z - zo) < 1e-9, (z, zo)
     c2 = cont.trace_curve(f.x0, f.omega, S, Z, kind="flip", period=1, pair=("sigma", "zeta"),
                           bounds={"sigma": (0.3, 0.8), "zeta": (0.005, 0.02)})
@@ -241,8 +241,10 @@ def _check_flip_vertices_against_the_oracle(curve, period, targets):
         i, slope = _transversal_vertex(curve, *target)
         assert abs(slope) > 0.2, (target, slope)
         w, s, z, x = _vertex(curve, i)
+        # to 1e-11 in omega: a thousandth of what is checked
         wo, xo = O.flip_point(x, (w - 1e-5, w + 1e-5), fixed="sigma", free="omega",
-                              params=dict(omega=w, sigma=s, zeta=z), m=period, rtol=1e-13)
+                              params=dict(omega=w, sigma=s, zeta=z), m=period, rtol=1e-13,
+                              xtol=1e-11)
         assert abs(w - wo) < 1e-8, (period, i, w, s, w - wo)
         assert np.hypot(*(np.array(x) - xo)) < 1e-6 * (1.0 + np.hypot(*xo)), (x, xo)
 
