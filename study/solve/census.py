@@ -48,9 +48,9 @@ Neighbours: the caller may pass states on the neighbouring grid points' attracto
 (attractor_starts: the last stroboscopic point of each periodic or chaotic attractor there;
 study.solve.line passes those of the line's neighbours whose census ran, study.solve.atlas
 those of every axis). After the first pass of the point's own states, a transient runs from
-each, recognised on everything the own runs found (their periodic attractors and every open
-run's set, in the first pass too: these runs decide nothing about the own states) and on what
-the earlier neighbour starts found. Where the neighbour's attractor is here too, the run stops
+each, recognised on everything the own runs found (their periodic attractors, and one set of
+the points of all their open runs, in the first pass too: these runs decide nothing about the
+own states) and on what the earlier neighbour starts found. Where the neighbour's attractor is here too, the run stops
 within a few periods and adds nothing. One that settles on a stable orbit no own state reached
 adds the orbit and a periodic attractor with basin fraction 0; one that stays open joins the
 open runs (their longer passes and chaos test, beside any stable orbit now known), and alone
