@@ -314,30 +314,29 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
         # of the own states fell in is found (a stable orbit, or a motion the passes below
         # show chaotic)
         here = KnownAttractors()
-        in_here = 0
 
-        def know(runs) -> None:
-            nonlocal in_here
-            for index in range(in_here, len(periodic)):
-                a = periodic[index]
+        def know_periodic(first_index: int) -> None:
+            for index, a in enumerate(periodic[first_index:], first_index):
                 # fewer periods than the detection's (CYCLE_REPEATS + 1) m: a run that is
                 # next to the orbit from its start stops before its detection and Newton
                 here.add_periodic(periodic_label(index), a.strobe[-a.period:], CYCLE_TOL,
                                   CYCLE_REPEATS * a.period)
-            in_here = len(periodic)
-            runs = [r for r in runs if outcome[r] == "open"]
-            if runs:
-                # one set of all their points (its tolerance from their joint spacing): a
-                # run's visits count on one label, and the own runs' sets are most often the
-                # same set, its points spread over their labels
-                here.add_open(runs[0], np.concatenate([strobe_points(strobes[r], rows[r])
-                                                       for r in runs]))
 
-        know(range(k))
+        know_periodic(0)
+        own_open = [r for r in range(k) if outcome[r] == "open"]
+        if own_open:
+            # one set of all their points (its tolerance from their joint spacing): a run's
+            # visits count on one label, and the own runs' sets are most often the same set,
+            # its points spread over their labels
+            here.add_open(own_open[0], np.concatenate([strobe_points(strobes[r], rows[r])
+                                                       for r in own_open]))
         for r in range(k, n):
+            known_before = len(periodic)
             transient(r, transient_periods, known=here)
             outcome[r] = "known" if int(rows[r, A["status"]]) == st.RECOGNISED else take(r)
-            know([r])
+            know_periodic(known_before)
+            if outcome[r] == "open":
+                here.add_open(r, strobe_points(strobes[r], rows[r]))
     open_runs = [r for r in range(n) if outcome[r] == "open"]
     failed = [r for r in range(k) if outcome[r] == "failed"]
 

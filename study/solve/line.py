@@ -350,20 +350,27 @@ class LineSearch:
             return
         t0 = time.perf_counter()
         probes = self.probe_points()
+
+        def census_at(i: int) -> list[dict]:
+            """The census at grid point i, from its own states and its neighbours'
+            attractors: its attractors kept, the orbits it found added; returns those."""
+            found, new = census(self.omega[i], self.sigma, self.zeta, self.per_point[i],
+                                self.options, n_states, transient_periods, record_periods,
+                                max_transient_periods, point_steps, lyapunov_error,
+                                self.neighbour_starts(i))
+            self.attractors[i] = found
+            for sol in new:
+                sol["omega"] = self.omega[i]
+                self.per_point[i].append(sol)
+            return new
+
         for i in self.order:
             if self.out_of_time():
                 break
             if mode == "where-none-stable" and int(i) not in probes \
                     and any(s["stable"] for s in self.per_point[i]):
                 continue
-            found, new = census(self.omega[i], self.sigma, self.zeta, self.per_point[i],
-                                self.options, n_states, transient_periods, record_periods,
-                                max_transient_periods, point_steps, lyapunov_error,
-                                self.neighbour_starts(int(i)))
-            self.attractors[int(i)] = found
-            for sol in new:
-                sol["omega"] = self.omega[i]
-                self.per_point[i].append(sol)
+            new = census_at(int(i))
             # an orbit of a period the line search follows is traced along the line (and
             # beyond its folds); one of another period is followed while it attracts (the
             # unstable ones the census meets inside a chaotic set are stored where met)
@@ -378,14 +385,7 @@ class LineSearch:
             if not needs_second_census(found, self.per_point[i], transient_periods,
                                        record_periods):
                 continue
-            found, new = census(self.omega[i], self.sigma, self.zeta, self.per_point[i],
-                                self.options, n_states, transient_periods, record_periods,
-                                max_transient_periods, point_steps, lyapunov_error,
-                                self.neighbour_starts(i))
-            self.attractors[i] = found
-            for sol in new:
-                sol["omega"] = self.omega[i]
-                self.per_point[i].append(sol)
+            census_at(i)
         self.seconds["census"] = time.perf_counter() - t0
 
     def neighbour_starts(self, i: int) -> list[tuple[float, float]]:

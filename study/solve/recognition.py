@@ -19,9 +19,9 @@ runs them one after another, so the result does not depend on the machine):
   periods; it then leaves the longer passes and shares the fate of the set's transient.
 
 Why open sets only in the longer passes, and why the first OPEN_LEADERS open transients (whose
-sets are known once there are that many) are never recognised on one: a set that looks chaotic can be a long chaotic
-transient, and the census learns so only when a transient escapes from it; every transient
-that runs samples that escape. On the vibro-impact scene (zeta 0.01), at (1.175, 2.65) one
+sets are known once there are that many) are never recognised on one: a set that looks
+chaotic can be a long chaotic transient, and the census learns so only when a transient
+escapes from it; every transient that runs samples that escape. On the vibro-impact scene (zeta 0.01), at (1.175, 2.65) one
 of 16 first-pass transients leaves the chaotic-looking set for a stable 7T orbit after about
 100 periods, and at (0.70, 3.25) 6 of 16 escape to a stable 6T orbit after 1,000-9,000
 periods: recognising first-pass transients on an open set lost the 7T orbit, and letting one
