@@ -95,6 +95,13 @@ N_KNOWN_FIELDS = 4
 G_Q, G_V, G_SIDE, G_NQ = 0, 1, 2, 3
 #: a label no known point has (own_label when every known attractor may be recognised)
 NO_LABEL = -(1 << 62)
+#: Columns of a certified stable orbit (recognition: a transient is on it once inside its
+#: certified neighbourhood and contracting there, see attractor_into): the orbit's start point
+#: x* (q, q'), the quadratic form P of V(x) = (x - x*)^T P (x - x*) (p11, p12, p22), the level
+#: c of the neighbourhood V <= c where its m-period map was shown to contract, the factor
+#: kappa < 1 of V's decrease over m periods there, and m
+C_Q, C_V, C_P11, C_P12, C_P22, C_LEVEL, C_KAPPA, C_PERIOD = range(8)
+N_CERT_FIELDS = 8
 
 LYAPUNOV_FIELDS = ("status", "lyapunov", "lyapunov_error", "lyapunov_halves", "periods",
                    "liouville_error", "q_end", "v_end", "steps", "lyapunov_sum_error")
@@ -414,11 +421,11 @@ def _flip_unstable(orbit):
             and (orbit[I_M1R] < -1.0 or orbit[I_M2R] < -1.0))
 
 
-@kernel("void(float64, float64, float64, float64, float64, float64, int64, int64, int64, boolean, int64, int64, float64, int64, float64, float64, float64, int64, boolean, float64[:, ::1], int64[::1], int64[::1], float64[::1], int64, float64[::1], float64[::1], float64[:, ::1])", inline="ir")
+@kernel("void(float64, float64, float64, float64, float64, float64, int64, int64, int64, boolean, int64, int64, float64, int64, float64, float64, float64, int64, boolean, float64[:, ::1], int64[::1], int64[::1], float64[::1], float64[:, ::1], int64[::1], int64, float64[::1], float64[::1], float64[:, ::1])", inline="ir")
 def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, record_periods,
                    lyapunov, lyapunov_discard, force_samples, cycle_tol, cycle_repeats, rtol,
                    atol, shoot_rtol, max_steps, harmonics, known, known_label, cell_start,
-                   grid, own_label, row, orbit, strobe):
+                   grid, cert, cert_label, own_label, row, orbit, strobe):
     """The long-time response of paper Eq. 7 from (q0, v0) at tau = 0 (module docstring).
 
     Inputs (dimensionless): omega > 0, sigma >= 0, zeta >= 0, n > 0, model (kernels.model);
@@ -434,7 +441,12 @@ def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, reco
     stroboscopic points have stayed within tolerance of the points of one known attractor
     (label) other than ``own_label`` for that point's K_VISITS consecutive periods; the row's
     status is then RECOGNISED and its recognised_as the label (no measures: the attractor's
-    own transient has them).
+    own transient has them). Certified stable orbits (cert, cert_label: rows of C_* columns,
+    none when cert has no rows): the transient is on one once its stroboscopic point lies in
+    the orbit's certified neighbourhood V(x) <= c (the sublevel set where the orbit's m-period
+    map was shown to contract V by kappa: study.solve.certificate) and, m periods later, lies
+    there again with V decreased by at least kappa: the contraction its multipliers predict,
+    seen on the transient itself.
 
     Outputs: row (ATTRACTOR_FIELDS), orbit (kernels.shooting.FIELDS: the refined orbit, NaN if
     none was tried), strobe (cap, 2): the last min(strobe_count, cap) stroboscopic points in
@@ -493,6 +505,11 @@ def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, reco
     recognised = False
     streak = 0
     streak_label = NO_LABEL
+    n_cert = cert.shape[0]
+    # per certified orbit: the period the transient last entered its neighbourhood (-1: not
+    # inside) and V there
+    entered = np.full(max(n_cert, 1), -1, np.int64)
+    entered_v = np.zeros(max(n_cert, 1))
     k = 0
     while k < budget:
         recording = k >= transient_periods
@@ -535,6 +552,28 @@ def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, reco
         ring[count % cap, 0] = y[0]
         ring[count % cap, 1] = y[1]
         count += 1
+        if n_cert > 0:
+            for e in range(n_cert):
+                if cert_label[e] == own_label:
+                    continue
+                m_e = int(cert[e, C_PERIOD])
+                dq = y[0] - cert[e, C_Q]
+                dv = y[1] - cert[e, C_V]
+                value = (cert[e, C_P11] * dq * dq + 2.0 * cert[e, C_P12] * dq * dv
+                         + cert[e, C_P22] * dv * dv)
+                if value <= cert[e, C_LEVEL]:
+                    if entered[e] >= 0 and k - entered[e] == m_e \
+                            and value <= cert[e, C_KAPPA] * entered_v[e]:
+                        recognised = True
+                        streak_label = cert_label[e]
+                        break
+                    if entered[e] < 0 or k - entered[e] >= m_e:
+                        entered[e] = k
+                        entered_v[e] = value
+                elif entered[e] >= 0 and k - entered[e] >= m_e:
+                    entered[e] = -1
+            if recognised:
+                break
         if recognising:
             near = known_near(known, known_label, cell_start, grid, own_label, y[0], y[1])
             if near < 0:
@@ -666,11 +705,18 @@ def attractor_into(omega, sigma, zeta, q0, v0, n, model, transient_periods, reco
 KNOWN_GRID_CELLS = 128
 
 
-def known_attractors(points, labels, tol, visits):
+def known_attractors(points, labels, tol, visits, certified=(), certified_labels=()):
     """The arrays attractor_into recognises known attractors by (known, known_label,
-    cell_start, grid; see known_near) from stroboscopic points (n, 2), each with its
-    attractor's label, tolerance (distance in the (q, q') plane) and consecutive visits.
-    No points: nothing is recognised."""
+    cell_start, grid; see known_near; then cert, cert_label) from stroboscopic points (n, 2),
+    each with its attractor's label, tolerance (distance in the (q, q') plane) and consecutive
+    visits, and from ``certified`` stable orbits (rows of the C_* columns) with their labels.
+    No points and no certified orbits: nothing is recognised."""
+    cert = np.ascontiguousarray(np.asarray(certified, float).reshape(-1, N_CERT_FIELDS))
+    cert_label = np.ascontiguousarray(np.asarray(certified_labels, np.int64).reshape(-1))
+    return _known_points(points, labels, tol, visits) + (cert, cert_label)
+
+
+def _known_points(points, labels, tol, visits):
     points = np.asarray(points, float).reshape(-1, 2)
     n = points.shape[0]
     labels = np.broadcast_to(np.asarray(labels, np.int64), (n,))
@@ -697,12 +743,13 @@ def known_attractors(points, labels, tol, visits):
 
 @kernel("void(float64, float64, float64, float64[::1], float64[::1], float64, int64, int64, int64, "
         "boolean, int64, int64, float64, int64, float64, float64, float64, int64, boolean, "
-        "float64[:, ::1], int64[::1], int64[::1], float64[::1], int64, "
-        "float64[:, ::1], float64[:, ::1], float64[:, :, ::1])")
+        "float64[:, ::1], int64[::1], int64[::1], float64[::1], float64[:, ::1], int64[::1], "
+        "int64, float64[:, ::1], float64[:, ::1], float64[:, :, ::1])")
 def attractor_batch_into(omega, sigma, zeta, q0, v0, n, model, transient_periods,
                          record_periods, lyapunov, lyapunov_discard, force_samples, cycle_tol,
                          cycle_repeats, rtol, atol, shoot_rtol, max_steps, harmonics, known,
-                         known_label, cell_start, grid, own_label, rows, orbits, strobes):
+                         known_label, cell_start, grid, cert, cert_label, own_label, rows,
+                         orbits, strobes):
     """attractor_into for each initial state (q0[i], v0[i]) at one parameter point, with the
     same known attractors to recognise: rows (k, N_ATTRACTOR_FIELDS), orbits (k, N_FIELDS),
     strobes (k, cap, 2).
@@ -714,6 +761,6 @@ def attractor_batch_into(omega, sigma, zeta, q0, v0, n, model, transient_periods
         attractor_into(omega, sigma, zeta, q0[i], v0[i], n, model, transient_periods,
                        record_periods, lyapunov, lyapunov_discard, force_samples, cycle_tol,
                        cycle_repeats, rtol, atol, shoot_rtol, max_steps, harmonics, known,
-                       known_label, cell_start, grid, own_label, rows[i], orbits[i],
-                       strobes[i])
+                       known_label, cell_start, grid, cert, cert_label, own_label, rows[i],
+                       orbits[i], strobes[i])
 

@@ -236,8 +236,8 @@ ATTRACTOR = Record("attractor", (
           output="attractors", dtype="int8", fill=0, columns=(), flags=PERIOD_FLAGS),
     Field("attractor_solution", "solution slot of a periodic attractor", "1",
           "index along the solution dim of the stored orbit a periodic attractor is; -1: not "
-          "periodic, or its orbit did not fit in the slots",
-          output="attractors", dtype="int8", fill=-1, columns=()),
+          "periodic (a periodic attractor's orbit is always stored)",
+          output="attractors", dtype="int16", fill=-1, columns=()),
     Field("basin_fraction", "basin fraction", "1",
           "fraction of the study's initial states whose transient ends on this attractor "
           "(a measure of the basin over the box of initial states)",

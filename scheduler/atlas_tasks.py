@@ -66,7 +66,7 @@ def atlas_task(spec: dict[str, Any]) -> dict[str, Any]:
     """One tile of one atlas round. Runs on a worker: reads the tile and its halo from the
     store (read only), continues the neighbours' orbits into the tile. ``spec``: store, round,
     index, slices (the tile), shape (the grid's), chunk_omega, axes (omega, sigma, zeta of the
-    grid), names (what the store holds), options, max_solutions, level, periods, owner (the
+    grid), names (what the store holds), options, level, periods, owner (the
     client's lock record: the tile is staged only while that client holds the store)."""
     t0 = time.perf_counter()
     tile = tuple(slice(*s) for s in spec["slices"])
@@ -79,7 +79,7 @@ def atlas_task(spec: dict[str, Any]) -> dict[str, Any]:
     # the same for one line of it: the halo's reads of every variable were most of a small
     # tile's time); all read in one call into zarr's event loop
     where = {n: region if n in HALO_NAMES else tile for n in names if n in ORBIT_VARIABLES
-             or n in ("orbits_found", "orbits_dropped")}
+             or n == "orbits_found"}
     if census is not None:
         # a census round writes its tile's attractors; its transients also start from the
         # halo's (study.solve.atlas.neighbour_starts)
@@ -109,14 +109,15 @@ def atlas_task(spec: dict[str, Any]) -> dict[str, Any]:
     from hertzmap.scheduler.worker import load_solver
 
     args = (slot, lines, own, *axes, int(spec["round"]), spec["options"],
-            int(spec["max_solutions"]), float(spec["level"]), tuple(spec["periods"]))
+            float(spec["level"]), tuple(spec["periods"]))
     result = load_solver(spec.get("tile_function", DEFAULT_ATLAS_TILE))(
-        *args, offer_own=bool(spec.get("offer_own")), census=census)
+        *args, offer_own=bool(spec.get("offer_own")), census=census,
+        unstable=spec.get("unstable", "searched-periods"))
     changed = bool(result.changed.any())
     stage_atlas_tile(spec["store"], spec["owner"], int(spec["round"]), tuple(spec["index"]),
                      result.arrays if changed else None)
     return {"index": spec["index"], "changed": changed,
-            "shots": result.shots, "skipped": result.skipped, "added": result.added,
+            "shots": result.shots, "added": result.added,
             "seconds": time.perf_counter() - t0, "pid": os.getpid()}
 
 
@@ -196,9 +197,9 @@ class AtlasRun(Stage):
                 "chunk_omega": self.store.chunks[0],
                 "axes": {a: np.asarray(st.axis(a), float) for a in ("omega", "sigma", "zeta")},
                 "names": self.census_names if census else self.names,
-                "options": self.options,
-                "max_solutions": st.max_solutions, "level": self.level,
-                "periods": tuple(st.periods), "tile_function": self.tile}
+                "options": self.options, "level": self.level,
+                "periods": tuple(st.periods), "tile_function": self.tile,
+                "unstable": os.environ.get("HERTZMAP_ATLAS_UNSTABLE", "searched-periods")}
 
     def run(self, client, n_workers: int) -> dict[str, Any]:
         """Run (or resume) the rounds to the fixed point. Returns the atlas summary (also
@@ -208,7 +209,7 @@ class AtlasRun(Stage):
         plan = make_plan(self.study, atlas_chunks(self.store.chunks))
         by_index = {t.index: t for t in plan.tasks}
         state = self.state()
-        summary = {"rounds": 0, "added": 0, "shots": 0, "censuses": 0, "skipped": 0,
+        summary = {"rounds": 0, "added": 0, "shots": 0, "censuses": 0,
                    "compute": 0.0, "tiles": 0, "by_period": {}}
         t0 = time.perf_counter()
         while state["phase"] != "done":
@@ -226,7 +227,6 @@ class AtlasRun(Stage):
                     fut.release()
                     summary["censuses" if state.get("kind") == "census" else "shots"] += \
                         res["shots"]
-                    summary["skipped"] += res["skipped"]
                     summary["compute"] += res["seconds"]
                     summary["tiles"] += 1
                 state["phase"] = "committing"
@@ -281,5 +281,5 @@ def atlas_line(s: dict[str, Any]) -> str:
               f"stable orbit to transients called chaotic" if s.get("censuses") else "")
     return (f"atlas: {s['total_added']} orbits continued into neighbouring grid points "
             f"({periods or 'none new'}) in {s['total_rounds']} round(s) to the fixed point; "
-            f"{s['shots']} shots over {s['tiles']} tiles ({s['skipped']} not shot into full "
-            f"points){census}, {s['compute']:.1f} s compute, {s['wall']:.1f} s wall")
+            f"{s['shots']} shots over {s['tiles']} tiles{census}, {s['compute']:.1f} s compute, "
+            f"{s['wall']:.1f} s wall")

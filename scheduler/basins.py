@@ -19,7 +19,7 @@ import numpy as np
 from hertzmap.scheduler.cluster import ClusterSpec, close_quietly, make_client
 from hertzmap.scheduler.errors import RefusedError, StoreError
 from hertzmap.scheduler.store import Lock, read_attrs, write_product
-from hertzmap.study.schema import study_from_attrs
+from hertzmap.study.schema import StoreFormatError, check_format, study_from_attrs
 from hertzmap.study.spec import StudyError
 from hertzmap.study.solve.basins import basin_block, grid_axes, merge_blocks, row_blocks
 from hertzmap.study.solve.seeds import TRANSIENT_BOX
@@ -85,6 +85,10 @@ def check_request(store: str | Path, omega: float, sigma: float, zeta: float | N
     attrs = read_attrs(store)
     if attrs is None:
         raise StoreError(f"{store} is not a zarr store")
+    try:
+        check_format(attrs, str(store))
+    except StoreFormatError as exc:
+        raise StoreError(str(exc)) from None
     try:
         study = study_from_attrs(attrs)
     except StudyError as exc:

@@ -214,12 +214,25 @@ def cmd_status(args: argparse.Namespace) -> int:
     total, done = info["tasks_total"], info["tasks_done"]
     state = "complete" if done == total else ("in progress (locked)" if info["locked_by"]
                                               else "incomplete: rerun hertzmap run to resume")
-    dims = " x ".join(f"{info['dims'][d]} {d}" for d in ("omega", "sigma", "zeta", "solution"))
+    dims = " x ".join(f"{info['dims'][d]} {d}" for d in ("omega", "sigma", "zeta", "solution",
+                                                          "attractor") if d in info["dims"])
     print(f"store     {info['path']}")
+    if info.get("format_note"):
+        print(f"format    {info['format_note']}")
     print(f"study     {info['hertzmap_study_name']} (hash {info['hertzmap_study_hash']})")
     print(f"tasks     {done}/{total} done ({100 * done / max(1, total):.1f} %), {state}")
     print(f"grid      {dims}; chunk {info['chunk_shape']}")
     print(f"variables {', '.join(info['variables'])}")
+    c = info.get("contents")
+    if c:
+        print(f"orbits    {c['orbits']} converged"
+              + (f" ({c['stable_orbits']} stable, {c['orbits'] - c['stable_orbits']} unstable)"
+                 if "stable_orbits" in c else "")
+              + f", at most {c['most_orbits_at_a_point']} at a point, every one stored")
+        if "attractors" in c:
+            print("attractors " + ", ".join(f"{n} {k.replace('_', '-')}"
+                                            for k, n in c["attractors"].items())
+                  + f" (census), at most {c['most_attractors_at_a_point']} at a point")
     print("versions  " + ", ".join(f"{k} {v}" for k, v in sorted(info["versions"].items())))
     if info["locked_by"]:
         print(f"lock      held by host {info['locked_by'].get('host')} pid {info['locked_by'].get('pid')}")

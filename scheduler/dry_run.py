@@ -46,7 +46,7 @@ def describe(study: Study, store_path: Path, task_seconds: float, cluster) -> st
     lines = [
         f"study        {study.name} (hash {study.hash[:12]})",
         f"grid         {n_o} omega x {n_s} sigma x {n_z} zeta = {study.size} points, "
-        f"{study.max_solutions} solution slots, periods {list(study.periods)}",
+        f"periods {list(study.periods)}, every orbit found stored",
         f"model        {study.model}" + (f" exponent {study.exponent}" if study.exponent else "")
         + f", rtol {study.rtol:g}",
         f"outputs      {', '.join(study.outputs)} -> {', '.join(stored)}",

@@ -46,31 +46,37 @@ def overhead_line(s: dict[str, Any]) -> str:
     return head
 
 
+#: the census's attractor kinds counted by the run summary (kernels.records.ATTRACTOR_KINDS)
+KIND_COUNTS = ("periodic", "non_periodic", "unsettled", "failed")
 #: what a finished block adds to the run summary (block_counts), summed (or, for the
-#: certificates, the worst kept) by the client (add_counts)
-SUMMED_COUNTS = ("conv", "fail", "cut", "with", "dropped", "dropping", "attractors")
+#: certificates, the worst kept; for the slots, the most) by the client (add_counts)
+SUMMED_COUNTS = ("conv", "stable", "fail", "cut", "with", "attractors") + KIND_COUNTS
 WORST_COUNTS = ("liouville", "lyapunov_sum")
 
 
 def block_counts(arrays: dict) -> dict[str, Any]:
     """What the run summary needs of one block, counted on the worker that solved it: the
-    converged, failed and time-limited slots, the points with an orbit, the orbits dropped
-    for want of slots, the worst certificates (worst_certificates)."""
+    converged (and stable), failed and time-limited slots, the points with an orbit, the
+    census's attractors by kind, the most orbits and attractors a point holds (``slots``:
+    scheduler.store.slots_used), the worst certificates (worst_certificates)."""
     import numpy as np
 
+    from hertzmap.kernels.records import ATTRACTOR_KINDS
     from hertzmap.kernels.status import TIME_LIMIT
+    from hertzmap.scheduler.store import slots_used
 
     st = arrays["status"]
     counts: dict[str, Any] = {"conv": int((st == 0).sum()),
                               "fail": int(((st > 0) & (st != TIME_LIMIT)).sum()),
                               "cut": int((st == TIME_LIMIT).sum()),
                               "with": int((st == 0).any(axis=-1).sum()),
-                              "dropped": 0, "dropping": 0, "attractors": 0,
+                              "attractors": 0, "slots": slots_used(arrays),
                               "liouville": math.nan, "lyapunov_sum": math.nan}
-    if "orbits_dropped" in arrays:
-        dropped = np.asarray(arrays["orbits_dropped"])
-        counts["dropped"] = int(dropped[dropped > 0].sum())
-        counts["dropping"] = int((dropped > 0).sum())
+    counts["stable"] = int(((st == 0) & np.asarray(arrays["stable"])).sum()) \
+        if "stable" in arrays else 0
+    kinds = np.asarray(arrays.get("attractor_kind", np.zeros(0, np.int8)))
+    for k in KIND_COUNTS:
+        counts[k] = int((kinds == ATTRACTOR_KINDS[k]).sum())
     worst_certificates(counts, arrays)
     return counts
 
@@ -82,6 +88,9 @@ def add_counts(tally: dict[str, Any], counts: dict[str, Any]) -> None:
     for k in WORST_COUNTS:
         if math.isfinite(counts[k]):
             tally[k] = counts[k] if not math.isfinite(tally[k]) else max(tally[k], counts[k])
+    for dim, n in counts.get("slots", {}).items():
+        tally.setdefault("slots", {})
+        tally["slots"][dim] = max(tally["slots"].get(dim, 0), n)
 
 
 def worst_certificates(tally: dict[str, Any], arrays: dict) -> None:
@@ -119,18 +128,22 @@ def print_summary(s: dict[str, Any], out: TextIO) -> None:
         f"done: {s['tasks_run']} tasks, {s['points']} points in {s['wall']:.2f} s wall "
         f"{s.get('where') or 'on %d workers' % s['workers']} ({s['points_per_second']:,.0f} "
         f"points/s; setup {s['setup']:.1f} s)",
-        f"orbits: {s['orbits']} converged ({s['orbits_per_second']:,.0f} orbits/s), "
-        f"{s['failed_slots']} failed slots, converged fraction {s['converged_fraction']:.4f}, "
-        f"{s['points_with_orbit']} points with at least one orbit",
+        f"orbits: {s['orbits']} converged ({s['orbits_per_second']:,.0f} orbits/s; "
+        f"{s.get('stable', 0)} stable, {s['orbits'] - s.get('stable', 0)} unstable, every one "
+        f"stored), {s['failed_slots']} failed slots, converged fraction "
+        f"{s['converged_fraction']:.4f}, {s['points_with_orbit']} points with at least one orbit"
+        + (f", at most {s['slots']['solution']} at a point" if s.get("slots") else ""),
         overhead_line(s),
     ]
     certificates = certificates_line(s)
     if certificates:
         lines.append(certificates)
-    if s.get("orbits_dropped"):
-        lines.append(f"orbits dropped: {s['orbits_dropped']} distinct orbits at "
-                     f"{s['points_dropping']} points did not fit in the max_solutions slots "
-                     f"(stable ones kept first; per point: orbits_dropped)")
+    kinds = s.get("attractor_kinds") or {}
+    if any(kinds.values()):
+        lines.append("attractors (census): " + ", ".join(
+            f"{kinds.get(k, 0)} {k.replace('_', '-')}" for k in KIND_COUNTS)
+            + (f"; at most {s['slots']['attractor']} at a point" if s.get("slots", {}).get(
+                "attractor") else "") + ", every one stored")
     if s.get("time_limited"):
         lines.append(f"time limit: {s['time_limited']} grid points not solved within "
                      f"--task-timeout (status time_limit); rerun with --overwrite and a larger "

@@ -9,7 +9,7 @@ from pathlib import Path
 from hertzmap.scheduler.errors import RunError
 from hertzmap.scheduler.plan import Plan
 from hertzmap.scheduler.report import fmt_bytes
-from hertzmap.study.schema import bytes_per_point, stored_variables
+from hertzmap.study.schema import SLOT_CHUNK, bytes_per_point, stored_variables
 from hertzmap.study.spec import Study
 
 #: Bytes the client holds per task while a study runs (plan, spec, future, bookkeeping).
@@ -69,10 +69,10 @@ def check_resources(study: Study, plan: Plan, store_path: Path, *, new_store: bo
             free, free_files = None, None
         if free is not None and est["store_bytes"] > DISK_MARGIN * free:
             raise RunError(
-                f"grid: {shape} points x {study.max_solutions} slots need a store of about "
-                f"{fmt_bytes(est['store_bytes'])} (uncompressed), more than the "
-                f"{fmt_bytes(free)} free at {where}; split the study, use fewer "
-                f"solution slots or products, or --store on a larger disk "
+                f"grid: {shape} points need a store of about "
+                f"{fmt_bytes(est['store_bytes'])} (uncompressed, {SLOT_CHUNK} orbits a point), "
+                f"more than the {fmt_bytes(free)} free at {where}; split the study, store "
+                f"fewer products, or --store on a larger disk "
                 f"({SKIP_SPACE_ENV}=1 to skip this check)")
         if free_files is not None and est["store_files"] > DISK_MARGIN * free_files:
             raise RunError(

@@ -32,9 +32,11 @@ from hertzmap.scheduler.errors import RunError
 from hertzmap.scheduler.interrupt import DeferInterrupt
 from hertzmap.scheduler.plan import choose_chunks, make_plan
 from hertzmap.scheduler.progress import Progress
-from hertzmap.scheduler.report import SUMMED_COUNTS, WORST_COUNTS, add_counts, overhead, print_summary
+from hertzmap.scheduler.report import (KIND_COUNTS, SUMMED_COUNTS, WORST_COUNTS, add_counts,
+                                       overhead, print_summary)
 from hertzmap.scheduler.resources import check_resources
-from hertzmap.scheduler.store import Lock, Store, StoreError, check_writer, open_or_create
+from hertzmap.scheduler.store import (GRID_STAGE, Lock, Store, StoreError, check_writer,
+                                      commit_grid_block, open_or_create, remove_stage)
 from hertzmap.scheduler.worker import DEFAULT_SOLVER, Warmup, run_task
 from hertzmap.study.schema import code_fingerprint, stored_variables
 from hertzmap.study.spec import Study
@@ -248,6 +250,8 @@ class StudyRun:
         """``early``: (client, cluster) made before the store was opened, used instead of
         making them; ``t_setup``: when the setup began (the cluster's start), else now."""
         if resumed:
+            # a resize cut short by a kill made whole (every slot array as long as the longest)
+            self.store.settle_slots(self.store.slot_extents())
             self.repair()
         done = self.store.done_mask()
         todo = [t for t in self.plan.tasks if not done[t.index]]
@@ -261,6 +265,7 @@ class StudyRun:
             self.summary.update(complete=True, wall=0.0)
             if self.atlas.pending() or self.curves.pending():
                 return self.stages_only(client, early)
+            self.settle_slots()
             if early is not None:
                 close_quietly(*early)
             return self.summary
@@ -375,8 +380,14 @@ class StudyRun:
                 fut.release()
                 continue
             task = by_index[tuple(res["index"])]
-            # the worker wrote the block before its task returned: only now its flag
+            # the worker wrote the block before its task returned (or staged it, when it
+            # holds more slots than the store's dims: written here, the dims grown): only now
+            # its flag
             with self.interrupt.critical():
+                if res.get("staged"):
+                    commit_grid_block(store, task.slices, task.index, self.names)
+                else:
+                    store.note_slots_used(res["counts"].get("slots", {}))
                 store.mark_done(task.index)
             fut.release()
             tally["compute"] += res["seconds"]
@@ -389,6 +400,8 @@ class StudyRun:
             progress.update(task.size)
         wall = time.perf_counter() - t0
         progress.close()
+        if store.done_mask().all():
+            remove_stage(store.path, GRID_STAGE)
 
         if lost is not None or (len(summary["failed"]) and _scheduler_lost(client)):
             return self.scheduler_lost()
@@ -407,8 +420,8 @@ class StudyRun:
             orbits_per_second=n_conv / wall if wall > 0 else math.nan,
             worker_processes_seen=len(pids),
             liouville_worst=tally["liouville"], lyapunov_sum_worst=tally["lyapunov_sum"],
-            attractors=tally["attractors"],
-            orbits_dropped=tally["dropped"], points_dropping=tally["dropping"],
+            attractors=tally["attractors"], stable=tally["stable"],
+            slots=tally.get("slots", {}), attractor_kinds={k: tally[k] for k in KIND_COUNTS},
         )
         total = len(self.plan.tasks)
         with self.interrupt.critical():
@@ -443,6 +456,15 @@ class StudyRun:
                   "\"measures\" output)", file=self.out, flush=True)
         if self.curves.pending():
             self.summary["curves"] = self.curves.run(client, n_workers)
+        self.settle_slots()
+
+    def settle_slots(self) -> None:
+        """Once nothing is left to compute: the store's slot dims cut to the most any point
+        holds (scheduler.store.Store.settle_slots; they grew by whole chunks during the run)."""
+        if self.atlas.pending() or self.curves.pending() or not self.store.done_mask().all():
+            return
+        with self.interrupt.critical():
+            self.store.settle_slots()
 
     # -- the stages after the grid ---------------------------------------------------------
     def stages_only(self, client, early) -> dict[str, Any]:

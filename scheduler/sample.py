@@ -25,6 +25,11 @@ def _mix64(x: np.ndarray) -> np.ndarray:
     return x
 
 
+#: a slot's place in a point's key: its index times one, the point's times this (more than the
+#: orbits any point holds; the key only needs to be a fixed function of the place)
+SLOT_STRIDE = 1 << 16
+
+
 class Sampler:
     """Keeps the ``n`` converged slots with the smallest pseudo-random keys: the sample does
     not depend on the order in which blocks finish. Each worker proposes its block's ``n``
@@ -40,7 +45,7 @@ class Sampler:
     def task_spec(self, task: Task) -> dict[str, Any]:
         """What a task's worker needs to propose its block's candidates."""
         return {"origin": tuple(s.start for s in task.slices), "shape": tuple(self.study.shape),
-                "slots": int(self.study.max_solutions), "seed": int(self.seed), "n": self.n}
+                "seed": int(self.seed), "n": self.n}
 
     def merge(self, candidates: list[tuple[int, tuple]]) -> None:
         if self.n <= 0 or not candidates:
@@ -68,8 +73,8 @@ def block_candidates(arrays: dict[str, np.ndarray], axes: tuple[np.ndarray, ...]
         return []
     o0, s0, z0 = spec["origin"]
     _, n_s, n_z = spec["shape"]
-    ns = spec["slots"]
-    flat = ((((idx[:, 0] + o0) * n_s + idx[:, 1] + s0) * n_z + idx[:, 2] + z0) * ns + idx[:, 3])
+    flat = ((((idx[:, 0] + o0) * n_s + idx[:, 1] + s0) * n_z + idx[:, 2] + z0) * SLOT_STRIDE
+            + idx[:, 3])
     keys = _mix64(flat.astype(np.uint64) ^ np.uint64(spec["seed"]))
     om, sg, zt = axes
     out = []

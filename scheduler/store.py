@@ -36,11 +36,18 @@ import zarr
 from zarr.core.sync import sync as zarr_sync
 
 from hertzmap.scheduler.errors import StoreError
-from hertzmap.study.schema import (PRODUCT_GROUP, STORE_FORMAT, VARIABLES, history_line, parse_attrs,
-                          stored_variables, study_from_attrs, template)
+from hertzmap.study.schema import (FORMAT_ADVICE, PRODUCT_GROUP, SLOT_CHUNK, SLOT_DIMS,
+                                   STORE_FORMAT, VARIABLES, StoreFormatError, array_slots,
+                                   check_format,
+                                   history_line, pad_slots, parse_attrs, stored_variables,
+                                   study_from_attrs, template)
 from hertzmap.study.spec import Study, StudyError
 
 ALL_CHUNKS_ATTR = "hertzmap_all_chunks_written"
+#: the most entries any point of the store holds along each slot dim so far (study.schema
+#: SLOT_DIMS), kept by the client as blocks and atlas rounds are written: the length the dims
+#: are cut to when the run ends (Store.settle_slots)
+SLOTS_USED_ATTR = "hertzmap_slots_used"
 LOCK_SUFFIX = ".lock"      # the lock of STORE is the file STORE.lock next to it
 
 
@@ -148,9 +155,11 @@ class Store:
                 f"{self.path} holds another study ({self.info['hertzmap_study_name']!r}, "
                 f"hash {self.study_hash[:12]}), not {study.name!r} (hash {study.hash[:12]}); "
                 "use --overwrite to replace it, or --store to choose another path")
-        if self.attrs.get("hertzmap_store_format") != STORE_FORMAT:
-            raise StoreError(f"{self.path}: store format {self.attrs.get('hertzmap_store_format')} "
-                             f"is not {STORE_FORMAT}")
+        found = self.attrs.get("hertzmap_store_format")
+        if found != STORE_FORMAT:
+            advice = FORMAT_ADVICE.get(found, "written by another version of hertzmap")
+            raise StoreError(f"{self.path}: store format {found}, this hertzmap writes format "
+                             f"{STORE_FORMAT}: {advice}")
         members = set(self._group.array_keys())
         missing = [n for n in stored_variables(study) if n not in members]
         if missing:
@@ -225,10 +234,83 @@ class Store:
     def write_block(self, slices: tuple[slice, slice, slice], arrays: dict[str, np.ndarray],
                     names: tuple[str, ...]) -> None:
         """Region write of one block (whole chunks) of every variable in ``names``
-        (:class:`BlockWriter`): the atlas's commits, and tests."""
+        (:class:`BlockWriter`), the store's slot dims grown first where the block holds more
+        than they have room for: the grid's blocks that did not fit, the atlas's commits, and
+        tests. The client's alone (it holds the store's lock)."""
+        block = {n: arrays[n] for n in names}
+        self.note_slots_used(slots_used(block))
+        need = array_slots(block)
+        have = self.slot_extents()
+        if any(need[d] > have[d] for d in have):
+            self.settle_slots({d: max(need[d], have[d]) for d in have})
         if self._writer is None:
             self._writer = BlockWriter(self._group, self.chunks, bool(self.attrs.get(ALL_CHUNKS_ATTR)))
-        self._writer.write(slices, arrays, names)
+        if not self._writer.write(slices, arrays, names):
+            raise StoreError(f"{self.path}: a block holds more slots than its dims after they "
+                             "grew (another process resized the store?)")
+
+    # -- the slot dims (study.schema.SLOT_DIMS: sized by the data) ---------------------------
+    def _slot_arrays(self) -> dict[str, list[str]]:
+        """The stored arrays of each slot dim (its coordinate first)."""
+        with _quiet():
+            members = set(self._group.array_keys())
+        out = {d: [d] if d in members else [] for d in SLOT_DIMS}
+        for name in sorted(members):
+            v = VARIABLES.get(name)
+            if v is not None and v.slot_dim is not None:
+                out[v.slot_dim].append(name)
+        return out
+
+    def slot_extents(self) -> dict[str, int]:
+        """The length of each slot dim in the store (the longest of its arrays: a resize cut
+        short may have left some shorter)."""
+        out = {}
+        for dim, names in self._slot_arrays().items():
+            out[dim] = max((self._group[n].shape[3 if n != dim else 0] for n in names), default=0)
+        return out
+
+    def slots_used(self) -> dict[str, int]:
+        """The most entries any point holds along each slot dim (SLOTS_USED_ATTR; 1 before
+        any block is written)."""
+        used = self.attrs.get(SLOTS_USED_ATTR) or {}
+        return {d: max(1, int(used.get(d, 1))) for d in SLOT_DIMS}
+
+    def note_slots_used(self, used: dict[str, int]) -> None:
+        """Record that a block written (or about to be) holds ``used`` entries along the slot
+        dims, where that is more than any before."""
+        now = self.slots_used()
+        if any(int(used.get(d, 0)) > now[d] for d in now):
+            self.set_attrs(**{SLOTS_USED_ATTR: {d: max(now[d], int(used.get(d, 0)))
+                                                for d in now}})
+
+    def settle_slots(self, want: dict[str, int] | None = None) -> dict[str, int]:
+        """Make every array of each slot dim, and the dim's coordinate, ``want[dim]`` long (by
+        default: the most entries any point holds, SLOTS_USED_ATTR, the end of a run), never
+        shorter than a point's entries. A resize is a metadata write (the chunks along the
+        dims are SLOT_CHUNK long: the chunks written stay where they are; growing adds room,
+        cutting removes only empty slots); a resize cut short by a kill is made whole by the
+        next call (every run calls it when it starts and when it ends). Returns the lengths."""
+        used = self.slots_used()
+        target = {d: max(int((want or used)[d]), used[d]) for d in SLOT_DIMS}
+        changed = False
+        with _quiet():
+            for dim, names in self._slot_arrays().items():
+                for name in names:
+                    arr = self._group[name]
+                    axis = 0 if name == dim else 3
+                    if arr.shape[axis] == target[dim]:
+                        continue
+                    shape = list(arr.shape)
+                    shape[axis] = target[dim]
+                    arr.resize(tuple(shape))
+                    if name == dim:
+                        arr[:] = np.arange(target[dim], dtype=arr.dtype)
+                    changed = True
+            if changed:
+                zarr.consolidate_metadata(zarr.storage.LocalStore(self.path))
+                self.attrs = read_attrs(self.path) or self.attrs
+                self._writer = None
+        return target
 
     def set_attrs(self, **attrs: Any) -> None:
         """Update root attrs in one atomic rewrite of the root zarr.json that keeps its
@@ -276,25 +358,84 @@ class BlockWriter:
                 {"write_empty_chunks": self.all_chunks})
         return arr
 
+    def _extent(self, name: str) -> int:
+        """The length of a slot variable's slot dim in the store (its metadata read again
+        when the cached array is shorter than asked: the client may have grown it since)."""
+        return self._array(name).shape[3]
+
+    def fits(self, arrays: dict[str, np.ndarray], names: tuple[str, ...]) -> bool:
+        """The block's slots fit in the store's slot dims (re-read once if not: the client
+        may have grown them since the arrays were opened)."""
+        need = array_slots({n: arrays[n] for n in names})
+        slot_names = [n for n in names if VARIABLES[n].slot_dim is not None]
+        if all(need[VARIABLES[n].slot_dim] <= self._extent(n) for n in slot_names):
+            return True
+        for n in slot_names:
+            self._arrays.pop(n, None)
+            self._arrays.pop((n, "tail"), None)
+        return all(need[VARIABLES[n].slot_dim] <= self._extent(n) for n in slot_names)
+
     def write(self, slices: tuple[slice, slice, slice], arrays: dict[str, np.ndarray],
-              names: tuple[str, ...]) -> None:
+              names: tuple[str, ...]) -> bool:
         """Every variable in ``names`` of one block, all in one call into zarr's event loop
         (its writes run concurrently). Per-block variables (dim ``omega_block``: the located
-        bifurcation points) go to the block's own omega_block entry: one writer per chunk."""
+        bifurcation points) go to the block's own omega_block entry: one writer per chunk.
+        Along a slot dim, every chunk of the block is written: its first (always stored, so a
+        done block's missing chunk is known as damage) and the others up to the store's length
+        (stored where they hold something, removed where empty: a chunk of an earlier write
+        of the block is never left behind). Returns False, writing nothing, when the block
+        holds more slots than the store's dims (the client grows them: Store.write_block)."""
+        if not self.fits(arrays, names):
+            return False
         ib = slices[0].start // self.chunks[0]
         jobs = []
         for name in names:
             v = VARIABLES[name]
             arr = self._array(name)
             lead = (slice(ib, ib + 1), slices[1], slices[2]) if v.layout == "line" else tuple(slices)
+            data = np.asarray(arrays[name]).astype(v.dtype, copy=False)
+            if v.slot_dim is not None:
+                extent = arr.shape[3]
+                data = pad_slots({name: data}, {v.slot_dim: extent})[name]
+                first = min(SLOT_CHUNK, extent)
+                head = lead + (slice(0, first),) + (slice(None),) * (arr.ndim - 4)
+                jobs.append(arr.async_array.setitem(
+                    head, np.ascontiguousarray(data[:, :, :, :first])))
+                if extent > SLOT_CHUNK:
+                    tail = self._tail(name)
+                    sel = lead + (slice(SLOT_CHUNK, extent),) + (slice(None),) * (arr.ndim - 4)
+                    jobs.append(tail.async_array.setitem(
+                        sel, np.ascontiguousarray(data[:, :, :, SLOT_CHUNK:extent])))
+                continue
             sel = lead + (slice(None),) * (arr.ndim - 3)
-            data = np.ascontiguousarray(np.asarray(arrays[name]).astype(v.dtype, copy=False))
-            jobs.append(arr.async_array.setitem(sel, data))
+            jobs.append(arr.async_array.setitem(sel, np.ascontiguousarray(data)))
 
         async def write_all():
             await asyncio.gather(*jobs)
 
         zarr_sync(write_all())
+        return True
+
+    def _tail(self, name: str) -> zarr.Array:
+        """The array for a slot variable's chunks beyond the first along its slot dim: empty
+        ones are not stored (and removed if an earlier write stored them)."""
+        arr = self._arrays.get((name, "tail"))
+        if arr is None:
+            arr = self._arrays[(name, "tail")] = self._group[name].with_config(
+                {"write_empty_chunks": False})
+        return arr
+
+
+def slots_used(arrays: dict[str, np.ndarray]) -> dict[str, int]:
+    """The most entries any point of a block holds along each slot dim (filled from 0:
+    orbits with a status, attractors with a kind)."""
+    out = {}
+    if "status" in arrays:
+        out["solution"] = int((np.asarray(arrays["status"]) != -1).sum(axis=-1).max(initial=0))
+    if "attractor_kind" in arrays:
+        out["attractor"] = int((np.asarray(arrays["attractor_kind"]) > 0).sum(axis=-1)
+                               .max(initial=0))
+    return out
 
 
 #: where a worker process writes: store path -> (its task_done metadata file's (inode, mtime),
@@ -348,13 +489,37 @@ def _writer_for(path: str | Path) -> BlockWriter:
 
 
 def write_task_block(path: str | Path, owner: dict[str, Any], slices: tuple[slice, slice, slice],
-                     arrays: dict[str, np.ndarray], names: tuple[str, ...]) -> None:
+                     index: tuple[int, int, int], arrays: dict[str, np.ndarray],
+                     names: tuple[str, ...]) -> bool:
     """A task's own block, written by the worker that solved it (scheduler.worker.run_task):
     whole chunks that no other task writes, so without a lock between workers; only while
-    ``owner`` (the client's Lock.owner) holds the store (check_writer). The client sets the
-    task's flag once this has returned."""
+    ``owner`` (the client's Lock.owner) holds the store (check_writer). A block that holds
+    more slots than the store's slot dims (only the client resizes them) is staged instead,
+    as one file (stage_file), for the client to grow the dims and write it
+    (commit_grid_block). Returns True when written, False when staged. The client sets the
+    task's flag once this has returned (and a staged block is written)."""
     check_writer(path, owner)
-    _writer_for(path).write(slices, arrays, names)
+    if _writer_for(path).write(slices, arrays, names):
+        return True
+    stage_file(path, GRID_STAGE, _block_name(index), arrays)
+    return False
+
+
+#: the folder (in the store) of the grid's blocks that did not fit its slot dims
+GRID_STAGE = "grid_stage"
+
+
+def _block_name(index) -> str:
+    return "-".join(str(int(i)) for i in index)
+
+
+def commit_grid_block(store: "Store", slices: tuple[slice, slice, slice],
+                      index: tuple[int, int, int], names: tuple[str, ...]) -> None:
+    """Write a staged grid block (write_task_block) into the store, its slot dims grown, and
+    remove its file. The client's, before it flags the task."""
+    arrays = read_stage_file(store.path, GRID_STAGE, _block_name(index))
+    store.write_block(slices, arrays, names)
+    (Path(store.path) / GRID_STAGE / f"{_block_name(index)}.npz").unlink(missing_ok=True)
 
 
 def remove_store(path: str | Path) -> None:
@@ -381,6 +546,12 @@ def open_or_create(path: str | Path, study: Study, chunks: tuple[int, int, int],
             else:
                 raise StoreError(f"{path} exists and is not a zarr store; "
                                  "choose another --store path")
+        elif ("hertzmap_study_hash" in attrs and not overwrite
+              and attrs.get("hertzmap_store_format") != STORE_FORMAT):
+            try:
+                check_format(attrs, str(path))
+            except StoreFormatError as exc:
+                raise StoreError(f"{exc}; or --store for another path") from None
         elif attrs.get("hertzmap_study_hash") == study.hash and not overwrite:
             try:
                 store = Store(path)
@@ -472,9 +643,19 @@ def store_status(path: str | Path, check: bool = False) -> dict[str, Any]:
     info = dict(store.info)
     info.update(path=str(store.path), tasks_total=int(done.size), tasks_done=int(done.sum()),
                 chunk_shape=list(store.chunks))
+    try:
+        check_format(store.attrs, str(store.path))
+        info["format_note"] = None
+    except StoreFormatError as exc:
+        info["format_note"] = str(exc)
     ds = xr.open_zarr(store.path, consolidated=True)
     info["dims"] = {k: int(v) for k, v in ds.sizes.items()}
     info["variables"] = [n for n in ds.data_vars if n in VARIABLES]
+    if info["format_note"] is None:
+        try:
+            info["contents"] = store_contents(ds)
+        except Exception:       # a damaged chunk (--check names it): no counts, not a crash
+            info["contents"] = None
     lock = lock_path(store.path)
     try:
         info["locked_by"] = json.loads(lock.read_text()) if lock.exists() else None
@@ -494,6 +675,24 @@ def store_status(path: str | Path, check: bool = False) -> dict[str, Any]:
             damaged.setdefault(idx, []).append("task_done: flag unreadable")
         info["damaged"] = {"-".join(map(str, k)): v for k, v in sorted(damaged.items())}
     return info
+
+
+def store_contents(ds: xr.Dataset) -> dict[str, Any]:
+    """What a store holds, counted (``hertzmap status``): converged orbits, stable ones, the
+    most at a point; the census's attractors by kind and the most at a point."""
+    from hertzmap.kernels.records import ATTRACTOR_KINDS
+
+    status = np.asarray(ds["status"].values)
+    ok = status == 0
+    out: dict[str, Any] = {"orbits": int(ok.sum()),
+                           "most_orbits_at_a_point": int((status != -1).sum(-1).max(initial=0))}
+    if "stable" in ds:
+        out["stable_orbits"] = int((ok & np.asarray(ds["stable"].values)).sum())
+    if "attractor_kind" in ds:
+        kinds = np.asarray(ds["attractor_kind"].values)
+        out["attractors"] = {k: int((kinds == c).sum()) for k, c in ATTRACTOR_KINDS.items()}
+        out["most_attractors_at_a_point"] = int((kinds > 0).sum(-1).max(initial=0))
+    return out
 
 
 # -- products ----------------------------------------------------------------------------------
@@ -688,15 +887,14 @@ def _stage_dir(store: str | Path, round_: int) -> Path:
     return Path(store) / ATLAS_STAGE / f"round_{int(round_):04d}"
 
 
-def write_atlas_tile(store: str | Path, round_: int, index: tuple[int, int, int],
-                     arrays: dict[str, np.ndarray] | None) -> Path:
-    """Stage one tile's result of an atlas round (its arrays, or None when the round added
-    nothing there) as one .npz file, written whole or not at all: a killed round keeps the
-    tiles staged so far, and the main group is written only when the round commits. The caller
-    holds the store's lock, or is a worker of the client that holds it (stage_atlas_tile)."""
-    root = _stage_dir(store, round_)
+def stage_file(store: str | Path, folder: str | Path, name: str,
+               arrays: dict[str, np.ndarray] | None) -> Path:
+    """Stage arrays as one .npz file ``folder/name.npz`` of the store, written whole or not
+    at all (built next to its place, then renamed into it): an atlas round's tile, a grid
+    block that did not fit. The caller holds the store's lock, or is a worker of the client
+    that holds it."""
+    root = Path(store) / folder
     root.mkdir(parents=True, exist_ok=True)
-    name = "-".join(str(int(i)) for i in index)
     final = root / f"{name}.npz"
     building = root / f".{name}.writing.npz"
     with open(building, "wb") as f:
@@ -705,6 +903,21 @@ def write_atlas_tile(store: str | Path, round_: int, index: tuple[int, int, int]
         os.fsync(f.fileno())
     os.replace(building, final)
     return final
+
+
+def read_stage_file(store: str | Path, folder: str | Path, name: str) -> dict[str, np.ndarray]:
+    """A staged file's arrays ({} when it holds none)."""
+    with np.load(Path(store) / folder / f"{name}.npz", allow_pickle=False) as z:
+        return {k: z[k] for k in z.files}
+
+
+def write_atlas_tile(store: str | Path, round_: int, index: tuple[int, int, int],
+                     arrays: dict[str, np.ndarray] | None) -> Path:
+    """Stage one tile's result of an atlas round (its arrays, or None when the round added
+    nothing there) as one .npz file (stage_file): a killed round keeps the tiles staged so
+    far, and the main group is written only when the round commits."""
+    return stage_file(store, _stage_dir(store, round_).relative_to(Path(store)),
+                      _block_name(index), arrays)
 
 
 def stage_atlas_tile(store: str | Path, owner: dict[str, Any], round_: int,
@@ -727,9 +940,13 @@ def staged_atlas_tiles(store: str | Path, round_: int) -> set[tuple[int, int, in
 def read_atlas_tile(store: str | Path, round_: int, index: tuple[int, int, int]
                     ) -> dict[str, np.ndarray]:
     """A staged tile's arrays ({} when the round added nothing there)."""
-    name = "-".join(str(int(i)) for i in index)
-    with np.load(_stage_dir(store, round_) / f"{name}.npz", allow_pickle=False) as z:
-        return {k: z[k] for k in z.files}
+    return read_stage_file(store, _stage_dir(store, round_).relative_to(Path(store)),
+                           _block_name(index))
+
+
+def remove_stage(store: str | Path, folder: str) -> None:
+    """Remove a folder of staged files (once what they held is written)."""
+    shutil.rmtree(Path(store) / folder, ignore_errors=True)
 
 
 def remove_atlas_stage(store: str | Path) -> None:

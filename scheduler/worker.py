@@ -115,7 +115,9 @@ def run_task(spec: dict[str, Any]) -> dict[str, Any]:
     sample (scheduler.sample.Sampler.task_spec).
     Returns a summary of a few hundred bytes, never the arrays: the counts the run summary
     needs (scheduler.report.block_counts), the block's error-sample candidates, the solve and
-    write times and the worker's pid. The client sets the task's flag once this has returned.
+    write times, the worker's pid and whether the block was staged (it holds more slots than
+    the store's slot dims: the client grows them and writes it, scheduler.store). The client
+    sets the task's flag once this has returned.
     """
     from hertzmap.scheduler.sample import block_candidates
     from hertzmap.scheduler.report import block_counts
@@ -133,12 +135,13 @@ def run_task(spec: dict[str, Any]) -> dict[str, Any]:
     out = fn(omega, sigma, zeta, **kwargs)
     seconds = time.perf_counter() - t0
     names = tuple(spec["names"])
-    check_block(out, names, (len(omega), len(sigma), len(zeta)), spec["kwargs"]["max_solutions"])
+    check_block(out, names, (len(omega), len(sigma), len(zeta)))
     arrays = {n: np.ascontiguousarray(out[n], dtype=VARIABLES[n].dtype) for n in names}
     t1 = time.perf_counter()
     slices = tuple(slice(int(a), int(b)) for a, b in spec["slices"])
-    write_task_block(spec["store"], spec["owner"], slices, arrays, names)
-    return {"index": tuple(spec["index"]), "seconds": seconds,
+    written = write_task_block(spec["store"], spec["owner"], slices, tuple(spec["index"]),
+                               arrays, names)
+    return {"index": tuple(spec["index"]), "seconds": seconds, "staged": not written,
             "write_seconds": time.perf_counter() - t1, "pid": os.getpid(),
             "counts": block_counts(arrays),
             "samples": block_candidates(arrays, (omega, sigma, zeta), spec["sample"])}

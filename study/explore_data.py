@@ -491,8 +491,8 @@ def _study_toml(d: dict[str, Any], grid: dict[str, Any]) -> str:
     lines += ["", "[model]", f"kind = {_toml_value(model['kind'])}"]
     if model["kind"] == "hertz" and model.get("exponent") is not None:
         lines.append(f"exponent = {_toml_value(float(model['exponent']))}")
-    lines += ["", "[solver]", f"rtol = {_toml_value(float(d['solver']['rtol']))}",
-              f"max_solutions = {int(d['solver']['max_solutions'])}", "", "[search]"]
+    lines += ["", "[solver]", f"rtol = {_toml_value(float(d['solver']['rtol']))}", "",
+              "[search]"]
     for k, v in d["search"].items():
         lines.append(f"{k} = {_toml_value(v)}")
     lines += ["", "[products]", f"outputs = {_toml_value(list(d['products']['outputs']))}"]

@@ -1,9 +1,15 @@
 """The stored schema of a study, defined once: variables, dims, dtypes, fill values, units, flags,
 attrs, and the dataset a store starts from (no Dask, no I/O).
 
-One xarray Dataset per study, dims ``omega``, ``sigma``, ``zeta``, ``solution`` (plus
-``multiplier`` and ``harmonic`` for the two vector-valued variables) and a completion array
-``task_done`` over the chunk grid (dims ``omega_chunk``, ``sigma_chunk``, ``zeta_chunk``).
+One xarray Dataset per study, dims ``omega``, ``sigma``, ``zeta``, ``solution`` (a point's
+orbits) and ``attractor`` (its census's attractors) (plus ``multiplier``, ``harmonic``,
+``strobe`` for the vector-valued variables) and a completion array ``task_done`` over the chunk
+grid (dims ``omega_chunk``, ``sigma_chunk``, ``zeta_chunk``).
+
+No cap on what a point holds: ``solution`` and ``attractor`` are sized by the data (SLOT_DIMS:
+their length in a store is the most any point holds, chunked by SLOT_CHUNK, grown by the
+scheduler as blocks need more), so every orbit the search finds and every attractor the census
+finds is stored at its point.
 
 Everything that writes or reads a store takes its variables from :data:`VARIABLES`: the block
 solver allocates its arrays with :func:`empty_arrays`, the scheduler turns :func:`template` into
@@ -46,6 +52,15 @@ __all__ = [
     "GRID_DIMS",
     "PRODUCT_GROUP",
     "STORE_FORMAT",
+    "FORMAT_ADVICE",
+    "SLOT_DIMS",
+    "SLOT_CHUNK",
+    "slot_counts",
+    "chunked_length",
+    "array_slots",
+    "pad_slots",
+    "check_format",
+    "StoreFormatError",
     "stored_variables",
     "template",
     "block_dataset",
@@ -59,8 +74,16 @@ __all__ = [
     "parse_attrs",
 ]
 
-#: Version of the store layout written by this module (an attr of every store).
-STORE_FORMAT = 1
+#: Version of the store layout written by this module (an attr of every store). 2: the
+#: ``solution`` and ``attractor`` dims sized by the data (every orbit and attractor a point has;
+#: format 1 kept at most solver.max_solutions orbits and 4 attractors a point, and said how
+#: many it dropped in ``orbits_dropped``).
+STORE_FORMAT = 2
+#: What a reader of another format is told to do (study.products.results.check_format).
+FORMAT_ADVICE = {1: "format 1 (hertzmap before 2026-11-28) kept at most solver.max_solutions "
+                    "orbits and 4 attractors per point and may have dropped some: rerun the "
+                    "study with `hertzmap run STUDY --overwrite` (delete solver.max_solutions "
+                    "from its file) to store them all"}
 
 GRID_DIMS = ("omega", "sigma", "zeta", "solution")
 #: Products (study.products) are stored in the study's store as zarr groups PRODUCT_GROUP/<name>.
@@ -80,13 +103,32 @@ BIFURCATION_FLAGS = ((0, "empty"),) + tuple((c, k) for k, c in BIFURCATION_KINDS
 CHUNK_DIMS = ("omega_chunk", "sigma_chunk", "zeta_chunk")
 #: Dims of the per-point variables (the attractor census, the orbit count).
 POINT_DIMS = ("omega", "sigma", "zeta")
-#: Attractors kept per grid point (the census); more are merged into the last.
-ATTRACTOR_SLOTS = 4
+#: The dims sized by the data: a point's orbits and its census's attractors, each filled from
+#: index 0 in its order (study.solve.point_state). A store's length along each is the most any
+#: of its points holds; its chunks along them are SLOT_CHUNK long, so a block that holds more
+#: writes more chunks (only there: a missing chunk reads as empty) and the store grows by
+#: whole chunks (scheduler.store), never by rewriting one.
+SLOT_DIMS = ("solution", "attractor")
+SLOT_CHUNK = 4
 
 
-#: Leading dims of a variable by its layout: one value per orbit slot, per grid point, or per
-#: (omega block, sigma, zeta) line.
-LAYOUTS = {"slot": GRID_DIMS, "point": POINT_DIMS, "line": BLOCK_DIMS}
+#: Leading dims of a variable by its layout: one value per orbit (slot), per census attractor,
+#: per grid point, or per (omega block, sigma, zeta) line.
+LAYOUTS = {"slot": GRID_DIMS, "attractor": POINT_DIMS + ("attractor",), "point": POINT_DIMS,
+           "line": BLOCK_DIMS}
+#: The slot dim of each layout that has one.
+LAYOUT_SLOT_DIM = {"slot": "solution", "attractor": "attractor"}
+
+
+def slot_counts(solution: int = SLOT_CHUNK, attractor: int = SLOT_CHUNK) -> dict[str, int]:
+    """The lengths of the SLOT_DIMS of a block or store (at least 1 each)."""
+    return {"solution": max(1, int(solution)), "attractor": max(1, int(attractor))}
+
+
+def chunked_length(count: int) -> int:
+    """The slots a block allocates for ``count`` entries: whole chunks of SLOT_CHUNK, at least
+    one chunk (an empty point still has its slot 0 to say so)."""
+    return max(1, -(-int(count) // SLOT_CHUNK)) * SLOT_CHUNK
 
 
 @dataclass(frozen=True)
@@ -99,7 +141,7 @@ class VarSpec:
     description: str
     extra: tuple[tuple[str, int], ...] = ()     # trailing dims (name, length)
     flags: tuple[tuple[int, str], ...] | None = None
-    layout: str = "slot"       # "slot" (GRID_DIMS), "point" (POINT_DIMS), "line" (BLOCK_DIMS)
+    layout: str = "slot"       # a key of LAYOUTS
 
     @property
     def per_block(self) -> bool:
@@ -113,11 +155,19 @@ class VarSpec:
     def trailing(self) -> tuple[int, ...]:
         return tuple(n for _, n in self.extra)
 
-    def block_shape(self, shape: tuple[int, int, int], max_solutions: int) -> tuple[int, ...]:
+    @property
+    def slot_dim(self) -> str | None:
+        """The dim of SLOT_DIMS this variable has (None: a per-point or per-line variable)."""
+        return LAYOUT_SLOT_DIM.get(self.layout)
+
+    def block_shape(self, shape: tuple[int, int, int],
+                    slots: Mapping[str, int] | None = None) -> tuple[int, ...]:
         """Shape of the variable in one block of ``shape`` = (omega, sigma, zeta) points (a
-        line variable: one omega block)."""
-        lead = {"slot": tuple(shape) + (int(max_solutions),), "point": tuple(shape),
-                "line": (1,) + tuple(shape[1:])}[self.layout]
+        line variable: one omega block), with ``slots`` (slot_counts) along the SLOT_DIMS."""
+        slots = slot_counts() if slots is None else slots
+        lead = {"line": (1,) + tuple(shape[1:]), "point": tuple(shape)}.get(self.layout)
+        if lead is None:
+            lead = tuple(shape) + (int(slots[self.slot_dim]),)
         return lead + self.trailing
 
     def attrs(self) -> dict[str, Any]:
@@ -197,14 +247,10 @@ VARIABLES: dict[str, VarSpec] = {v.name: v for v in [
     # -- the orbit count (always stored) --------------------------------------------------------
     VarSpec("orbits_found", "int16", -1, "distinct periodic orbits found at the point", "1",
             "distinct converged orbits (all periods searched, stable or not) the solver found at "
-            "the point; more than the solution slots means the extra ones (unstable first, then "
-            "the longest periods) were not stored; -1: point not computed", layout="point"),
-    VarSpec("orbits_dropped", "int16", -1, "distinct periodic orbits not stored at the point", "1",
-            "orbits_found minus the converged orbits the solution slots hold: where a point has "
-            "more distinct orbits than slots, the stable ones are kept first, then by period "
-            "and ptp; -1: point not computed", layout="point"),
+            "the point, every one stored in its solution slots; -1: point not computed",
+            layout="point"),
     # -- the attractor census (per point and attractor slot) ---------------------------------------
-    VarSpec("attractor_count", "int8", -1, "attractors found by the census", "1",
+    VarSpec("attractor_count", "int16", -1, "attractors found by the census", "1",
             "distinct long-time responses reached by the transients from the study's initial "
             "states (search.initial_states); -1: the census did not run at this point "
             "(search.attractors = where-none-stable and a stable orbit was found, or not "
@@ -227,8 +273,8 @@ VARIABLES: dict[str, VarSpec] = {v.name: v for v in [
             "fractal basin boundary (Daza et al. 2016), as coarse as basin_entropy; NaN: the "
             "census did not run", layout="point"),
     *(VarSpec(f.name, f.dtype, f.fill, f.long_name, f.units, f.description,
-              extra=(("attractor", ATTRACTOR_SLOTS),) + ((f.dim,) if f.dim else ()),
-              flags=f.flags, layout="point") for f in ATTRACTOR.stored()),
+              extra=(f.dim,) if f.dim else (), flags=f.flags, layout="attractor")
+      for f in ATTRACTOR.stored()),
 ]}
 
 #: Per-slot variables of an orbit (dims GRID_DIMS + extra), in schema order.
@@ -244,23 +290,36 @@ CROSSING_VARIABLES: tuple[str, ...] = tuple(n for n in LINE_VARIABLES
                                             if n.startswith("crossing_"))
 #: Per-point variables of the attractor census (dims POINT_DIMS + extra).
 ATTRACTOR_VARIABLES: tuple[str, ...] = tuple(
-    n for n, v in VARIABLES.items() if v.layout == "point" and not n.startswith("orbits_"))
+    n for n, v in VARIABLES.items() if v.layout == "attractor"
+    or (v.layout == "point" and not n.startswith("orbits_")))
 
 
-def empty_arrays(shape: tuple[int, int, int], max_solutions: int,
+def empty_arrays(shape: tuple[int, int, int], slots: Mapping[str, int] | None = None,
                  names: tuple[str, ...] | None = None) -> dict[str, np.ndarray]:
     """The arrays of one block (``shape`` = (len(omega), len(sigma), len(zeta))) with every slot
-    empty: each variable at its fill value and dtype. Per-line variables get leading dims
-    (1, len(sigma), len(zeta)). ``names``: a subset (default: every variable)."""
+    empty: each variable at its fill value and dtype, ``slots`` (slot_counts; default one
+    chunk each) along the SLOT_DIMS. Per-line variables get leading dims (1, len(sigma),
+    len(zeta)). ``names``: a subset (default: every variable)."""
     out = {}
     for name in (tuple(VARIABLES) if names is None else names):
         v = VARIABLES[name]
-        out[name] = np.full(v.block_shape(shape, max_solutions), v.fill, dtype=v.dtype)
+        out[name] = np.full(v.block_shape(shape, slots), v.fill, dtype=v.dtype)
     return out
 
 
+def array_slots(arrays: Mapping[str, np.ndarray]) -> dict[str, int]:
+    """The lengths of the SLOT_DIMS of a block's (or a region's) arrays (slot_counts: a dim no
+    array has gets its default)."""
+    found = {}
+    for name, a in arrays.items():
+        v = VARIABLES.get(name)
+        if v is not None and v.slot_dim is not None:
+            found.setdefault(v.slot_dim, np.shape(a)[3])
+    return slot_counts(**found)
+
+
 OUTPUT_VARIABLES: dict[str, tuple[str, ...]] = {
-    "orbits": tuple(f.name for f in ORBIT.stored("orbits")) + ("orbits_found", "orbits_dropped"),
+    "orbits": tuple(f.name for f in ORBIT.stored("orbits")) + ("orbits_found",),
     "measures": tuple(f.name for f in ORBIT.stored("measures")),
     "force_harmonics": tuple(f.name for f in ORBIT.stored("force_harmonics")),
     "diagnostics": tuple(f.name for f in ORBIT.stored("diagnostics")),
@@ -280,16 +339,20 @@ _COORD_ATTRS = {
     "zeta": {"long_name": "damping ratio", "units": "1",
              "description": "viscous damping ratio (q'' + 2 zeta q' + F(q) = 1 + sigma cos(omega tau))"},
     "solution": {"long_name": "solution slot", "units": "1",
-                 "description": "index of a coexisting periodic solution at a grid point; "
-                                "slots are filled from 0, empty slots have status -1"},
+                 "description": "index of a coexisting periodic solution at a grid point: every "
+                                "orbit found there, in the order (period, ptp) (slot 0: the 1T "
+                                "orbit of smallest ptp, or why its solve failed); filled from "
+                                "0, empty slots have status -1; as long as the most orbits any "
+                                "point holds"},
     "multiplier": {"long_name": "Floquet multiplier index", "units": "1",
                    "description": "index of the multiplier (order as returned by the block solver)"},
     "harmonic": {"long_name": "harmonic order", "units": "1",
                  "description": "k: the component at frequency k omega / period"},
     "attractor": {"long_name": "attractor slot", "units": "1",
                   "description": "index of a distinct long-time response found by the attractor "
-                                 "census at a grid point (largest basin first); empty slots have "
-                                 "attractor_kind 0"},
+                                 "census at a grid point: every one it found, largest basin "
+                                 "first; empty slots have attractor_kind 0; as long as the most "
+                                 "attractors any point has"},
     "strobe": {"long_name": "stroboscopic point index", "units": "1",
                "description": "k-th of the last stroboscopic points (tau = 0 mod T) of an "
                               "attractor's window, in time order"},
@@ -316,12 +379,14 @@ def stored_variables(study: Study) -> tuple[str, ...]:
 
 
 def bytes_per_point(study: Study) -> int:
-    """Uncompressed bytes stored per grid point (all solution slots)."""
+    """Uncompressed bytes stored per grid point, at one chunk (SLOT_CHUNK) of orbits and of
+    attractors per point (a point that holds more stores more)."""
     total = 0.0
     for name in stored_variables(study):
         v = VARIABLES[name]
-        # a per-block variable: one line per (sigma, zeta), spread over the line's omega points
-        n = {"slot": study.max_solutions, "point": 1.0, "line": 1.0 / len(study.omega)}[v.layout] \
+        # a per-block variable: one line per (sigma, zeta), spread over the line's omega points;
+        # the slot dims at one chunk (the common case: more where points hold more)
+        n = {"point": 1.0, "line": 1.0 / len(study.omega)}.get(v.layout, SLOT_CHUNK) \
             * math.prod(v.trailing)
         total += n * np.dtype(v.dtype).itemsize
     return int(math.ceil(total))
@@ -391,12 +456,10 @@ def template(study: Study, chunks: tuple[int, int, int], *, history: str) -> xr.
     if len(chunks) != 3 or any(int(c) < 1 for c in chunks):
         raise ValueError(f"chunks must be three integers >= 1, got {chunks!r}")
     chunks = tuple(min(int(c), n) for c, n in zip(chunks, study.shape))
-    ns = study.max_solutions
     coords = {
         "omega": ("omega", study.axis("omega"), _COORD_ATTRS["omega"]),
         "sigma": ("sigma", study.axis("sigma"), _COORD_ATTRS["sigma"]),
         "zeta": ("zeta", study.axis("zeta"), _COORD_ATTRS["zeta"]),
-        "solution": ("solution", np.arange(ns, dtype=np.int16), _COORD_ATTRS["solution"]),
     }
     data_vars: dict[str, xr.Variable] = {}
     encoding: dict[str, dict[str, Any]] = {}
@@ -406,12 +469,15 @@ def template(study: Study, chunks: tuple[int, int, int], *, history: str) -> xr.
         if v.layout == "line":
             shape = (counts[0],) + study.shape[1:]
             vchunks = (1,) + chunks[1:]
-        elif v.layout == "point":
-            shape = tuple(study.shape)
-            vchunks = tuple(chunks)
         else:
-            shape = study.shape + (ns,)
-            vchunks = chunks + (ns,)
+            shape, vchunks = tuple(study.shape), tuple(chunks)
+        if v.slot_dim is not None:
+            # one chunk to start with: the scheduler grows the dim as blocks need more
+            shape += (SLOT_CHUNK,)
+            vchunks += (SLOT_CHUNK,)
+            if v.slot_dim not in coords:
+                coords[v.slot_dim] = (v.slot_dim, np.arange(SLOT_CHUNK, dtype=np.int16),
+                                      _COORD_ATTRS[v.slot_dim])
         for dim, n in v.extra:
             shape += (n,)
             vchunks += (n,)
@@ -446,23 +512,43 @@ def template(study: Study, chunks: tuple[int, int, int], *, history: str) -> xr.
     for name, enc in encoding.items():
         ds[name].encoding.update(enc)
     for name in coords:
-        ds[name].encoding.update({"chunks": (len(ds[name]),)})
+        ds[name].encoding.update({"chunks": (SLOT_CHUNK if name in SLOT_DIMS else len(ds[name]),)})
     return ds
 
 
 def check_block(arrays: Mapping[str, np.ndarray], names: tuple[str, ...],
-                shape: tuple[int, int, int], max_solutions: int) -> None:
-    """Check a ``solve_block`` result against the contract; raise ValueError naming the problem."""
+                shape: tuple[int, int, int]) -> None:
+    """Check a ``solve_block`` result against the contract (every variable of ``names``, its
+    dtype, its shape, one length along each of the SLOT_DIMS); raise ValueError naming the
+    problem."""
+    missing = [n for n in names if n not in arrays]
+    if missing:
+        raise ValueError(f"solve_block result lacks variable {missing[0]!r}")
+    slots = array_slots({n: arrays[n] for n in names})
     for name in names:
-        if name not in arrays:
-            raise ValueError(f"solve_block result lacks variable {name!r}")
         v = VARIABLES[name]
         a = np.asarray(arrays[name])
-        want = v.block_shape(shape, max_solutions)
+        want = v.block_shape(shape, slots)
         if a.shape != want:
             raise ValueError(f"solve_block variable {name!r} has shape {a.shape}, expected {want}")
         if not np.can_cast(a.dtype, np.dtype(v.dtype), casting="same_kind"):
             raise ValueError(f"solve_block variable {name!r} has dtype {a.dtype}, expected {v.dtype}")
+
+
+def pad_slots(arrays: Mapping[str, np.ndarray], slots: Mapping[str, int]) -> dict[str, np.ndarray]:
+    """The arrays with each slot dim filled up to ``slots`` (its entries beyond the array's
+    at the variable's fill value): whole SLOT_CHUNK chunks, or a store's length."""
+    out = {}
+    for name, a in arrays.items():
+        v = VARIABLES.get(name)
+        a = np.asarray(a)
+        if v is None or v.slot_dim is None or a.shape[3] >= slots[v.slot_dim]:
+            out[name] = a
+            continue
+        full = np.full(a.shape[:3] + (int(slots[v.slot_dim]),) + a.shape[4:], v.fill, a.dtype)
+        full[:, :, :, :a.shape[3]] = a
+        out[name] = full
+    return out
 
 
 def block_dataset(arrays: Mapping[str, np.ndarray], names: tuple[str, ...]) -> xr.Dataset:
@@ -499,3 +585,20 @@ def parse_attrs(attrs: Mapping[str, Any]) -> dict[str, Any]:
     except (TypeError, ValueError):
         out["versions"] = {}
     return out
+
+
+class StoreFormatError(ValueError):
+    """A store written in another layout than this version reads (check_format)."""
+
+
+def check_format(attrs: Mapping[str, Any], where: str = "the store") -> None:
+    """Raise StoreFormatError, naming the store's format and what to do, unless ``attrs`` (a
+    store's root attrs) say it is in STORE_FORMAT: a store of another layout is refused, never
+    misread."""
+    found = attrs.get("hertzmap_store_format")
+    if found == STORE_FORMAT:
+        return
+    advice = FORMAT_ADVICE.get(found, "written by another version of hertzmap: rerun its study "
+                                      "with `hertzmap run STUDY --overwrite`")
+    raise StoreFormatError(f"{where} is in store format {found}, this hertzmap reads format "
+                           f"{STORE_FORMAT}: {advice}")

@@ -35,7 +35,7 @@ __all__ = [
     "SPEC_VERSION",
 ]
 
-SPEC_VERSION = 1
+SPEC_VERSION = 2
 
 #: Largest grid (omega x sigma x zeta points) a single study may ask for.
 MAX_GRID_POINTS = 20_000_000
@@ -57,7 +57,6 @@ DEFAULT_OUTPUTS = ("orbits", "measures")
 MODEL_KINDS = tuple(law.name for law in LAWS)
 EXPONENT_RANGE = (0.0, 3.0)           # exclusive, inclusive
 RTOL_RANGE = (1e-13, 1e-4)            # inclusive
-MAX_SOLUTIONS_RANGE = (1, 16)         # inclusive
 PERIODS_ALLOWED = tuple(range(1, 17))     # any m in 1..16 (periods in forcing periods)
 #: Where the attractor census runs transients: at the points where shooting found no stable
 #: orbit, at every point (basins everywhere), or nowhere.
@@ -119,7 +118,6 @@ class Study:
     model: str = "hertz"
     exponent: float | None = 1.5
     rtol: float = 1e-10
-    max_solutions: int = 4
     periods: tuple[int, ...] = (1, 2)
     discover: bool = False
     transients: int = 16
@@ -162,7 +160,6 @@ class Study:
             "exponent": 1.5 if self.exponent is None else float(self.exponent),
             "model": self.model,
             "rtol": float(self.rtol),
-            "max_solutions": int(self.max_solutions),
         }
         if "force_harmonics" not in self.outputs:
             kw["harmonics"] = False  # not stored: skip their quadrature (a quarter of the time)
@@ -191,7 +188,7 @@ class Study:
             "study": {"name": self.name, "description": self.description},
             "grid": {ax: [float(x) for x in getattr(self, ax)] for ax in AXES},
             "model": {"kind": self.model, "exponent": self.exponent},
-            "solver": {"rtol": self.rtol, "max_solutions": self.max_solutions},
+            "solver": {"rtol": self.rtol},
             "search": self._search_dict(),
             # the study file's table and key ([products] outputs): the hash reads them
             "products": {"outputs": list(self.outputs)},
@@ -421,13 +418,14 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
 
     # [solver]
     so = _table(doc, "solver")
-    _refuse_unknown(so, "solver", ("rtol", "max_solutions"))
+    if "max_solutions" in so:
+        raise StudyError("solver.max_solutions", "no longer a setting: every orbit found at a "
+                         "point is stored (store format 2); delete this key")
+    _refuse_unknown(so, "solver", ("rtol",))
     lo, hi = RTOL_RANGE
     rtol = _number(so.get("rtol", 1e-10), "solver.rtol", f"{lo:g} <= rtol <= {hi:g}")
     if not lo <= rtol <= hi:
         raise StudyError("solver.rtol", f"must satisfy {lo:g} <= rtol <= {hi:g}, got {_r(rtol)}")
-    max_solutions = _integer(so.get("max_solutions", 4), "solver.max_solutions",
-                             *MAX_SOLUTIONS_RANGE)
 
     # [search]
     se = _table(doc, "search")
@@ -556,7 +554,6 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
         model=kind,
         exponent=exponent,
         rtol=rtol,
-        max_solutions=max_solutions,
         periods=periods_t,
         discover=discover,
         transients=transients,

@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from hertzmap.study.schema import ATTRACTOR_VARIABLES, ORBIT_VARIABLES, empty_arrays, template
+from hertzmap.study.schema import (ATTRACTOR_VARIABLES, ORBIT_VARIABLES, chunked_length, empty_arrays,
+                                   slot_counts, template)
 from hertzmap.study.spec import parse_study
 
 REPO = Path(__file__).resolve().parent.parent
@@ -49,8 +50,11 @@ def _hold_after_the_first_block(gate: str | None, timeout: float = 600.0) -> Non
 
 
 def placeholder_solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hertz",
-                            rtol=1e-10, max_solutions=4, harmonics=True, **census):
-    """Deterministic fake with the solve_block contract (delay: $HERTZMAP_PLACEHOLDER_DELAY s/point)."""
+                            rtol=1e-10, harmonics=True, **census):
+    """Deterministic fake with the solve_block contract (delay: $HERTZMAP_PLACEHOLDER_DELAY
+    s/point). $HERTZMAP_PLACEHOLDER_EXTRA = k: the points with omega > 1.5 hold k more
+    (unstable) orbits, of periods 3, 4, ...: blocks that hold more slots than others, some more
+    than the store's first chunk of them."""
     omega = np.asarray(omega, dtype=np.float64)
     sigma = np.asarray(sigma, dtype=np.float64)
     zeta = np.asarray(zeta, dtype=np.float64)
@@ -60,22 +64,26 @@ def placeholder_solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5,
     if omega.size * sigma.size * zeta.size > 1:     # a worker's warm-up solves one point
         _hold_after_the_first_block(os.environ.get("HERTZMAP_PLACEHOLDER_HOLD"))
     w, s, z = np.meshgrid(omega, sigma, zeta, indexing="ij")
-    out = empty_arrays((len(omega), len(sigma), len(zeta)), max_solutions,
-                       ORBIT_VARIABLES + ("orbits_found", "orbits_dropped"))
+    extra = int(os.environ.get("HERTZMAP_PLACEHOLDER_EXTRA", "0"))
+    shape = (len(omega), len(sigma), len(zeta))
+    n_slots = len(periods) + (extra if (omega > 1.5).any() else 0)
+    out = empty_arrays(shape, slot_counts(chunked_length(n_slots)),
+                       ORBIT_VARIABLES + ("orbits_found",))
     amp = s / np.sqrt((1 - w**2) ** 2 + (2 * z * w) ** 2)
     slots = []
     if 1 in periods:
         slots.append((1, np.ones_like(w, bool)))
     if 2 in periods:
         slots.append((2, (w > 1.8) & (w < 2.2) & (s > 0.2)))
-    for slot, (p, mask) in enumerate(slots[:max_solutions]):
+    slots += [(3 + e, w > 1.5) for e in range(extra)]
+    for slot, (p, mask) in enumerate(slots):
         a = amp * p
         sl = (slice(None),) * 3 + (slot,)
         out["period"][sl] = np.where(mask, p, 0)
         out["status"][sl] = np.where(mask, np.where(a > 50, 1, 0), -1)
         out["q0"][sl] = np.where(mask, a, np.nan)
         out["v0"][sl] = np.where(mask, -a * w / p, np.nan)
-        out["stable"][sl] = mask & (a < 2)
+        out["stable"][sl] = mask & (a < 2) & (p <= 2)
         out["min_q"][sl] = np.where(mask, -a, np.nan)
         out["max_q"][sl] = np.where(mask, a, np.nan)
         out["ptp"][sl] = np.where(mask, 2 * a, np.nan)
@@ -89,12 +97,16 @@ def placeholder_solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5,
                                                   np.nan)
         out["newton_iterations"][sl] = np.where(mask, 3, 0)
         out["residual"][sl] = np.where(mask, 1e-12, np.nan)
+    # the slots filled from 0: a point's orbits first, its empty slots after them
+    order = np.argsort(out["status"] == -1, axis=-1, kind="stable")
+    for name in ORBIT_VARIABLES:
+        a = out[name]
+        idx = order.reshape(order.shape + (1,) * (a.ndim - 4))
+        out[name] = np.take_along_axis(a, np.broadcast_to(idx, a.shape), axis=3)
     out["orbits_found"][...] = (out["status"] == 0).sum(axis=-1)
-    out["orbits_dropped"][...] = 0
     out["atlas_round"][out["status"] == 0] = 0
     if census.get("attractors", "never") != "never":      # the census found nothing here
-        out.update(empty_arrays((len(omega), len(sigma), len(zeta)), max_solutions,
-                                ATTRACTOR_VARIABLES))
+        out.update(empty_arrays(shape, names=ATTRACTOR_VARIABLES))
         out["attractor_count"][...] = 0
     return out
 
@@ -390,3 +402,30 @@ def slow_atlas_tile(*args, **kwargs):
 
     time.sleep(float(os.environ.get("HERTZMAP_ATLAS_DELAY", "1")))
     return atlas_tile(*args, **kwargs)
+
+
+def align_slots(ds: xr.Dataset, like: xr.Dataset) -> xr.Dataset:
+    """``ds`` with its slot dims cut to the lengths of ``like``'s (a store read while it is
+    written, its dims in whole chunks, against the finished store); the cut slots must be
+    empty."""
+    return trim_slots(ds, {d: like.sizes[d] for d in ("solution", "attractor") if d in like.dims})
+
+
+def trim_slots(ds: xr.Dataset, used: dict | None = None) -> xr.Dataset:
+    """A store's Dataset with its slot dims cut to the most entries any of its points holds
+    (what a finished run's store is cut to): a store left by an interrupted run, its dims still
+    in whole chunks, compared with a finished one. The cut slots must be empty."""
+    from hertzmap.study.schema import VARIABLES
+
+    if used is None:
+        used = {"solution": int((ds["status"].values != -1).sum(-1).max(initial=1))}
+        if "attractor_kind" in ds:
+            used["attractor"] = max(1, int((ds["attractor_kind"].values > 0).sum(-1)
+                                           .max(initial=1)))
+    for name, v in ds.data_vars.items():
+        spec = VARIABLES.get(name)
+        if spec is not None and spec.slot_dim in used:
+            cut = v.isel({spec.slot_dim: slice(used[spec.slot_dim], None)}).values
+            assert (cut == spec.fill).all() or (np.issubdtype(cut.dtype, np.inexact)
+                                                 and np.isnan(cut).all()), name
+    return ds.isel({d: slice(0, n) for d, n in used.items() if d in ds.dims})

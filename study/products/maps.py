@@ -132,7 +132,7 @@ def loss_of_contact_map(ds: xr.Dataset) -> xr.Dataset:
         flag_meanings=" ".join(m for _, m in STABLE_SET_FLAGS)))
 
     codes = np.array([c for c, _, _ in ORBIT_CLASSES[1:]], np.int8)
-    counts = np.stack([(cls.values == c).sum(-1) for c in codes], axis=-1).astype(np.int8)
+    counts = np.stack([(cls.values == c).sum(-1) for c in codes], axis=-1).astype(np.int16)
     out["class_count"] = xr.DataArray(counts, dims=("omega", "sigma", "zeta", "orbit_class"),
                                       coords={"orbit_class": codes})
     out["class_count"].attrs = var_attrs(
@@ -142,7 +142,7 @@ def loss_of_contact_map(ds: xr.Dataset) -> xr.Dataset:
         flag_values=codes, flag_meanings=" ".join(n for _, n, _ in ORBIT_CLASSES[1:]))
 
     def count(mask, long_name, desc):
-        return mask.sum("solution").astype("int8").assign_attrs(var_attrs(long_name, "1", desc))
+        return mask.sum("solution").astype("int16").assign_attrs(var_attrs(long_name, "1", desc))
 
     out["n_orbits"] = count(ok, "coexisting periodic responses",
                             "number of distinct periodic orbits (1T and 2T) found at the point")

@@ -15,7 +15,7 @@ import xarray as xr
 
 from hertzmap.kernels.model import contact_loss_level
 from hertzmap.study.analytic.rig import Rig
-from hertzmap.study.schema import study_from_attrs
+from hertzmap.study.schema import check_format, study_from_attrs
 from hertzmap.study.spec import StudyError
 
 @contextlib.contextmanager
@@ -46,13 +46,17 @@ def open_store(store: str | Path | xr.Dataset, *, load: bool = True) -> xr.Datas
 
     Points whose block is not flagged in ``task_done`` get ``status = -1`` (empty) in every
     slot, whatever the chunk files hold; the result has a bool variable ``computed``.
-    Axes are sorted (a study may list omega downwards).
+    Axes are sorted (a study may list omega downwards). A store of another layout than this
+    version writes is refused (study.schema.StoreFormatError, naming its format and what to
+    do), never misread.
     """
     if isinstance(store, xr.Dataset):
         ds = store
+        check_format(ds.attrs)
     else:
         with quiet():
             ds = xr.open_zarr(str(store), chunks=None)
+        check_format(ds.attrs, str(store))
     if load:
         ds = ds.load()
     done = completed(ds)

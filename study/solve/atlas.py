@@ -15,10 +15,10 @@ fold-aware step). An orbit that the continuity rule already pairs with one of th
 (study.orbits.match_neighbours) is not shot. A converged orbit new there by the identity rule
 (study.orbits.same_orbit) joins the point with ``atlas_round = r`` and is offered in turn to
 its neighbours in the tile, until the tile gains nothing more; the halo gets it next round. The
-point's slots are ordered again (stable ones first where they overflow:
-study.solve.block.slot_order), its census attractors keep their orbits (``attractor_solution``
-follows them) and the crossings of its line are found again (the traced curves' seeds see the
-new orbits).
+point is written again (study.solve.point_state: every orbit, in slot order; the tile's arrays
+grow where a point holds more than they have room for), its census attractors keep their
+orbits (``attractor_solution`` follows them) and the crossings of its line are found again
+(the traced curves' seeds see the new orbits).
 
 Orbits are offered in a fixed order (source points sorted, their orbits in slot order, the
 neighbours lower first along omega, sigma, zeta), so a tile's result depends on the snapshot
@@ -38,14 +38,15 @@ from hertzmap.study.orbits import fold_function, match_neighbours, same_orbit
 from hertzmap.study.schema import (ATTRACTOR_KINDS, ATTRACTOR_VARIABLES, BIFURCATION_KINDS,
                                    CROSSING_SLOTS, CROSSING_VARIABLES, ORBIT_VARIABLES,
                                    VARIABLES)
-from hertzmap.study.solve.block import record_line, slot_order, slot_rank
-from hertzmap.study.solve.census import (NEIGHBOUR_KINDS, census, first_pass_only,
-                                         record_attractors)
+from hertzmap.study.solve.block import record_line
+from hertzmap.study.solve.census import NEIGHBOUR_KINDS, census, first_pass_only
 from hertzmap.study.solve.curves import line_crossings
 from hertzmap.study.solve.point import shoot_targets
+from hertzmap.study.solve.point_state import (RULE_FIELDS, _Lazy, stored_states,  # noqa: F401
+                                              write_states)
 
 #: The per-point variables the atlas rewrites besides the orbit slots (when stored).
-POINT_NAMES = ("orbits_found", "orbits_dropped", "attractor_solution")
+POINT_NAMES = ("orbits_found", "attractor_solution")
 #: Newton iterations of a continuation into a neighbour: one that exists there converges from
 #: the neighbour's start point in a few; most shots that fail are at orbits that end between
 #: the two points (past a fold or a flip), and a long Newton only spent time there
@@ -86,67 +87,15 @@ class TileResult:
     arrays: dict[str, np.ndarray]
     changed: np.ndarray
     shots: int = 0
-    skipped: int = 0
     added: int = 0
 
 
-#: what the identity and continuity rules, the slot order and the crossings read of an orbit
-RULE_FIELDS = ("period", "status", "stable", "atlas_round", "min_q", "max_q", "ptp",
-               "multipliers")
 #: the slot variables a tile reads of its halo (its neighbours' orbits: their rules and start
 #: points); the others are read, rewritten and written over the tile's own cells only
 HALO_NAMES = RULE_FIELDS + ("q0", "v0")
 #: what a census round reads of its halo besides: the neighbours' attractors, whose states
 #: its transients also start from (neighbour_starts)
 NEIGHBOUR_NAMES = ("attractor_kind", "strobe_q", "strobe_v")
-
-
-class _Lazy(dict):
-    """A dict whose missing keys are made on first use by ``make(key)`` (a round after the
-    first touches few of a region's points: the others' orbits are never built)."""
-
-    def __init__(self, make):
-        super().__init__()
-        self.make = make
-
-    def __missing__(self, key):
-        value = self[key] = self.make(key)
-        return value
-
-
-def region_orbits(arrays: dict[str, np.ndarray]) -> dict[tuple, list[dict]]:
-    """The slots of every point of ``arrays`` (dims omega, sigma, zeta, solution) as light
-    solution dicts, in slot order: RULE_FIELDS, x0, and ``source`` (the point and slot they are
-    stored in: the other variables are copied from there when a point is written again);
-    failed solves (status > 0) included, empty slots not. Read column by column (a dict per
-    stored value would cost more than the round's shots), a point's dicts made when first
-    asked for."""
-    status = arrays["status"]
-    cells = np.argwhere(status != st.EMPTY)
-    where = tuple(cells.T)
-    names = [n for n in RULE_FIELDS if n in arrays] + ["x0", "source"]
-    # Python scalars (complex multipliers too): the rules' arithmetic on them is the same
-    # IEEE arithmetic as on numpy scalars, at a tenth of the cost
-    cols = [arrays[n][where].tolist() for n in names[:-2]]
-    cols.append(list(zip(arrays["q0"][where].tolist(), arrays["v0"][where].tolist())))
-    cols.append(list(map(tuple, cells.tolist())))
-    rows: dict[tuple, list[int]] = {idx: [] for idx in np.ndindex(status.shape[:3])}
-    for r, cell in enumerate(cols[-1]):
-        rows[cell[:3]].append(r)
-
-    def make(idx):
-        out = []
-        for r in rows[idx]:
-            d = dict(zip(names, (c[r] for c in cols)))
-            d.setdefault("atlas_round", 0)
-            out.append(d)
-        return out
-
-    return _Lazy(make)
-
-
-def _converged(orbits: list[dict]) -> list[dict]:
-    return [o for o in orbits if o["status"] == st.CONVERGED and o["period"] > 0]
 
 
 def neighbours(idx, shape):
@@ -164,8 +113,9 @@ def neighbours(idx, shape):
 
 def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
                    own: tuple[slice, slice, slice], omega: np.ndarray, sigma: np.ndarray,
-                   zeta: np.ndarray, round_: int, options: dict, max_solutions: int,
-                   level: float, periods: tuple[int, ...], offer_own: bool = False) -> TileResult:
+                   zeta: np.ndarray, round_: int, options: dict, level: float,
+                   periods: tuple[int, ...], offer_own: bool = False,
+                   unstable: str = "searched-periods") -> TileResult:
     """One round at one tile. ``region``: the stored slot and point variables over the tile
     and its one-point halo, as read from the snapshot; ``lines``: the tile's stored crossing
     variables (dims omega_block (1), sigma, zeta, crossing), if any; ``own``: the tile's cells
@@ -177,14 +127,12 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
     this round adds."""
     options = dict(options, max_iter=MAX_ITER, stall_ratio=STALL_RATIO)
     shape = region["status"].shape[:3]
-    orbits = region_orbits(region)
-    out = {n: region[n][own].copy() for n in region if n in ORBIT_VARIABLES + POINT_NAMES}
-    out.update({n: a.copy() for n, a in lines.items()})
+    states = stored_states(region, periods)
     lo = tuple(s.start for s in own)
     own_shape = tuple(s.stop - s.start for s in own)
-    result = TileResult(out, np.zeros(own_shape, bool))
+    result = TileResult({}, np.zeros(own_shape, bool))
     mine = {tuple(a + b for a, b in zip(local, lo)) for local in np.ndindex(own_shape)}
-    current = _Lazy(lambda idx: _converged(orbits[idx]))
+    current = _Lazy(lambda idx: states[idx].orbits)
     added: dict[tuple, list[dict]] = {idx: [] for idx in mine}
     # what is offered to the neighbours first: round 1, every grid orbit; later, the halo's
     # orbits of the last round (the tile's own were offered inside it when they were added)
@@ -193,7 +141,8 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
     fresh = {}
     for idx in map(tuple, np.argwhere(last).tolist()):
         if round_ == 1 or offer_own or idx not in mine:
-            fresh[idx] = [o for o in current[idx] if o["atlas_round"] == round_ - 1]
+            fresh[idx] = [o for o in current[idx] if o["atlas_round"] == round_ - 1
+                          and continues(o, periods, unstable)]
     # the continuity pairing of two neighbours, computed once for both directions (until one
     # of them gains an orbit): (sizes, the paired orbits of the lower point, of the higher)
     pairing: dict[tuple, tuple] = {}
@@ -219,17 +168,7 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
                 if p not in mine:
                     continue
                 done = paired(src, p)
-                full = _full_rank(current[p], max_solutions)
-                for ia, o in offer:
-                    if ia in done:
-                        continue
-                    if full is not None and slot_rank(o) > full:
-                        # the point's slots are full of orbits ranked before it (stable ones,
-                        # lower periods): it would be dropped there (and found again, and
-                        # counted again, from each neighbour of each round)
-                        result.skipped += 1
-                        continue
-                    shots.append((src, p, o))
+                shots += [(src, p, o) for ia, o in offer if ia not in done]
         at = lambda idx: (float(omega[idx[0]]), float(sigma[idx[1]]), float(zeta[idx[2]]))
         solved = shoot_targets([at(p) + (int(o["period"]), tuple(o["x0"]))
                                 for _, p, o in shots], options)
@@ -242,36 +181,63 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
             sol["atlas_round"] = round_
             current[p].append(sol)
             added[p].append(sol)
-            gained.setdefault(p, []).append(sol)
+            if continues(sol, periods, unstable):
+                gained.setdefault(p, []).append(sol)
         fresh = gained
+    changed = {}
     for idx in sorted(mine):
-        if not added[idx]:
-            continue
-        local = tuple(a - b for a, b in zip(idx, lo))
-        result.changed[local] = True
-        result.added += len(added[idx])
-        _rewrite_point(out, region, local, orbits[idx], current[idx], len(added[idx]),
-                       max_solutions, periods)
-    if result.changed.any() and "crossing_kind" in out:
-        before = _Lazy(lambda idx: _converged(orbits[idx]))
-        _recount_crossings(out, own_shape, lo, result.changed, before, current,
-                           omega[own[0]], level, periods)
+        if added[idx]:
+            local = tuple(a - b for a, b in zip(idx, lo))
+            result.changed[local] = True
+            result.added += len(added[idx])
+            changed[local] = states[idx]
+    result.arrays = _tile_arrays(region, lines, own, changed, periods)
+    if result.changed.any() and "crossing_kind" in result.arrays:
+        before = stored_states(region, periods)
+        _recount_crossings(result.arrays, own_shape, lo, result.changed,
+                           _Lazy(lambda idx: before[idx].orbits), current, omega[own[0]],
+                           level, periods)
     return result
+
+
+#: which unstable orbits the atlas continues (search.atlas_unstable): those of the periods the
+#: study searches, or all
+UNSTABLE_SCOPES = ("searched-periods", "all")
+
+
+def continues(orbit: dict, periods: tuple[int, ...], unstable: str) -> bool:
+    """The atlas continues this orbit into its neighbours: a stable orbit always; an unstable
+    one where ``unstable`` is "all" or its period is one the study searches (an unstable orbit
+    of another period, met by the census in a chaotic set, is stored where it was met)."""
+    return bool(orbit["stable"]) or unstable == "all" or int(orbit["period"]) in periods
+
+
+def _tile_arrays(region, lines, own, changed, periods) -> dict[str, np.ndarray]:
+    """The tile's arrays (its cells of the region's slot and point variables, and its lines)
+    with the ``changed`` points ({tile cell: PointState}) written again: sized by the data,
+    the slots grown where a point now holds more than the region had room for."""
+    names = tuple(n for n in region if n in ORBIT_VARIABLES + POINT_NAMES
+                  or n in ATTRACTOR_VARIABLES)
+    tile = {n: region[n][own] for n in names}
+    shape = tuple(s.stop - s.start for s in own)
+    out = write_states(changed, shape, names, periods, source=region, base=tile)
+    out.update({n: a.copy() for n, a in lines.items()})
+    return out
 
 
 def atlas_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
                own: tuple[slice, slice, slice], omega: np.ndarray, sigma: np.ndarray,
-               zeta: np.ndarray, round_: int, options: dict, max_solutions: int, level: float,
+               zeta: np.ndarray, round_: int, options: dict, level: float,
                periods: tuple[int, ...], *, offer_own: bool = False,
-               census: dict | None = None) -> TileResult:
+               census: dict | None = None, unstable: str = "searched-periods") -> TileResult:
     """One tile of one round, of either kind: a continuation round (propagate_tile) or, with
     the census's settings ``census``, a census round (census_tile). The one entry point the
     scheduler's tasks call."""
     if census is None:
         return propagate_tile(region, lines, own, omega, sigma, zeta, round_, options,
-                              max_solutions, level, periods, offer_own=offer_own)
-    return census_tile(region, lines, own, omega, sigma, zeta, round_, options, max_solutions,
-                       level, periods, census)
+                              level, periods, offer_own=offer_own, unstable=unstable)
+    return census_tile(region, lines, own, omega, sigma, zeta, round_, options, level,
+                       periods, census)
 
 
 def _half_steps(shots, solved, at, options) -> int:
@@ -310,8 +276,8 @@ def census_points(arrays: dict[str, np.ndarray], transient_periods: int,
 
 def census_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
                 own: tuple[slice, slice, slice], omega: np.ndarray, sigma: np.ndarray,
-                zeta: np.ndarray, round_: int, options: dict, max_solutions: int,
-                level: float, periods: tuple[int, ...], search: dict) -> TileResult:
+                zeta: np.ndarray, round_: int, options: dict, level: float,
+                periods: tuple[int, ...], search: dict) -> TileResult:
     """A census round at one tile (after the atlas's fixed point): the census
     (study.solve.census.census) again at each census_points point, now knowing its orbits
     (the stable ones the atlas brought; its longer passes tell a chaotic attractor beside
@@ -320,40 +286,37 @@ def census_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
     tile's stored slot, point and attractor variables (``own`` covers it); ``search``: the
     census's settings (n_states, transient_periods, record_periods, max_transient_periods,
     point_steps). Returns the tile's arrays (atlas_names) where points were revisited."""
-    orbits = region_orbits(region)
-    names = ORBIT_VARIABLES + POINT_NAMES + ATTRACTOR_VARIABLES
-    out = {n: region[n][own].copy() for n in region if n in names}
-    out.update({n: a.copy() for n, a in lines.items()})
+    states = stored_states(region, periods)
     lo = tuple(s.start for s in own)
     own_shape = tuple(s.stop - s.start for s in own)
-    result = TileResult(out, np.zeros(own_shape, bool))
-    need = census_points(out, search["transient_periods"], search["record_periods"])
-    current = {}
+    result = TileResult({}, np.zeros(own_shape, bool))
+    need = census_points({n: region[n][own] for n in region}, search["transient_periods"],
+                         search["record_periods"])
+    changed = {}
     gained = np.zeros(own_shape, bool)
     for local in map(tuple, np.argwhere(need)):
         idx = tuple(int(a + b) for a, b in zip(local, lo))
-        known = _converged(orbits[idx])
+        state = states[idx]
         w = float(omega[idx[0]])
-        found, new = census(w, float(sigma[idx[1]]), float(zeta[idx[2]]), known, options,
-                            **search, neighbour_starts=neighbour_starts(region, idx))
+        found, new = census(w, float(sigma[idx[1]]), float(zeta[idx[2]]), state.orbits,
+                            options, **search, neighbour_starts=neighbour_starts(region, idx))
         for sol in new:
             sol["atlas_round"] = round_
-        current[idx] = known + new
-        kept = _rewrite_point(out, region, local, orbits[idx], current[idx], len(new),
-                              max_solutions, periods)
-        for n in ATTRACTOR_VARIABLES:
-            if n in out:
-                out[n][local] = VARIABLES[n].fill
-        record_attractors(out, *local, w, found, int(search["n_states"]),
-                          lambda orbit: next((k for k, o in enumerate(kept) if o is orbit), -1))
+        state.orbits = state.orbits + new
+        state.attractors = found
+        state.n_states = int(search["n_states"])
+        state.omega = w
+        changed[local] = state
         result.changed[local] = True
         result.shots += 1
         result.added += len(new)
         gained[local] = bool(new)
-    if gained.any() and "crossing_kind" in out:
-        before = _Lazy(lambda idx: _converged(orbits[idx]))
-        now = _Lazy(lambda idx: current.get(idx) or before[idx])
-        _recount_crossings(out, own_shape, lo, gained, before, now, omega[own[0]], level,
+    result.arrays = _tile_arrays(region, lines, own, changed, periods)
+    if gained.any() and "crossing_kind" in result.arrays:
+        before = stored_states(region, periods)
+        now = _Lazy(lambda idx: states[idx].orbits)
+        _recount_crossings(result.arrays, own_shape, lo, gained,
+                           _Lazy(lambda idx: before[idx].orbits), now, omega[own[0]], level,
                            periods)
     return result
 
@@ -371,47 +334,6 @@ def neighbour_starts(region: dict[str, np.ndarray], idx: tuple) -> list[tuple[fl
             if np.all(np.isfinite(x)):
                 out.append(x)
     return out
-
-
-def _full_rank(orbits, max_solutions):
-    """The rank of the last orbit a full point keeps (None when it has a free slot)."""
-    if len(orbits) < max_solutions:
-        return None
-    return sorted(slot_rank(o) for o in orbits)[max_solutions - 1]
-
-
-def _rewrite_point(out, region, local, before, orbits, n_added, max_solutions, periods):
-    """The point's slots from its orbits (study.solve.block's order and rules), its counts,
-    and its attractors' slots following their orbits. A stored orbit's variables are copied
-    from where the snapshot (``region``) holds it."""
-    kept = slot_order(orbits, max_solutions)
-    if 1 in periods and not any(o["period"] == 1 for o in kept):
-        # why the 1T solve failed, kept first as the grid keeps it
-        kept = [o for o in before if o["status"] != st.CONVERGED][:1] + kept
-    kept = kept[:max_solutions]
-    for n in ORBIT_VARIABLES:
-        if n not in out:
-            continue
-        arr = out[n]
-        arr[local] = VARIABLES[n].fill
-        for slot, o in enumerate(kept):
-            if "source" in o:
-                arr[local + (slot,)] = region[n][o["source"]]
-            else:
-                arr[local + (slot,)] = (o["x0"][0] if n == "q0" else o["x0"][1] if n == "v0"
-                                        else o[n])
-    if "orbits_found" in out:
-        out["orbits_found"][local] = max(int(out["orbits_found"][local]), 0) + n_added
-        if "orbits_dropped" in out:
-            stored = sum(1 for o in kept if o["status"] == st.CONVERGED)
-            out["orbits_dropped"][local] = max(0, int(out["orbits_found"][local]) - stored)
-    if "attractor_solution" in out:
-        slots = out["attractor_solution"][local]
-        for a, s in enumerate(slots):
-            # slots are filled from 0: the orbit in slot s is the snapshot's s-th
-            if 0 <= s < len(before):
-                slots[a] = next((k for k, o in enumerate(kept) if o is before[s]), -1)
-    return kept
 
 
 def _crossing_records(out, j, k) -> list[dict]:

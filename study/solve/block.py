@@ -17,8 +17,9 @@ these made a block 5.6x cheaper (15 -> 2.7 ms per point with 1T and 2T, sigma 0.
 at zeta 0.01) with no orbit lost and 4 more found.
 
 Distinct solutions are kept once (the identity rule of study.orbits); a 2T solve that lands on
-the 1T orbit (minimal period 1) is dropped. Slot 0 always holds the 1T result (converged or the
-failure status of its best try). The arrays are those of the stored schema (study.schema).
+the 1T orbit (minimal period 1) is not a new orbit. Every orbit found is stored, in the slots
+study.solve.point_state orders (slot 0: the 1T result, converged or the failure status of its
+best try). The arrays are those of the stored schema (study.schema), sized by the data.
 
 This module is physics and numpy only: the scheduler ships ``solve_block`` without knowing it.
 """
@@ -31,39 +32,15 @@ import numpy as np
 from hertzmap.kernels import status as st
 from hertzmap.kernels.model import MODELS, contact_loss_level
 from hertzmap.study.schema import (ATTRACTOR_VARIABLES, BIFURCATION_KINDS, BIFURCATION_SLOTS,
-                          BIFURCATION_VARIABLES, CROSSING_SLOTS, CROSSING_VARIABLES,
-                          ORBIT_VARIABLES, empty_arrays)
-from hertzmap.study.solve.census import record_attractors
+                                   BIFURCATION_VARIABLES, CROSSING_SLOTS, CROSSING_VARIABLES,
+                                   ORBIT_VARIABLES, empty_arrays)
 from hertzmap.study.solve.curves import line_crossings
 from hertzmap.study.solve.discovery import discover_line
 from hertzmap.study.solve.line import LINEAR_SEED_STRIDE, MMS_SEED_STRIDE, LineSearch
+from hertzmap.study.solve.point_state import PointState, write_states
 
-
-def _record(arrays, points, j, k, slots, sols):
-    """Write the solutions ``sols`` of line (j, k) into their cells (omega index ``points``,
-    slot ``slots``), one fancy-indexed assignment per variable for the whole line."""
-    cells = (points, j, k, slots)
-    starts = np.array([s["x0"] for s in sols])
-    for name in ORBIT_VARIABLES:
-        if name == "q0":
-            arrays[name][cells] = starts[:, 0]
-        elif name == "v0":
-            arrays[name][cells] = starts[:, 1]
-        else:
-            arrays[name][cells] = np.array([s[name] for s in sols])
-
-
-def slot_rank(orbit) -> tuple:
-    """Which orbits a full point keeps first: stable ones, then by period and ptp."""
-    return (not orbit["stable"], orbit["period"], orbit["ptp"])
-
-
-def slot_order(orbits, max_solutions):
-    """The orbits a point's slots hold, in slot order: where there are more orbits than slots,
-    the stable ones are kept first (then by period and ptp); the kept ones are ordered by
-    (period, ptp), so that slot 0 holds the 1T orbit of smallest ptp."""
-    kept = sorted(orbits, key=slot_rank)[:max_solutions]
-    return sorted(kept, key=lambda s: (s["period"], s["ptp"]))
+#: the time-limit mark of a point its block did not reach (slot 0)
+TIME_LIMIT_RECORD = {"status": st.TIME_LIMIT, "period": 0}
 
 
 def line_bifurcations(special, omega_lo, omega_hi) -> list[dict]:
@@ -112,7 +89,7 @@ def entry_kernels(*, attractors="never", turn_folds=True, discover=False, locate
 
 
 def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hertz", rtol=1e-10,
-                max_solutions=4, discover=False, transients=16, locate=False, crossings=False,
+                discover=False, transients=16, locate=False, crossings=False,
                 harmonics=True, time_budget=None, seeds=(), turn_folds=True,
                 attractors="never", initial_states=16, transient_periods=500,
                 record_periods=128, max_transient_periods=None, point_steps=2_000_000,
@@ -156,10 +133,12 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
     ``time_limit`` in slot 0 (period 0) and the block returns: a runaway block is cut and
     recorded instead of holding up a study. Every kernel call is itself bounded in work.
 
-    Returns {variable: array} with shape (len(omega), len(sigma), len(zeta), max_solutions)
-    (+ (2,) for multipliers, + (4,) for force_harmonics); the dtypes and the values of empty
-    slots are those of study.schema.VARIABLES. Dimensionless inputs (paper Eq. 7). Deterministic: the same block
-    gives the same arrays, bit for bit, on any worker.
+    Returns {variable: array} with shape (len(omega), len(sigma), len(zeta), slots) (+ (2,)
+    for multipliers, + (4,) for force_harmonics): every orbit found at a point, ``slots`` the
+    most any point of the block holds in whole chunks (study.schema.chunked_length); the
+    census's variables likewise along ``attractor``; the dtypes and the values of empty slots
+    are those of study.schema.VARIABLES. Dimensionless inputs (paper Eq. 7). Deterministic:
+    the same block gives the same arrays, bit for bit, on any worker.
     """
     omega = np.asarray(omega, float)
     sigma = np.asarray(sigma, float)
@@ -174,17 +153,20 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
                    mms_stride=None if seed_strides[1] is None else int(seed_strides[1]),
                    harmonics=bool(harmonics),
                    seeds=tuple((int(p), float(q), float(v)) for p, q, v in seeds))
-    names = ORBIT_VARIABLES + ("orbits_found", "orbits_dropped") \
-        + (BIFURCATION_VARIABLES if locate else ()) \
-        + (CROSSING_VARIABLES if crossings else ()) \
+    point_names = ORBIT_VARIABLES + ("orbits_found",) \
         + (ATTRACTOR_VARIABLES if attractors != "never" else ())
-    arrays = empty_arrays((omega.size, sigma.size, zeta.size), int(max_solutions), names)
+    line_names = (BIFURCATION_VARIABLES if locate else ()) + (CROSSING_VARIABLES if crossings else ())
+    shape = (omega.size, sigma.size, zeta.size)
+    arrays = empty_arrays(shape, names=line_names)
+    states: dict[tuple, PointState] = {}
     deadline = None if time_budget is None else time.monotonic() + float(time_budget)
     level = contact_loss_level(model, float(exponent))
     for j in range(sigma.size):
         for k in range(zeta.size):
             if deadline is not None and time.monotonic() > deadline:
-                arrays["status"][:, j, k, 0] = st.TIME_LIMIT
+                for i in range(omega.size):
+                    states[i, j, k] = PointState(status_record=TIME_LIMIT_RECORD,
+                                                 visited=False, omega=float(omega[i]))
                 continue
             search = LineSearch(omega, float(sigma[j]), float(zeta[k]), periods, options,
                                 deadline)
@@ -214,27 +196,14 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
             if crossings and search.visited.all():
                 record_line(arrays, CROSSING_VARIABLES, CROSSING_SLOTS, j, k,
                              line_crossings(omega, per_point, level, periods))
-            points, slots, recorded = [], [], []
             for i in range(omega.size):
-                if search.visited[i]:
-                    arrays["orbits_found"][i, j, k] = len(per_point[i])
-                ordered = slot_order(per_point[i], max_solutions)
-                if 1 in periods and not any(s["period"] == 1 for s in ordered) \
-                        and search.best_1t[i] is not None:
-                    ordered = [search.best_1t[i]] + ordered     # record why the 1T solve failed
-                for slot, sol in enumerate(ordered[:max_solutions]):
-                    points.append(i)
-                    slots.append(slot)
-                    recorded.append(sol)
-                if search.visited[i]:
-                    arrays["orbits_dropped"][i, j, k] = len(per_point[i]) - sum(
-                        1 for sol in ordered[:max_solutions] if sol["status"] == st.CONVERGED)
+                state = PointState(list(per_point[i]), visited=bool(search.visited[i]),
+                                   omega=float(omega[i]))
+                state.status_record = search.best_1t[i] if search.visited[i] \
+                    else TIME_LIMIT_RECORD
                 if i in search.attractors:
-                    stored = ordered[:max_solutions]
-                    record_attractors(
-                        arrays, i, j, k, float(omega[i]), search.attractors[i], initial_states,
-                        lambda orbit: next((n for n, s in enumerate(stored) if s is orbit), -1))
-            if recorded:
-                _record(arrays, points, j, k, slots, recorded)
-            arrays["status"][~search.visited, j, k, 0] = st.TIME_LIMIT
+                    state.attractors = search.attractors[i]
+                    state.n_states = int(initial_states)
+                states[i, j, k] = state
+    arrays.update(write_states(states, shape, point_names, periods))
     return arrays

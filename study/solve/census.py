@@ -73,11 +73,10 @@ from hertzmap.kernels import status as st
 from hertzmap.kernels.attractors import (A, LYAPUNOV_FIELDS, N_ATTRACTOR_FIELDS, N_LYAPUNOV_FIELDS,
                                 NO_LABEL, attractor_batch_into, lyapunov_into)
 from hertzmap.kernels.model import MODELS
-from hertzmap.kernels.records import ATTRACTOR
 from hertzmap.kernels.shooting import N_FIELDS
 from hertzmap.study.basins import BasinEntropy, scattered_basin_entropy
 from hertzmap.study.orbits import same_orbit
-from hertzmap.study.schema import ATTRACTOR_KINDS, ATTRACTOR_SLOTS, STROBE_POINTS
+from hertzmap.study.solve.certificate import certify, orbit_points
 from hertzmap.study.solve.point import shoot_seeds, solutions_from_rows
 from hertzmap.study.solve.recognition import (NOTHING_KNOWN, OPEN_LEADERS, KnownAttractors,
                                               periodic_index, periodic_label)
@@ -125,9 +124,18 @@ RECOGNITION = True
 #: transients also start from the neighbouring points' attractors (``neighbour_starts``); off,
 #: from the point's own states only (benchmarks compare both)
 NEIGHBOUR_STARTS = True
+#: transients stop once in a certified neighbourhood of a stable orbit the point knows
+#: (study.solve.certificate), contracting there; off, only on the points of periodic attractors
+#: the census's own runs found (benchmarks compare both)
+CERTIFIED = True
+#: a stable orbit a run of the census finds is certified when more than this many of the
+#: point's own runs are still to come
+CERTIFY_AHEAD = 2
+#: the longest period the census detects (kernels.attractors.M_MAX)
+MAX_CYCLE = 16
 
 
-@dataclass
+@dataclass(eq=False)
 class Attractor:
     """One attractor of a grid point: its kind, how many initial states reach it, its window's
     exponent and measures, and (periodic) its orbit."""
@@ -206,8 +214,25 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
     new: list[dict] = []
     periodic: list[Attractor] = []
     # recognition (study.solve.recognition): what the point's earlier transients found; open
-    # sets only while the point has no stable orbit
+    # sets only while the point has no stable orbit; and the point's stable orbits known before
+    # the census (shot by the grid's search, continued by the atlas), each in its certified
+    # neighbourhood (study.solve.certificate): a transient that reaches one stops there
     recognised = KnownAttractors()
+    certificates: dict[int, np.ndarray] = {}        # periodic attractor index -> its row
+    first_run: dict[int, int] = {}                  # periodic attractor index -> a run on it
+    if RECOGNITION and CERTIFIED:
+        for orbit in (o for o in orbits if o["status"] == st.CONVERGED and o.get("stable")
+                      and 0 < o["period"] <= MAX_CYCLE):
+            pts = orbit_points(orbit, omega, sigma, zeta, options)
+            if pts is None:
+                continue
+            row = certify(orbit, omega, sigma, zeta, options,
+                          _other_points(orbits, orbit, pts, omega, sigma, zeta, options))
+            if row is None:
+                continue
+            periodic.append(Attractor("periodic", orbit=orbit, strobe=pts))
+            certificates[len(periodic) - 1] = row
+            recognised.add_certified(periodic_label(len(periodic) - 1), row)
     follows: dict[int, int] = {}        # run -> the open set's label it was recognised on
     settled_on: dict[int, Attractor] = {}
     open_sets = [not has_stable_orbit(orbits)]
@@ -229,6 +254,7 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
                 recognised.add_open(lead, strobe_points(strobes[lead], rows[lead]))
 
     def count_with(a: Attractor, r: int) -> None:
+        first_run.setdefault(next(i for i, b in enumerate(periodic) if b is a), r)
         if r < k:
             a.count += 1
             a.states.append(tuple(states[r]))
@@ -253,6 +279,16 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
             if RECOGNITION:
                 recognised.add_periodic(periodic_label(len(periodic) - 1), a.strobe[-m:],
                                         CYCLE_TOL, (CYCLE_REPEATS + 1) * m)
+                if CERTIFIED and k - r > CERTIFY_AHEAD:
+                    # enough of the point's own runs are left for the certificate to pay
+                    row = certify(match, omega, sigma, zeta, options, _other_points(
+                        known, match, a.strobe[-m:], omega, sigma, zeta, options))
+                    if row is not None:
+                        certificates[len(periodic) - 1] = row
+                        recognised.add_certified(periodic_label(len(periodic) - 1), row)
+        elif a.row is None:
+            # a certified orbit reached by detection before recognition: its window measures
+            a.row = rows[r].copy()
         if open_sets[0]:
             # beside a stable orbit, chaos needs each transient's own evidence
             open_sets[0] = False
@@ -321,6 +357,8 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
                 # next to the orbit from its start stops before its detection and Newton
                 here.add_periodic(periodic_label(index), a.strobe[-a.period:], CYCLE_TOL,
                                   CYCLE_REPEATS * a.period)
+                if index in certificates:
+                    here.add_certified(periodic_label(index), certificates[index])
 
         know_periodic(0)
         own_open = [r for r in range(k) if outcome[r] == "open"]
@@ -333,7 +371,15 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
         for r in range(k, n):
             known_before = len(periodic)
             transient(r, transient_periods, known=here)
-            outcome[r] = "known" if int(rows[r, A["status"]]) == st.RECOGNISED else take(r)
+            if int(rows[r, A["status"]]) == st.RECOGNISED:
+                label = int(rows[r, A["recognised_as"]])
+                if label < 0:
+                    # a periodic attractor: one of the own runs', or a certified orbit of the
+                    # point that none of them reached (reached now, with no basin)
+                    count_with(periodic[periodic_index(label)], r)
+                outcome[r] = "known"
+            else:
+                outcome[r] = take(r)
             know_periodic(known_before)
             if outcome[r] == "open":
                 here.add_open(r, strobe_points(strobes[r], rows[r]))
@@ -471,10 +517,43 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
     if failed:
         others.append(Attractor("failed", count=len(failed), row=rows[failed[0]].copy(),
                                 states=[tuple(states[r]) for r in failed]))
-    # largest basin first; at most ATTRACTOR_SLOTS (the smallest basins merge into the last)
-    found = sorted(periodic, key=lambda a: -a.count) + sorted(others, key=lambda a: -a.count)
+    # the certified orbits known before the census are attractors of it where a run reached
+    # them; their window measures (as a settled run's: one period of the orbit, at the
+    # study's rtol) from a run started on the orbit, their periods run a run's that reached
+    # them
+    reached = [a for index, a in enumerate(periodic) if index in first_run]
+    for index, a in enumerate(periodic):
+        if index in first_run and a.row is None:
+            a.row, a.strobe = orbit_window(omega, sigma, zeta, a, options, record_periods)
+            a.row[A["periods_run"]] = rows[first_run[index], A["periods_run"]]
+    # largest basin first (every one is stored: study.solve.point_state)
+    found = sorted(reached, key=lambda a: -a.count) + sorted(others, key=lambda a: -a.count)
     found.sort(key=lambda a: -a.count)
     return found, new
+
+
+def _other_points(orbits, orbit, points, omega, sigma, zeta, options) -> np.ndarray:
+    """The points a certified neighbourhood of ``orbit`` (its stroboscopic ``points``) keeps
+    clear of: its other phases and the start points of the point's other orbits."""
+    xs = [np.asarray(points[1:], float).reshape(-1, 2)]
+    xs += [np.asarray(o["x0"], float).reshape(1, 2) for o in orbits
+           if o is not orbit and o["status"] == st.CONVERGED]
+    return np.concatenate(xs)
+
+
+def orbit_window(omega, sigma, zeta, a: Attractor, options: dict, record_periods: int
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """The row and stroboscopic points of a run started on a certified orbit's start point:
+    its detection, shooting and measures over one period of the orbit, as a run that settled
+    on it (run_transients)."""
+    m = a.period
+    x0 = np.asarray(a.orbit["x0"], float)
+    rows = np.empty((1, N_ATTRACTOR_FIELDS))
+    orbit_rows = np.empty((1, N_FIELDS))
+    strobes = np.empty((1, int(record_periods), 2))
+    run_transients(omega, sigma, zeta, x0[:1], x0[1:], options, (CYCLE_REPEATS + 2) * m + 16,
+                   record_periods, rows, orbit_rows, strobes)
+    return rows[0], strobe_points(strobes[0], rows[0])
 
 
 def attractor_starts(found: list[Attractor]) -> list[tuple[float, float]]:
@@ -590,52 +669,6 @@ def strobe_points(strobe: np.ndarray, row: np.ndarray) -> np.ndarray:
     """The stroboscopic points a transient's row says it recorded, of its ``strobe`` array."""
     n = int(np.nan_to_num(row[A["strobe_count"]]))
     return np.array(strobe[:min(n, strobe.shape[0])])
-
-
-#: (stored name, kernel column) of the attractor record's stored fields copied from its row as
-#: they are (kernels.records.ATTRACTOR); the exponent and its error are the census's choice
-_WINDOW_COLUMNS = tuple((f.name, A[f.kernel_columns[0]]) for f in ATTRACTOR.stored()
-                        if f.kernel_columns and f.name not in ("lyapunov_exponent",
-                                                                "lyapunov_error"))
-
-
-def record_attractors(arrays: dict, i: int, j: int, k: int, omega: float,
-                      found: list[Attractor], n_states: int, slot_of) -> None:
-    """Write a point's attractors into the block arrays (study.schema ATTRACTOR_VARIABLES).
-    ``slot_of(orbit)``: the solution slot the orbit is stored in, or -1."""
-    arrays["attractor_count"][i, j, k] = len(found)
-    for a_slot, a in enumerate(found[:ATTRACTOR_SLOTS]):
-        cell = (i, j, k, a_slot)
-        arrays["attractor_kind"][cell] = ATTRACTOR_KINDS[a.kind]
-        if "unsettled_reason" in arrays:
-            arrays["unsettled_reason"][cell] = a.reason
-        arrays["attractor_period"][cell] = a.period
-        arrays["attractor_solution"][cell] = slot_of(a.orbit) if a.orbit is not None else -1
-        arrays["basin_fraction"][cell] = a.count / n_states
-        row = a.row
-        if a.kind == "periodic":
-            # a stable orbit's exponent is that of its largest multiplier, per unit tau
-            mu = float(np.abs(a.orbit["multipliers"]).max())
-            T = 2.0 * math.pi / omega
-            arrays["lyapunov_exponent"][cell] = math.log(mu) / (a.period * T) if mu > 0 else -math.inf
-        elif row is not None:
-            arrays["lyapunov_exponent"][cell] = row[A["lyapunov"]]
-            arrays["lyapunov_error"][cell] = row[A["lyapunov_error"]]
-        if row is not None:
-            for name, column in _WINDOW_COLUMNS:
-                arrays[name][cell] = row[column]
-        n = min(a.strobe.shape[0], STROBE_POINTS)
-        if n:
-            arrays["strobe_q"][cell + (slice(STROBE_POINTS - n, None),)] = a.strobe[-n:, 0]
-            arrays["strobe_v"][cell + (slice(STROBE_POINTS - n, None),)] = a.strobe[-n:, 1]
-    if len(found) > ATTRACTOR_SLOTS:
-        # the smallest basins share the last slot's count
-        last = (i, j, k, ATTRACTOR_SLOTS - 1)
-        arrays["basin_fraction"][last] = sum(a.count for a in found[ATTRACTOR_SLOTS - 1:]) / n_states
-    if "basin_entropy" in arrays:
-        e = census_basin_entropy(found)
-        arrays["basin_entropy"][i, j, k] = e.basin_entropy
-        arrays["boundary_basin_entropy"][i, j, k] = e.boundary_basin_entropy
 
 
 def census_basin_entropy(found: list[Attractor]) -> BasinEntropy:

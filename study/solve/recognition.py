@@ -82,7 +82,18 @@ class KnownAttractors:
     def __init__(self):
         # label -> (points, tolerance per point (None: an open set's, not computed yet), visits)
         self._sets: dict[int, tuple] = {}
+        # label -> a certified stable orbit's row (kernels.attractors C_* columns)
+        self._certified: dict[int, np.ndarray] = {}
         self._arrays: dict[bool, tuple] = {}
+
+    def add_certified(self, label: int, row: np.ndarray) -> None:
+        """A stable orbit with its certified neighbourhood (study.solve.certificate): a
+        transient is on it once inside and contracting there (kernels.attractors)."""
+        self._certified[int(label)] = np.asarray(row, float)
+        self._arrays.clear()
+
+    def certified(self, label: int) -> bool:
+        return int(label) in self._certified
 
     def add_periodic(self, label: int, points: np.ndarray, cycle_tol: float,
                      visits: int) -> None:
@@ -116,8 +127,9 @@ class KnownAttractors:
             self.remove(label)
 
     def arrays(self, open_sets: bool = True) -> tuple:
-        """(known, known_label, cell_start, grid) for kernels.attractors.attractor_batch_into:
-        every known attractor, or (``open_sets`` False) the periodic ones only."""
+        """(known, known_label, cell_start, grid, cert, cert_label) for
+        kernels.attractors.attractor_batch_into: every known attractor, or (``open_sets``
+        False) the periodic ones only; the certified stable orbits always."""
         if open_sets not in self._arrays:
             sets = []
             for lab, (p, tol, visits) in self._sets.items():
@@ -127,9 +139,12 @@ class KnownAttractors:
                         self._sets[lab] = (p, tol, visits)
                     sets.append((p, np.full(p.shape[0], lab, np.int64), tol,
                                  np.full(p.shape[0], float(visits))))
+            certs = sorted(self._certified.items())
+            cert = (np.array([r for _, r in certs]), [lab for lab, _ in certs]) if certs \
+                else ((), ())
             self._arrays[open_sets] = known_attractors(
-                *(np.concatenate(column) for column in zip(*sets))) if sets else \
-                known_attractors((), (), (), ())
+                *(np.concatenate(column) for column in zip(*sets)), *cert) if sets else \
+                known_attractors((), (), (), (), *cert)
         return self._arrays[open_sets]
 
 

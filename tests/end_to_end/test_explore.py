@@ -63,9 +63,6 @@ omega = { start = 1.8, stop = 2.0, num = 11 }
 sigma = { start = 0.3, stop = 0.6, num = 16 }
 zeta = 0.01
 
-[solver]
-max_solutions = 4
-
 [search]
 periods = [1, 2]
 

@@ -44,7 +44,6 @@ kind = "hertz"
 exponent = 1.5
 [solver]
 rtol = 1e-10
-max_solutions = 4
 [search]
 periods = [1, 2]
 [products]
@@ -209,14 +208,14 @@ def test_every_stable_3t_orbit_inside_the_fold_curve_is_hatched(run):
         stored = [np.array([q, v]) for q, v in zip(ds.q0.values[i, j][slots],
                                                    ds.v0.values[i, j][slots])]
         if not any(held(y, xs) for y in stored):
-            not_held.append((w, s, xs[0].tolist(), int(ds.orbits_dropped.values[i, j])))
+            not_held.append((w, s, xs[0].tolist(), int(ds.orbits_found.values[i, j])))
     assert len(inside) >= 40, len(inside)
     # a point here is either a wrong side / region (the pair does not exist there) or a start
     # the guesses miss: the test's own failure, not the map's
     assert not missing, f"no stable 3T orbit found inside the fold curve at {missing}"
     assert not unhatched, f"stable 3T orbit, map not hatched (omega, sigma, x, map_class): " \
                           f"{unhatched}"
-    assert not not_held, f"stable 3T orbit not in the slots (omega, sigma, x, dropped): " \
+    assert not not_held, f"stable 3T orbit not in the slots (omega, sigma, x, orbits found): " \
                          f"{not_held}"
     # the atlas's part: lines the grid's search left without the 3T orbit are hatched too
     grid_3t = ((ds.status.values == 0) & (ds.period.values == 3)

@@ -78,7 +78,7 @@ def base() -> dict:
         "grid": {"omega": {"start": 0.5, "stop": 2.5, "num": 5}, "sigma": [0.1, 0.2],
                  "zeta": 0.01},
         "model": {"kind": "hertz", "exponent": 1.5},
-        "solver": {"rtol": 1e-10, "max_solutions": 4},
+        "solver": {"rtol": 1e-10},
         "search": {"periods": [1, 2]},
         "products": {"outputs": ["orbits", "measures"]},
         "rig": {"E": 2.1e11, "nu": 0.3, "R": 0.0127, "m": 1.2, "N": 50.0, "contact": "double"},
@@ -97,7 +97,7 @@ NUMERIC_LEAVES = [("model", "exponent"), ("solver", "rtol"), ("rig", "E"), ("rig
                   ("rig", "R"), ("rig", "m"), ("rig", "N")]
 ALLOWED = {"": ["study", "grid", "model", "solver", "search", "products", "rig"],
            "study": ["name", "description"], "grid": AXES, "model": ["kind", "exponent"],
-           "solver": ["rtol", "max_solutions"], "search": ["periods"], "products": ["outputs"],
+           "solver": ["rtol"], "search": ["periods"], "products": ["outputs"],
            "rig": ["E", "nu", "R", "m", "N", "contact"]}
 
 
@@ -198,9 +198,9 @@ def leaf_bad(draw):
             lambda s: s not in ("hertz", "taylor"))))
         return doc, {"model.kind"}
     if which == "max_solutions":
-        doc["solver"]["max_solutions"] = draw(hs.one_of(
-            hs.integers(max_value=0), hs.integers(min_value=17), hs.floats(1, 16), hs.booleans(),
-            NONFINITE, hs.text(max_size=3)))
+        # no longer a setting (every orbit found is stored): any value is refused by name
+        doc["solver"]["max_solutions"] = draw(hs.one_of(hs.integers(), hs.booleans(),
+                                                        NONFINITE, hs.text(max_size=3)))
         return doc, {"solver.max_solutions"}
     if which == "periods":
         doc["search"]["periods"] = draw(hs.one_of(
@@ -345,11 +345,10 @@ BAD_ARGS = [
 
 # -- too large for the disk or the memory: refused by the dry run, before anything is written -----
 
-def _big_study(tmp_path, slots=16) -> Path:
+def _big_study(tmp_path) -> Path:
     p = tmp_path / "big.toml"
     p.write_text(to_toml({"grid": {"omega": {"start": 0.1, "stop": 5.0, "num": 20000},
                                    "sigma": {"start": 0.0, "stop": 1.0, "num": 1000}, "zeta": 0.01},
-                          "solver": {"max_solutions": slots},
                           "products": {"outputs": ["orbits", "measures", "force_harmonics",
                                                    "diagnostics"]}}))
     return p
@@ -470,7 +469,7 @@ def test_store_too_large_for_the_disk_is_refused(tmp_path, monkeypatch):
     for extra in (["--dry-run"], []):
         rc, err = run_main(["run", str(p), "--store", str(tmp_path / "big.zarr"), *extra])
         assert rc == 2, err
-        assert "grid: 20000 x 1000 x 1 points x 16 slots need a store of about" in err
+        assert "grid: 20000 x 1000 x 1 points need a store of about" in err
         assert "free at" in err
     assert sorted(os.listdir(tmp_path)) == ["big.toml"]
     monkeypatch.setenv(run.SKIP_SPACE_ENV, "1")
@@ -482,7 +481,7 @@ def test_store_too_large_for_the_disk_is_refused(tmp_path, monkeypatch):
 def test_study_too_large_for_the_memory_is_refused(tmp_path, monkeypatch):
     import hertzmap.scheduler.resources as run
 
-    p = _big_study(tmp_path, slots=1)
+    p = _big_study(tmp_path)
     # the memory check alone: the disk's (the test above) would refuse this store first where
     # tmp_path has less than its ~51 GB free (a tmpfs, a small disk)
     monkeypatch.setenv(run.SKIP_SPACE_ENV, "1")
@@ -495,7 +494,7 @@ def test_study_too_large_for_the_memory_is_refused(tmp_path, monkeypatch):
 def test_largest_allowed_grid_dry_run_is_quick_and_writes_nothing(tmp_path, monkeypatch):
     import hertzmap.scheduler.resources as run
 
-    p = _big_study(tmp_path, slots=1)
+    p = _big_study(tmp_path)
     # the whole dry run, wherever tmp_path is: its ~51 GB store is the disk check's case (above)
     monkeypatch.setenv(run.SKIP_SPACE_ENV, "1")
     rc, err = run_main(["run", str(p), "--store", str(tmp_path / "big.zarr"), "--dry-run"])

@@ -348,7 +348,7 @@ def test_known_near_is_the_nearest_point_within_its_tolerance():
         pts = rng.normal(0.0, spread, (n, 2))
         labels = rng.integers(-3, 3, n)
         tol = rng.uniform(0.01, 0.6, n)
-        known, lab, start, grid = known_attractors(pts, labels, tol, 1.0)
+        known, lab, start, grid = known_attractors(pts, labels, tol, 1.0)[:4]
         for _ in range(400):
             q, v = rng.normal(0.0, spread * 1.2, 2)
             own = int(rng.integers(-3, 4))
@@ -357,7 +357,7 @@ def test_known_near_is_the_nearest_point_within_its_tolerance():
             expect = int(np.argmin(np.where(ok, d, np.inf))) if ok.any() else -1
             assert known_near(known, lab, start, grid, own, q, v) == expect
     # points that coincide (a zero tolerance, the smallest cell) and states far off the grid
-    known, lab, start, grid = known_attractors([(1.0, 2.0)] * 3, 4, 0.0, 1.0)
+    known, lab, start, grid = known_attractors([(1.0, 2.0)] * 3, 4, 0.0, 1.0)[:4]
     assert known_near(known, lab, start, grid, -1, 1.0, 2.0) >= 0
     for q, v in ((1.0 + 1e-9, 2.0), (1e300, -1e300), (np.nan, 0.0), (np.inf, 2.0)):
         assert known_near(known, lab, start, grid, -1, q, v) == -1

@@ -16,19 +16,21 @@ from hertzmap.scheduler.plan import choose_chunks, make_plan
 from hertzmap.scheduler.store import (Lock, Store, StoreError, list_products, lock_path, open_or_create,
                              read_product, write_product, write_products)
 from hertzmap.study import products as P
-from hertzmap.study.schema import (VARIABLES, stored_variables)
+from hertzmap.study.schema import (SLOT_CHUNK, VARIABLES, chunked_length, slot_counts,
+                                   stored_variables)
 from hertzmap.study.schema import PRODUCT_GROUP
 from tests.helpers import (ALL_OUTPUTS_STUDY, STORE_TEST_STUDY, placeholder_run, placeholder_study,
                            write_results)
 from tests.helpers import placeholder_solve_block
 
 
-def _random_block(names, shape, max_solutions, rng, empty):
-    """Arrays with the solve_block contract: random values with NaNs, or all fill (``empty``)."""
+def _random_block(names, shape, rng, empty, slots=None):
+    """Arrays with the solve_block contract: random values with NaNs, or all fill (``empty``);
+    ``slots``: the lengths of the slot dims (default one chunk each)."""
     out = {}
     for name in names:
         v = VARIABLES[name]
-        full = v.block_shape(tuple(shape), max_solutions)
+        full = v.block_shape(tuple(shape), slots)
         dtype = np.dtype(v.dtype)
         if empty:
             a = np.full(full, v.fill, dtype=dtype)
@@ -59,8 +61,18 @@ def test_run_writes_every_block_and_flags(tmp_path, client):
     assert bool(ds.task_done.all())
     s = placeholder_study()
     ref = placeholder_solve_block(s.axis("omega"), s.axis("sigma"), s.axis("zeta"), **s.solver_kwargs())
+    # the slot dims cut to the most any point holds at the end of the run: 1T and 2T orbits,
+    # no attractor (the placeholder's census finds none)
+    assert (ds.sizes["solution"], ds.sizes["attractor"]) == (2, 1)
     for name in stored_variables(s):
-        np.testing.assert_array_equal(ds[name].values, ref[name], err_msg=name)
+        want = ref[name]
+        dim = VARIABLES[name].slot_dim
+        if dim is not None:
+            n = ds.sizes[dim]
+            assert (want[:, :, :, n:] == VARIABLES[name].fill).all() or np.isnan(
+                want[:, :, :, n:]).all(), name
+            want = want[:, :, :, :n]
+        np.testing.assert_array_equal(ds[name].values, want, err_msg=name)
         assert ds[name].dtype == np.dtype(VARIABLES[name].dtype)
         assert ds[name].attrs["long_name"] == VARIABLES[name].long_name
     np.testing.assert_array_equal(ds.omega.values, s.axis("omega"))
@@ -180,15 +192,15 @@ def test_a_worker_writes_only_for_the_client_that_holds_the_store(tmp_path):
                                        s.axis("zeta")[sz], **s.solver_kwargs())
 
     with Lock(path) as first:
-        write_task_block(str(path), first.owner, t0.slices, block(t0), names)
+        write_task_block(str(path), first.owner, t0.slices, t0.index, block(t0), names)
     written = _chunk_files(path)
     assert any(f.startswith("q0/c/") for f, _, _ in written)
     with pytest.raises(StoreError, match="not locked by the client that sent this task"):
-        write_task_block(str(path), first.owner, t1.slices, block(t1), names)
+        write_task_block(str(path), first.owner, t1.slices, t1.index, block(t1), names)
     with Lock(path) as second:
         assert second.owner["pid"] == first.owner["pid"]        # same process, a later lock
         with pytest.raises(StoreError, match="held by another client"):
-            write_task_block(str(path), first.owner, t1.slices, block(t1), names)
+            write_task_block(str(path), first.owner, t1.slices, t1.index, block(t1), names)
     assert _chunk_files(path) == written                         # nothing written by them
     # the block the first client's worker wrote is what the solver gave
     ds = xr.open_zarr(path).isel(omega=t0.slices[0], sigma=t0.slices[1], zeta=t0.slices[2])
@@ -265,7 +277,7 @@ def test_block_write_is_byte_identical_to_an_xarray_region_write(tmp_path):
     rng = np.random.default_rng(7)
     for i, task in enumerate(plan.tasks):
         shape = tuple(len(range(*sl.indices(n))) for sl, n in zip(task.slices, s.shape))
-        arrays = _random_block(names, shape, s.max_solutions, rng, empty=(i % 3 == 0))
+        arrays = _random_block(names, shape, rng, empty=(i % 3 == 0))
         direct.write_block(task.slices, arrays, names)
         region = {"omega": task.slices[0], "sigma": task.slices[1], "zeta": task.slices[2]}
         ds = block_dataset(arrays, names)
@@ -285,6 +297,103 @@ def test_block_write_is_byte_identical_to_an_xarray_region_write(tmp_path):
         ds.attrs = {}       # the stores' own attrs differ (history timestamps)
         opened.append(ds)
     xr.testing.assert_identical(*opened)
+
+
+def _filled(names, shape, counts, rng):
+    """A block whose point p holds counts[p] orbits (status 0, slots filled from 0) and one
+    attractor, the rest of its slots empty; the slot dims in whole chunks."""
+    slots = slot_counts(chunked_length(max(counts)), SLOT_CHUNK)
+    a = _random_block(names, shape, rng, empty=False, slots=slots)
+    n = np.asarray(counts).reshape(shape)
+    used = np.arange(slots["solution"]) < n[..., None]
+    for name in names:
+        v = VARIABLES[name]
+        if v.slot_dim == "solution":
+            keep = used.reshape(used.shape + (1,) * (a[name].ndim - 4))
+            a[name] = np.where(keep, a[name], np.array(v.fill, a[name].dtype))
+    a["status"][used] = 0
+    if "attractor_kind" in a:
+        a["attractor_kind"][...] = 0
+        a["attractor_kind"][..., 0] = 1
+    return a
+
+
+def test_a_block_holding_more_slots_grows_the_store_and_reads_back_whole(tmp_path):
+    """Store.write_block (the client's) grows the slot dims by whole chunks when a block holds
+    more than they have room for; every variable and the coordinate grow together, the
+    consolidated metadata says so (xarray opens one Dataset), the other blocks read as before;
+    settle_slots cuts the dims to the most any point holds."""
+    s = placeholder_study(ALL_OUTPUTS_STUDY)
+    names = stored_variables(s)
+    chunks = (9, 5, 2)
+    plan = make_plan(s, chunks)
+    store = Store.create(tmp_path / "a.zarr", s, chunks, "test")
+    rng = np.random.default_rng(3)
+    shapes = [tuple(len(range(*sl.indices(n))) for sl, n in zip(t.slices, s.shape))
+              for t in plan.tasks]
+    small = _filled(names, shapes[0], [2] * int(np.prod(shapes[0])), rng)
+    counts = [3] * int(np.prod(shapes[1]))
+    counts[4] = 11                                  # one point holds 11 orbits
+    big = _filled(names, shapes[1], counts, rng)
+    store.write_block(plan.tasks[0].slices, small, names)
+    assert store.slot_extents() == {"solution": 4, "attractor": 4}
+    store.write_block(plan.tasks[1].slices, big, names)
+    assert store.slot_extents() == {"solution": 12, "attractor": 4}
+    assert store.slots_used() == {"solution": 11, "attractor": 1}
+    ds = xr.open_zarr(store.path).load()           # consolidated: one consistent Dataset
+    assert ds.sizes["solution"] == 12 and ds.solution.values.tolist() == list(range(12))
+    got = ds["q0"].values[plan.tasks[1].slices]
+    np.testing.assert_array_equal(got, big["q0"])
+    np.testing.assert_array_equal(ds["q0"].values[plan.tasks[0].slices][..., :4], small["q0"])
+    assert np.isnan(ds["q0"].values[plan.tasks[0].slices][..., 4:]).all()
+    assert store.settle_slots() == {"solution": 11, "attractor": 1}
+    ds = xr.open_zarr(store.path).load()
+    assert ds.sizes["solution"] == 11 and ds.sizes["attractor"] == 1
+    np.testing.assert_array_equal(ds["q0"].values[plan.tasks[1].slices], big["q0"][..., :11])
+
+
+def test_a_worker_stages_a_block_the_store_has_no_room_for(tmp_path):
+    """write_task_block (a worker's) never resizes the store: a block holding more slots than
+    it has is staged as one file; the client's commit_grid_block grows the dims, writes it and
+    removes the file."""
+    from hertzmap.scheduler.store import GRID_STAGE, commit_grid_block, write_task_block
+
+    s = placeholder_study()
+    names = stored_variables(s)
+    chunks = (17, 5, 2)
+    task = make_plan(s, chunks).tasks[0]
+    rng = np.random.default_rng(4)
+    with Lock(tmp_path / "a.zarr") as lock:
+        store = Store.create(tmp_path / "a.zarr", s, chunks, "test")
+        block = _filled(names, s.shape, [5] * s.size, rng)
+        assert not write_task_block(store.path, lock.owner, task.slices, task.index, block,
+                                    names)
+        staged = list((store.path / GRID_STAGE).glob("*.npz"))
+        assert len(staged) == 1 and store.slot_extents()["solution"] == 4
+        commit_grid_block(store, task.slices, task.index, names)
+        assert not any((store.path / GRID_STAGE).glob("*.npz"))
+        assert store.slot_extents()["solution"] == 8
+        fits = _filled(names, s.shape, [2] * s.size, rng)
+        assert write_task_block(store.path, lock.owner, task.slices, task.index, fits, names)
+    ds = xr.open_zarr(store.path).load()
+    np.testing.assert_array_equal(ds["q0"].values[..., :4], fits["q0"])
+    # the block's second chunk of slots, stored by the first write, is gone with the second
+    assert np.isnan(ds["q0"].values[..., 4:]).all()
+    assert not (store.path / "q0" / "c" / "0" / "0" / "0" / "1").exists()
+
+
+def test_a_resize_cut_short_is_made_whole(tmp_path):
+    """A kill between two arrays' resizes leaves the slot dim of different lengths: the next
+    run's settle_slots(slot_extents()) makes every array and the coordinate as long as the
+    longest (nothing stored is cut), and xarray opens the store again."""
+    s = placeholder_study()
+    store = Store.create(tmp_path / "a.zarr", s, choose_chunks(s), "test")
+    arr = zarr.open_group(zarr.storage.LocalStore(store.path), mode="r+")["q0"]
+    arr.resize(arr.shape[:3] + (8,))
+    assert store.slot_extents()["solution"] == 8
+    assert store.settle_slots(store.slot_extents())["solution"] == 8
+    ds = xr.open_zarr(store.path)
+    assert ds.sizes["solution"] == 8 and ds.period.shape[-1] == 8
 
 
 def test_attr_updates_keep_the_consolidated_metadata(tmp_path, monkeypatch):

@@ -35,8 +35,6 @@ name = "hand"
 omega = [1.0, 1.5, 2.0, 2.2]
 sigma = [0.1, 0.3, 0.6]
 zeta = [0.01, 0.02]
-[solver]
-max_solutions = 3
 [products]
 outputs = ["orbits", "measures", "force_harmonics"]
 """

@@ -11,9 +11,10 @@ import pytest
 from hertzmap.kernels import status
 from hertzmap.study import products as P
 from hertzmap.study.orbits import ORBIT_CLASSES
-from hertzmap.study.schema import (BIFURCATION_KINDS, BIFURCATION_SLOTS, OUTPUT_VARIABLES, VARIABLES,
-                          bytes_per_point, empty_arrays, stored_variables, study_from_attrs,
-                          template)
+from hertzmap.study.schema import (BIFURCATION_KINDS, BIFURCATION_SLOTS, OUTPUT_VARIABLES,
+                                   STORE_FORMAT, VARIABLES, StoreFormatError, bytes_per_point,
+                                   check_block, check_format, empty_arrays, pad_slots,
+                                   slot_counts, stored_variables, study_from_attrs, template)
 from hertzmap.study.spec import StudyError, parse_study
 from tests.helpers import ALL_OUTPUTS_STUDY, REPO, STORE_TEST_STUDY, placeholder_study
 
@@ -47,13 +48,18 @@ def test_template_schema_and_attrs():
     assert np.isnan(ds.q0.values).all() and not ds.stable.values.any()
     assert (ds.status.values == -1).all() and (ds.period.values == 0).all()
     assert ds.q0.variable._data.base is not None or ds.q0.values.strides[0] == 0
-    # 4 slots x (10 float64 with the Liouville residual and the peak and rms force, 2
-    # complex128, 5 bool/int8 with the atlas round, 4 harmonics), the orbit counts found and
-    # dropped (int16), and the census: count (int8), the basin entropies (2 float64), 4 int8 x
-    # 4 attractors (the unsettled reason among them), 11 float64 x 4 (the Lyapunov sum error,
-    # the exponent's periods and the periods run among them), 2 x 4 x 32 strobe points
-    assert bytes_per_point(s) == (4 * (10 * 8 + 2 * 16 + 5 * 1 + 4 * 8) + 2 + 2
-                                  + 1 + 2 * 8 + 4 * 4 + 11 * 4 * 8 + 2 * 4 * 32 * 8)
+    # the slot dims start one chunk long (SLOT_CHUNK = 4: the store grows them as blocks
+    # need), the attractor slots' chunk too
+    assert ds.sizes["attractor"] == 4
+    assert ds.q0.encoding["chunks"][-1] == 4 and ds.strobe_q.encoding["chunks"][-2:] == (4, 32)
+    # estimated at one chunk of each: 4 slots x (10 float64 with the Liouville residual and
+    # the peak and rms force, 2 complex128, 5 bool/int8 with the atlas round, 4 harmonics), the
+    # orbit count (int16), and the census: count (int16), the basin entropies (2 float64), 3
+    # int8 x 4 attractors (the unsettled reason among them) and their orbit slots (int16 x 4),
+    # 11 float64 x 4 (the Lyapunov sum error, the exponent's periods and the periods run among
+    # them), 2 x 4 x 32 strobe points
+    assert bytes_per_point(s) == (4 * (10 * 8 + 2 * 16 + 5 * 1 + 4 * 8) + 2
+                                  + 2 + 2 * 8 + 3 * 4 + 2 * 4 + 11 * 4 * 8 + 2 * 4 * 32 * 8)
 
 
 # -- the schema, a store, the products and docs/dataset.md say the same -------------------------
@@ -119,13 +125,38 @@ def test_bifurcation_kinds_in_store_products_and_docs(hand):
 
 
 def test_empty_arrays_are_the_fill_values():
-    a = empty_arrays((3, 2, 1), 4)
+    a = empty_arrays((3, 2, 1), slot_counts(solution=8, attractor=4))
     assert set(a) == set(VARIABLES)
     for name, v in VARIABLES.items():
-        lead = {"line": (1, 2, 1), "slot": (3, 2, 1, 4), "point": (3, 2, 1)}[v.layout]
+        lead = {"line": (1, 2, 1), "slot": (3, 2, 1, 8), "point": (3, 2, 1),
+                "attractor": (3, 2, 1, 4)}[v.layout]
         assert a[name].shape == lead + v.trailing
         assert a[name].dtype == np.dtype(v.dtype)
         np.testing.assert_array_equal(a[name], np.full_like(a[name], v.fill))
+
+
+def test_a_block_of_uneven_slot_lengths_is_refused_and_padding_fills():
+    """check_block: every variable of a slot dim the same length; pad_slots fills a block up
+    to the store's length with the fill values, its own entries unchanged."""
+    names = ("period", "status", "q0", "attractor_kind", "basin_fraction")
+    a = empty_arrays((2, 1, 1), slot_counts(solution=4, attractor=4), names)
+    check_block(a, names, (2, 1, 1))
+    bad = dict(a, q0=np.full((2, 1, 1, 8), np.nan))
+    with pytest.raises(ValueError, match="q0"):
+        check_block(bad, names, (2, 1, 1))
+    a["period"][0, 0, 0, :2] = (1, 2)
+    padded = pad_slots(a, slot_counts(solution=12, attractor=4))
+    assert padded["period"].shape == (2, 1, 1, 12) and padded["period"][0, 0, 0].tolist() == [
+        1, 2] + [0] * 10
+    assert padded["attractor_kind"] is a["attractor_kind"]
+
+
+def test_a_store_of_another_format_is_refused_with_what_to_do():
+    with pytest.raises(StoreFormatError, match="format 1.*--overwrite"):
+        check_format({"hertzmap_store_format": 1}, "old.zarr")
+    with pytest.raises(StoreFormatError, match="format 7"):
+        check_format({"hertzmap_store_format": 7})
+    check_format({"hertzmap_store_format": STORE_FORMAT})
 
 
 def test_study_read_back_from_the_attrs():

@@ -72,9 +72,8 @@ BAD = [
     (with_grid(extra='[model]\nkind = "taylor"\nexponent = 1.5\n'), "model.exponent", "only allowed"),
     (with_grid(extra="[solver]\nrtol = 1e-3\n"), "solver.rtol", "1e-13 <= rtol <= 0.0001"),
     (with_grid(extra="[solver]\nrtol = 1e-15\n"), "solver.rtol", "1e-13 <= rtol <= 0.0001"),
-    (with_grid(extra="[solver]\nmax_solutions = 0\n"), "solver.max_solutions", "1..16"),
-    (with_grid(extra="[solver]\nmax_solutions = 17\n"), "solver.max_solutions", "1..16"),
-    (with_grid(extra="[solver]\nmax_solutions = true\n"), "solver.max_solutions", "1..16"),
+    # removed with store format 2 (every orbit stored): the message says to delete it
+    (with_grid(extra="[solver]\nmax_solutions = 4\n"), "solver.max_solutions", "delete this key"),
     (with_grid(extra="[solver]\natol = 1e-9\n"), "solver.atol", "unknown key"),
     (with_grid(extra="[search]\nperiods = [17]\n"), "search.periods", "1..16"),
     (with_grid(extra="[search]\nperiods = [0, 1]\n"), "search.periods", "1..16"),
@@ -114,7 +113,7 @@ def test_minimal_study_defaults():
     assert s.omega == (0.5, 1.0, 1.5, 2.0, 2.5)
     assert s.sigma == (0.1, 0.2) and s.zeta == (0.01,)
     assert s.shape == (5, 2, 1) and s.size == 10
-    assert (s.model, s.exponent, s.rtol, s.max_solutions) == ("hertz", 1.5, 1e-10, 4)
+    assert (s.model, s.exponent, s.rtol) == ("hertz", 1.5, 1e-10)
     assert s.periods == (1, 2)
     # the attractor census runs by default (where shooting finds no stable orbit, and at probe
     # points), so its variables are stored
@@ -122,7 +121,7 @@ def test_minimal_study_defaults():
     assert s.rig is None
     # force_harmonics is not among the default products: the solver skips their quadrature
     assert s.solver_kwargs() == {"periods": (1, 2), "exponent": 1.5, "model": "hertz",
-                                 "rtol": 1e-10, "max_solutions": 4, "harmonics": False,
+                                 "rtol": 1e-10, "harmonics": False,
                                  "attractors": "where-none-stable", "initial_states": 16,
                                  "transient_periods": 500, "record_periods": 128,
                                  "max_transient_periods": 20_000, "point_steps": 2_000_000}
@@ -142,7 +141,6 @@ kind = "hertz"
 exponent = 1.0
 [solver]
 rtol = 1e-8
-max_solutions = 6
 [search]
 periods = [2]
 [products]
@@ -158,7 +156,7 @@ contact = "single"
     assert s.name == "full-1" and s.description == "everything"
     assert s.omega == (2.0, 1.0)          # order kept (a downward sweep)
     assert s.sigma == (0.0, 0.5, 1.0)
-    assert (s.exponent, s.rtol, s.max_solutions, s.periods) == (1.0, 1e-8, 6, (2,))
+    assert (s.exponent, s.rtol, s.periods) == (1.0, 1e-8, (2,))
     assert s.outputs == ("orbits", "force_harmonics", "diagnostics", "attractors")  # orbits always
     assert s.rig_dict == {"E": 2.1e11, "nu": 0.3, "R": 0.0127, "m": 1.2, "N": 50.0,
                           "contact": "single"}
@@ -183,7 +181,7 @@ def test_hash_ignores_formatting_but_not_content():
     assert a.canonical_json() == b.canonical_json() and a.hash == b.hash
     c = parse(MINIMAL.replace("zeta = 0.01", "zeta = 0.02"))
     assert c.hash != a.hash
-    d = parse(MINIMAL + "[solver]\nmax_solutions = 3\n")
+    d = parse(MINIMAL + "[solver]\nrtol = 1e-9\n")
     assert d.hash != a.hash
     assert len(a.hash) == 64 and int(a.hash, 16) >= 0
     doc = json.loads(a.canonical_json())

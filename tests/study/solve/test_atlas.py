@@ -1,7 +1,8 @@
 """study.solve.atlas: an orbit known at one grid point is continued into points that lack it,
 each continued orbit checked by the oracle (scipy's period map, benchmarks/oracle.py); what the
-continuity rule already pairs is not shot again; a full point keeps its stable orbits and
-counts what it dropped; the result depends on the snapshot only."""
+continuity rule already pairs is not shot again; a point keeps every orbit it gains (its
+slots grow); unstable orbits of periods the study does not search stay where they are (or are
+continued too, by the study's choice); the result depends on the snapshot only."""
 from __future__ import annotations
 
 import numpy as np
@@ -12,32 +13,26 @@ from hertzmap.kernels import shoot
 from hertzmap.study.schema import ORBIT_VARIABLES, empty_arrays
 from hertzmap.study.orbits import fold_function
 from hertzmap.study.solve.atlas import FAR_FROM_FOLD, MAX_ITER, neighbours, propagate_tile
-from hertzmap.study.solve.block import slot_order
 from hertzmap.study.solve.point import shoot_seeds_minimal, shoot_targets
+from hertzmap.study.solve.point_state import PointState, write_states
 
 OPTIONS = {"exponent": 1.5, "model": "hertz", "rtol": 1e-10, "harmonics": False}
 ZETA = 0.01
 
 
-def _region(omega, sigma, orbits_at, max_solutions=4):
+def _region(omega, sigma, orbits_at, names=ORBIT_VARIABLES + ("orbits_found",)):
     """Block arrays over (omega, sigma, one zeta) holding, at each (i, j), the orbits solved
     from orbits_at[(i, j)] = [(period, guess), ...] (grid orbits, atlas_round 0)."""
-    names = ORBIT_VARIABLES + ("orbits_found", "orbits_dropped")
-    a = empty_arrays((len(omega), len(sigma), 1), max_solutions, names)
-    a["orbits_found"][...] = 0
-    a["orbits_dropped"][...] = 0
-    for (i, j), wanted in orbits_at.items():
-        sols = []
-        for period, guess in wanted:
-            s = shoot_seeds_minimal(omega[i], sigma[j], ZETA, period, [guess], OPTIONS)[0]
-            assert s["status"] == 0
-            sols.append(s)
-        for slot, s in enumerate(slot_order(sols, max_solutions)):
-            for n in ORBIT_VARIABLES:
-                a[n][i, j, 0, slot] = s["x0"][0] if n == "q0" else s["x0"][1] if n == "v0" \
-                    else s[n]
-        a["orbits_found"][i, j, 0] = len(sols)
-    return a
+    states = {}
+    for i in range(len(omega)):
+        for j in range(len(sigma)):
+            sols = []
+            for period, guess in orbits_at.get((i, j), ()):
+                s = shoot_seeds_minimal(omega[i], sigma[j], ZETA, period, [guess], OPTIONS)[0]
+                assert s["status"] == 0
+                sols.append(dict(s, atlas_round=0))
+            states[i, j, 0] = PointState(sols, omega=float(omega[i]))
+    return write_states(states, (len(omega), len(sigma), 1), names)
 
 
 def _orbits(arrays, i, j):
@@ -64,7 +59,7 @@ def test_a_2t_orbit_known_at_one_sigma_is_continued_along_the_line_and_checked()
     region = _region(omega, sigma, {(0, 0): [one_t], (0, 1): [one_t, (2, tuple(o2.x0))],
                                     (0, 2): [one_t], (0, 3): [one_t]})
     own = (slice(0, 1), slice(0, 4), slice(0, 1))
-    r = propagate_tile(region, {}, own, omega, sigma, np.array([ZETA]), 1, OPTIONS, 4, -1.5,
+    r = propagate_tile(region, {}, own, omega, sigma, np.array([ZETA]), 1, OPTIONS, -1.5,
                        (1, 2))
     assert r.changed[0, :, 0].tolist() == [True, False, True, True]
     for j in (0, 2, 3):
@@ -74,14 +69,13 @@ def test_a_2t_orbit_known_at_one_sigma_is_continued_along_the_line_and_checked()
         phi = oracle.period_map(x, 2.0, float(sigma[j]), ZETA, 2)
         assert np.max(np.abs(phi - x)) < 1e-7 * (1 + np.hypot(*x))
         assert r.arrays["orbits_found"][0, j, 0] == 2
-        assert r.arrays["orbits_dropped"][0, j, 0] == 0
     # the grid's orbits are kept as stored
     assert _orbits(r.arrays, 0, 1) == _orbits(region, 0, 1)
     # a second round has nothing to offer: the fixed point
     again = {n: region[n].copy() for n in region}
     for n, v in r.arrays.items():
         again[n][own] = v
-    r2 = propagate_tile(again, {}, own, omega, sigma, np.array([ZETA]), 2, OPTIONS, 4, -1.5,
+    r2 = propagate_tile(again, {}, own, omega, sigma, np.array([ZETA]), 2, OPTIONS, -1.5,
                         (1, 2))
     assert not r2.changed.any() and r2.shots == 0
 
@@ -95,26 +89,60 @@ def test_orbits_the_continuity_rule_pairs_are_not_shot():
     region = _region(omega, sigma, {(0, 0): [(1, (0.0, 0.0)), (2, tuple(o2.x0))],
                                     (0, 1): [(1, (0.0, 0.0)), (2, tuple(o2b.x0))]})
     own = (slice(0, 1), slice(0, 2), slice(0, 1))
-    r = propagate_tile(region, {}, own, omega, sigma, np.array([ZETA]), 1, OPTIONS, 4, -1.5,
+    r = propagate_tile(region, {}, own, omega, sigma, np.array([ZETA]), 1, OPTIONS, -1.5,
                        (1, 2))
     assert r.shots == 0 and not r.changed.any()
 
 
-def test_a_full_point_keeps_its_stable_orbits_and_counts_the_dropped_one():
-    """One slot: the stable 2T orbit arriving at a point whose slot holds the 1T orbit, unstable
-    there (past its flip): the stable one is kept, one orbit is counted dropped."""
+def _stand_in(period, q):
+    """A converged, unstable orbit record of ``period`` far from the real ones (an orbit a
+    point holds, not shot: it fills a slot)."""
+    return {"period": period, "status": 0, "stable": False, "x0": (q, 0.0), "atlas_round": 0,
+            "min_q": q - 1.0, "max_q": q + 1.0, "ptp": 2.0,
+            "multipliers": np.array([3.0 + 0j, 0.1 + 0j])}
+
+
+def test_a_point_keeps_every_orbit_it_gains_its_slots_growing():
+    """The stable 2T orbit arriving at a point whose four slots are full (its 1T orbit,
+    unstable there past its flip, and three orbits of other periods): the point keeps all
+    five, the tile's arrays grow to two chunks of slots, nothing is dropped."""
     omega = np.array([2.0])
     sigma = np.array([0.5, 0.54])
     o2 = shoot(2.0, 0.5, ZETA, 2, guess=(-0.6, 0.5))
-    region = _region(omega, sigma, {(0, 0): [(2, tuple(o2.x0))], (0, 1): [(1, (0.0, 0.0))]},
-                     max_solutions=1)
+    one_t = shoot_seeds_minimal(2.0, 0.54, ZETA, 1, [(0.0, 0.0)], OPTIONS)[0]
+    assert one_t["status"] == 0 and not one_t["stable"]
+    full = [dict(one_t, atlas_round=0)] + [_stand_in(p, 50.0 + p) for p in (5, 7, 9)]
+    a = _region(omega, sigma, {(0, 0): [(2, tuple(o2.x0))]})
+    region = write_states({(0, 1, 0): PointState(full, omega=2.0)}, (1, 2, 1),
+                          ORBIT_VARIABLES + ("orbits_found",), base=a)
+    assert region["status"].shape[-1] == 4 and (region["status"][0, 1, 0] == 0).all()
     own = (slice(0, 1), slice(1, 2), slice(0, 1))
-    r = propagate_tile(region, {}, own, omega, sigma, np.array([ZETA]), 1, OPTIONS, 1, -1.5,
+    r = propagate_tile(region, {}, own, omega, sigma, np.array([ZETA]), 1, OPTIONS, -1.5,
                        (1, 2))
-    assert not shoot(2.0, 0.54, ZETA, 1).stable
     assert r.changed.all() and r.added == 1
-    assert [o[0] for o in _orbits(r.arrays, 0, 0)] == [2] and r.arrays["stable"][0, 0, 0, 0]
-    assert r.arrays["orbits_found"][0, 0, 0] == 2 and r.arrays["orbits_dropped"][0, 0, 0] == 1
+    assert r.arrays["status"].shape[-1] == 8
+    found = _orbits(r.arrays, 0, 0)
+    assert sorted(o[0] for o in found) == [1, 2, 5, 7, 9]
+    assert r.arrays["orbits_found"][0, 0, 0] == 5
+    stable = r.arrays["stable"][0, 0, 0] & (r.arrays["status"][0, 0, 0] == 0)
+    assert r.arrays["period"][0, 0, 0][stable].tolist() == [2]
+
+
+def test_unstable_orbits_of_periods_not_searched_stay_where_found_unless_asked():
+    """An unstable 5T stand-in at one point is not offered to its neighbour by default (the
+    study searches 1T and 2T: it stays where the census met it), and is offered with
+    unstable = "all" (its shot there fails: it is no orbit, but it was shot)."""
+    omega = np.array([2.0])
+    sigma = np.array([0.5, 0.54])
+    a = _region(omega, sigma, {(0, 0): [(1, (0.0, 0.0))], (0, 1): [(1, (0.0, 0.0))]})
+    one_t = shoot_seeds_minimal(2.0, 0.5, ZETA, 1, [(0.0, 0.0)], OPTIONS)[0]
+    region = write_states({(0, 0, 0): PointState([dict(one_t, atlas_round=0),
+                                                  _stand_in(5, 55.0)], omega=2.0)},
+                          (1, 2, 1), ORBIT_VARIABLES + ("orbits_found",), base=a)
+    own = (slice(0, 1), slice(1, 2), slice(0, 1))
+    args = (region, {}, own, omega, sigma, np.array([ZETA]), 1, OPTIONS, -1.5, (1, 2))
+    assert propagate_tile(*args).shots == 0
+    assert propagate_tile(*args, unstable="all").shots >= 1
 
 
 def test_a_shot_that_fails_far_from_a_fold_succeeds_in_two_half_steps():
@@ -134,7 +162,7 @@ def test_a_shot_that_fails_far_from_a_fold_succeeds_in_two_half_steps():
     assert direct["status"] != 0
     region = _region(omega, sigma, {(1, 0): [(2, guess)]})
     own = (slice(0, 1), slice(0, 1), slice(0, 1))
-    r = propagate_tile(region, {}, own, omega, sigma, np.array([ZETA]), 1, OPTIONS, 4, -1.5,
+    r = propagate_tile(region, {}, own, omega, sigma, np.array([ZETA]), 1, OPTIONS, -1.5,
                        (1, 2))
     found = _orbits(r.arrays, 0, 0)
     assert [o[0] for o in found] == [2] and found[0][3] == 1
@@ -155,9 +183,9 @@ def test_the_result_depends_on_the_snapshot_only(order):
     wanted[(0, 1)] = [(1, (0.0, 0.0)), (2, tuple(o2.x0))]
     own = (slice(0, 1), slice(0, 4), slice(0, 1))
     a = propagate_tile(_region(omega, sigma, wanted), {}, own, omega, sigma,
-                       np.array([ZETA]), 1, OPTIONS, 4, -1.5, (1, 2))
+                       np.array([ZETA]), 1, OPTIONS, -1.5, (1, 2))
     b = propagate_tile(_region(omega, sigma, dict(sorted(wanted.items()))), {}, own, omega,
-                       sigma, np.array([ZETA]), 1, OPTIONS, 4, -1.5, (1, 2))
+                       sigma, np.array([ZETA]), 1, OPTIONS, -1.5, (1, 2))
     for n in a.arrays:
         np.testing.assert_array_equal(a.arrays[n], b.arrays[n], err_msg=n)
 
@@ -171,22 +199,24 @@ def test_a_census_round_runs_the_census_again_where_a_stable_orbit_came():
     orbit in the slots, and leaves no point to run again."""
     from hertzmap.study.schema import ATTRACTOR_VARIABLES
     from hertzmap.study.solve.atlas import census_points, census_tile
-    from hertzmap.study.solve.census import census, record_attractors
+    from hertzmap.study.solve.census import census
 
     w, s, guess = 0.95, 1.8, (-118.12574873, 2.24953184)
     search = dict(n_states=16, transient_periods=500, record_periods=128,
                   max_transient_periods=20_000, point_steps=2_000_000)
-    region = _region(np.array([w]), np.array([s]), {(0, 0): [(5, guess)]}, max_solutions=4)
-    x = np.array([region["q0"][0, 0, 0, 0], region["v0"][0, 0, 0, 0]])
+    orbit = shoot_seeds_minimal(w, s, ZETA, 5, [guess], OPTIONS)[0]
+    assert orbit["status"] == 0
+    x = np.array(orbit["x0"])
     assert np.max(np.abs(oracle.period_map(x, w, s, ZETA, 5) - x)) < 1e-7 * (1 + np.hypot(*x))
-    region["atlas_round"][0, 0, 0, 0] = 3           # brought by the atlas
-    region.update(empty_arrays((1, 1, 1), 4, ATTRACTOR_VARIABLES))
     first, _ = census(w, s, ZETA, [], OPTIONS, **search)
-    record_attractors(region, 0, 0, 0, w, first, 16, lambda orbit: -1)
+    # the orbit brought by the atlas (round 3) to the point whose census did not know it
+    region = write_states({(0, 0, 0): PointState([dict(orbit, atlas_round=3)],
+                                                 attractors=first, n_states=16, omega=w)},
+                          (1, 1, 1), ORBIT_VARIABLES + ("orbits_found",) + ATTRACTOR_VARIABLES)
     assert census_points(region, 500, 128).tolist() == [[[True]]]
     own = (slice(0, 1),) * 3
     r = census_tile(region, {}, own, np.array([w]), np.array([s]), np.array([ZETA]), 4,
-                    OPTIONS, 4, -1.5, (1, 2), search)
+                    OPTIONS, -1.5, (1, 2), search)
     assert r.changed.tolist() == [[[True]]] and r.shots == 1 and r.added == 0
     out = r.arrays
     kinds = out["attractor_kind"][0, 0, 0]
@@ -205,7 +235,7 @@ def test_a_census_round_starts_from_the_neighbours_periodic_and_chaotic_attracto
     from hertzmap.study.schema import ATTRACTOR_KINDS, ATTRACTOR_VARIABLES, STROBE_POINTS
     from hertzmap.study.solve.atlas import neighbour_starts
 
-    region = empty_arrays((3, 3, 2), 4, ATTRACTOR_VARIABLES)
+    region = empty_arrays((3, 3, 2), names=ATTRACTOR_VARIABLES)
     kinds, q, v = region["attractor_kind"], region["strobe_q"], region["strobe_v"]
 
     def put(at, slot, kind, x):

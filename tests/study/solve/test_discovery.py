@@ -94,7 +94,7 @@ def test_block_discover_option_keeps_contract():
     omega = np.linspace(1.3, 1.7, 3)
     out = solve_block(omega, [0.2], [Z], discover=True, transients=8)
     ref = solve_block(omega, [0.2], [Z])
-    check_block(out, ORBIT_VARIABLES, (3, 1, 1), 4)
+    check_block(out, ORBIT_VARIABLES, (3, 1, 1))
     # slot 0 is the 1T orbit; the isola's two 2T orbits are there at every point
     assert np.all(out["period"][:, 0, 0, 0] == 1)
     two = (out["period"] == 2) & (out["status"] == 0)
