@@ -158,6 +158,18 @@ class AtlasRun(Stage):
     def pending(self) -> bool:
         return self.enabled and self.applies() and self.state()["phase"] != "done"
 
+    def not_continued(self) -> dict[int, int]:
+        """What the atlas left where it was found, by period (search.continue_unstable =
+        "searched-periods"): the stored unstable orbits of periods the study does not search."""
+        if self.study.continue_unstable == "all":
+            return {}
+        every = (slice(None),) * 3
+        read = read_region(self.store.path, {n: every for n in ("status", "stable", "period")})
+        left = (read["status"] == 0) & ~read["stable"] & ~np.isin(read["period"],
+                                                                  self.study.periods)
+        periods, counts = np.unique(read["period"][left], return_counts=True)
+        return {int(p): int(c) for p, c in zip(periods, counts)}
+
     def _census_tiles(self, plan) -> list:
         """The tiles holding a point whose census must run again (census_points)."""
         every = (slice(None),) * 3
@@ -199,7 +211,7 @@ class AtlasRun(Stage):
                 "names": self.census_names if census else self.names,
                 "options": self.options, "level": self.level,
                 "periods": tuple(st.periods), "tile_function": self.tile,
-                "unstable": os.environ.get("HERTZMAP_ATLAS_UNSTABLE", "searched-periods")}
+                "unstable": st.continue_unstable}
 
     def run(self, client, n_workers: int) -> dict[str, Any]:
         """Run (or resume) the rounds to the fixed point. Returns the atlas summary (also
@@ -267,6 +279,12 @@ class AtlasRun(Stage):
             summary["rounds"] += 1
             summary["added"] += added
         summary["wall"] = time.perf_counter() - t0
+        summary["not_continued"] = self.not_continued()
+        if state.get("not_continued") != {str(p): n for p, n in summary["not_continued"].items()}:
+            # the store says what the atlas left where it was found (JSON: string keys)
+            state["not_continued"] = {str(p): n for p, n in summary["not_continued"].items()}
+            with self.interrupt.critical():
+                self.store.set_attrs(**{ATLAS_ATTR: state})
         summary["total_added"] = sum(x["added"] for x in state.get("rounds", []))
         summary["total_rounds"] = len(state.get("rounds", []))
         self.store.add_history(f"{self.command}: atlas: {summary['total_added']} orbits added "
@@ -279,6 +297,12 @@ def atlas_line(s: dict[str, Any]) -> str:
     periods = ", ".join(f"{n} of period {p}" for p, n in sorted(s["by_period"].items()))
     census = (f"; the census run again at {s['censuses']} points where the atlas brought a "
               f"stable orbit to transients called chaotic" if s.get("censuses") else "")
+    left = s.get("not_continued") or {}
+    if left:
+        census += (f"; not continued (search.continue_unstable = \"searched-periods\"): "
+                   f"{sum(left.values())} unstable orbits of periods not searched, stored where "
+                   "found (" + ", ".join(f"{n} of period {p}" for p, n in sorted(left.items()))
+                   + ")")
     return (f"atlas: {s['total_added']} orbits continued into neighbouring grid points "
             f"({periods or 'none new'}) in {s['total_rounds']} round(s) to the fixed point; "
             f"{s['shots']} shots over {s['tiles']} tiles{census}, {s['compute']:.1f} s compute, "

@@ -61,6 +61,10 @@ PERIODS_ALLOWED = tuple(range(1, 17))     # any m in 1..16 (periods in forcing p
 #: Where the attractor census runs transients: at the points where shooting found no stable
 #: orbit, at every point (basins everywhere), or nowhere.
 ATTRACTOR_MODES = ("where-none-stable", "always", "never")
+#: which unstable orbits the atlas continues into the grid neighbours (study.solve.atlas):
+#: those of the periods the study searches (the unstable orbits of other periods, which the
+#: census meets inside chaotic sets, are stored where they were met), or all of them
+CONTINUE_UNSTABLE = ("searched-periods", "all")
 INITIAL_STATES_RANGE = (1, 64)
 TRANSIENT_PERIODS_RANGE = (10, 100_000)
 RECORD_PERIODS_RANGE = (32, 10_000)
@@ -122,6 +126,7 @@ class Study:
     discover: bool = False
     transients: int = 16
     attractors: str = "where-none-stable"
+    continue_unstable: str = "searched-periods"
     initial_states: int = DEFAULT_INITIAL_STATES
     transient_periods: int = DEFAULT_TRANSIENT_PERIODS
     record_periods: int = DEFAULT_RECORD_PERIODS
@@ -198,7 +203,8 @@ class Study:
     def _search_dict(self) -> dict[str, Any]:
         """The [search] table with the keys that apply (a key a study file may not give in this
         configuration is left out, so that the dict reads back as a valid study file)."""
-        out: dict[str, Any] = {"periods": list(self.periods), "attractors": self.attractors}
+        out: dict[str, Any] = {"periods": list(self.periods), "attractors": self.attractors,
+                               "continue_unstable": self.continue_unstable}
         if self.discover:
             out.update(discover=True, transients=int(self.transients))
         if self.attractors != "never":
@@ -430,6 +436,7 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
     # [search]
     se = _table(doc, "search")
     _refuse_unknown(se, "search", ("periods", "discover", "transients", "attractors",
+                                   "continue_unstable",
                                    "initial_states", "transient_periods", "record_periods",
                                    "max_transient_periods", "point_steps", "lyapunov_error"))
     discover = se.get("discover", False)
@@ -457,6 +464,10 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
     if attractors not in ATTRACTOR_MODES:
         raise StudyError("search.attractors", f"must be one of "
                          f"{', '.join(map(repr, ATTRACTOR_MODES))}, got {_r(attractors)}")
+    continue_unstable = se.get("continue_unstable", CONTINUE_UNSTABLE[0])
+    if continue_unstable not in CONTINUE_UNSTABLE:
+        raise StudyError("search.continue_unstable", f"must be one of "
+                         f"{', '.join(map(repr, CONTINUE_UNSTABLE))}, got {_r(continue_unstable)}")
     census = {}
     for key, (lo, hi), default, what in (
             ("initial_states", INITIAL_STATES_RANGE, DEFAULT_INITIAL_STATES,
@@ -558,6 +569,7 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
         discover=discover,
         transients=transients,
         attractors=attractors,
+        continue_unstable=continue_unstable,
         **census,
         outputs=outputs,
         rig=rig,

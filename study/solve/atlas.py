@@ -200,15 +200,11 @@ def propagate_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
     return result
 
 
-#: which unstable orbits the atlas continues (search.atlas_unstable): those of the periods the
-#: study searches, or all
-UNSTABLE_SCOPES = ("searched-periods", "all")
-
-
 def continues(orbit: dict, periods: tuple[int, ...], unstable: str) -> bool:
     """The atlas continues this orbit into its neighbours: a stable orbit always; an unstable
-    one where ``unstable`` is "all" or its period is one the study searches (an unstable orbit
-    of another period, met by the census in a chaotic set, is stored where it was met)."""
+    one where ``unstable`` (search.continue_unstable, study.spec.CONTINUE_UNSTABLE) is "all"
+    or its period is one the study searches (an unstable orbit of another period, met by the
+    census in a chaotic set, is stored where it was met)."""
     return bool(orbit["stable"]) or unstable == "all" or int(orbit["period"]) in periods
 
 

@@ -27,6 +27,9 @@ name = "atlas"
 omega = {start = 1.95, stop = 2.15, num = 9}
 sigma = {start = 0.6, stop = 0.9, num = 5}
 zeta = 0.01
+[search]
+# the grid's search meets unstable 3T orbits at some points: the atlas continues them
+continue_unstable = "all"
 [products]
 outputs = ["orbits", "measures"]
 """

@@ -74,6 +74,8 @@ BAD = [
     (with_grid(extra="[solver]\nrtol = 1e-15\n"), "solver.rtol", "1e-13 <= rtol <= 0.0001"),
     # removed with store format 2 (every orbit stored): the message says to delete it
     (with_grid(extra="[solver]\nmax_solutions = 4\n"), "solver.max_solutions", "delete this key"),
+    (with_grid(extra='[search]\ncontinue_unstable = "some"\n'), "search.continue_unstable",
+     "'searched-periods', 'all'"),
     (with_grid(extra="[solver]\natol = 1e-9\n"), "solver.atol", "unknown key"),
     (with_grid(extra="[search]\nperiods = [17]\n"), "search.periods", "1..16"),
     (with_grid(extra="[search]\nperiods = [0, 1]\n"), "search.periods", "1..16"),
