@@ -4,11 +4,14 @@ vibro-impact scene's lines, same run: CPU, and what each names.
     .venv/bin/python -m benchmarks.census_ab                          # recognition, every 8th line
     .venv/bin/python -m benchmarks.census_ab --lines 16 --offset 4
     .venv/bin/python -m benchmarks.census_ab --compare neighbours
+    .venv/bin/python -m benchmarks.census_ab --compare certified --study studies/default.toml --lines 8
 
 ``--compare recognition``: transients stop once recognised on what the point's earlier ones
 found (study.solve.recognition) / every transient runs its whole budget.
 ``--compare neighbours``: transients also start from the neighbouring points' attractors
 (study.solve.census, "Neighbours") / from the point's own states only.
+``--compare certified``: transients also stop in the certified neighbourhood of a stable orbit
+the point knows (study.solve.certificate) / only on the points of what earlier ones found.
 
 Each chosen sigma line is searched twice (sweeps and fold turning, then the census at the
 points the study asks it at: study.solve.line), once per mode, the modes' order alternating
@@ -33,7 +36,8 @@ from hertzmap.study.spec import load_study
 
 #: per comparison: the census module's switch, and the two modes (on, off)
 COMPARISONS = {"recognition": ("RECOGNITION", ("recognition", "full transients")),
-               "neighbours": ("NEIGHBOUR_STARTS", ("neighbour starts", "own states only"))}
+               "neighbours": ("NEIGHBOUR_STARTS", ("neighbour starts", "own states only")),
+               "certified": ("CERTIFIED", ("certified orbits", "attractors' points only"))}
 
 
 def main(argv=None) -> int:

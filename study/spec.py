@@ -125,7 +125,7 @@ class Study:
     periods: tuple[int, ...] = (1, 2)
     discover: bool = False
     transients: int = 16
-    attractors: str = "where-none-stable"
+    attractors: str = "always"
     continue_unstable: str = "searched-periods"
     initial_states: int = DEFAULT_INITIAL_STATES
     transient_periods: int = DEFAULT_TRANSIENT_PERIODS
@@ -459,8 +459,9 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
     if len(set(periods)) != len(periods):
         raise StudyError("search.periods", f"duplicated period in {_r(periods)}")
     periods_t = tuple(sorted(int(p) for p in periods))
-    # the attractor census: a 1T-only scene (a flip curve, say) pays nothing for it by default
-    attractors = se.get("attractors", "where-none-stable" if max(periods_t) >= 2 else "never")
+    # the attractor census at every point (every point's basins sampled: what attracts there is
+    # known by construction); a 1T-only scene (a flip curve, say) pays nothing for it by default
+    attractors = se.get("attractors", "always" if max(periods_t) >= 2 else "never")
     if attractors not in ATTRACTOR_MODES:
         raise StudyError("search.attractors", f"must be one of "
                          f"{', '.join(map(repr, ATTRACTOR_MODES))}, got {_r(attractors)}")

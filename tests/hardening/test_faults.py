@@ -314,3 +314,34 @@ def test_store_of_another_version_or_study_is_refused(study_path, reference, tmp
     meta.write_text(json.dumps(doc))
     assert main(["status", str(store), "--check"]) == 2
     assert "does not match its hash" in capsys.readouterr().err
+
+
+def test_a_store_of_format_1_is_refused_everywhere_and_left_untouched(tmp_path, capsys):
+    """A real store of format 1 (written by hertzmap before 2026-11-28, tests/data: at most
+    solver.max_solutions orbits a point, orbits_dropped): run, plot, basins and the products'
+    reader refuse it with its format and what to do; status says so; nothing in it changes."""
+    import zipfile
+
+    from hertzmap.study import products as P
+    from hertzmap.study.schema import StoreFormatError
+
+    data = Path(__file__).resolve().parent.parent / "data"
+    with zipfile.ZipFile(data / "store_format1.zip") as z:
+        z.extractall(tmp_path)
+    store = tmp_path / "format1.zarr"
+    study = tmp_path / "f1.toml"
+    # the same study without the key format 2 refuses
+    study.write_text((data / "store_format1.toml").read_text().replace("[solver]\nmax_solutions = 2\n", ""))
+    before = sorted((str(p), p.stat().st_mtime_ns) for p in store.rglob("*"))
+    for args in (["run", str(study), "--store", str(store), "--workers", "1"],
+                 ["plot", str(store), "--out", str(tmp_path)],
+                 ["basins", str(store), "--omega", "1.9", "--sigma", "0.5", "--grid", "4x4"]):
+        assert main(args) == 2, args
+        err = capsys.readouterr().err
+        assert "store format 1" in err and "--overwrite" in err, (args, err)
+        assert "Traceback" not in err
+    with pytest.raises(StoreFormatError, match="format 1"):
+        P.open_store(store)
+    assert main(["status", str(store)]) == 0
+    assert "format    " in capsys.readouterr().out
+    assert sorted((str(p), p.stat().st_mtime_ns) for p in store.rglob("*")) == before

@@ -24,7 +24,7 @@ def test_template_schema_and_attrs():
     ds = template(s, (17, 1, 1), history="h")
     names = stored_variables(s)
     # the census's variables come with every study whose search.attractors is not "never"
-    assert s.attractors == "where-none-stable"
+    assert s.attractors == "always"
     assert set(names) == set(OUTPUT_VARIABLES["orbits"] + OUTPUT_VARIABLES["measures"]
                              + OUTPUT_VARIABLES["force_harmonics"]
                              + OUTPUT_VARIABLES["attractors"])

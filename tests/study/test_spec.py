@@ -117,14 +117,13 @@ def test_minimal_study_defaults():
     assert s.shape == (5, 2, 1) and s.size == 10
     assert (s.model, s.exponent, s.rtol) == ("hertz", 1.5, 1e-10)
     assert s.periods == (1, 2)
-    # the attractor census runs by default (where shooting finds no stable orbit, and at probe
-    # points), so its variables are stored
+    # the attractor census runs by default at every point, so its variables are stored
     assert s.outputs == DEFAULT_OUTPUTS + ("attractors",)
     assert s.rig is None
     # force_harmonics is not among the default products: the solver skips their quadrature
     assert s.solver_kwargs() == {"periods": (1, 2), "exponent": 1.5, "model": "hertz",
                                  "rtol": 1e-10, "harmonics": False,
-                                 "attractors": "where-none-stable", "initial_states": 16,
+                                 "attractors": "always", "initial_states": 16,
                                  "transient_periods": 500, "record_periods": 128,
                                  "max_transient_periods": 20_000, "point_steps": 2_000_000}
 
@@ -259,7 +258,7 @@ def test_search_periods_and_the_census_fields():
     s = parse_study(base + "[search]\nperiods = [4, 1, 2]\n", default_name="s")
     assert s.periods == (1, 2, 4) and s.solver_kwargs()["periods"] == (1, 2, 4)
     three = parse_study(base + "[search]\nperiods = [3]\n", default_name="s")
-    assert three.periods == (3,) and three.attractors == "where-none-stable"
+    assert three.periods == (3,) and three.attractors == "always"
     # a 1T-only scene pays nothing for the census unless it asks
     one = parse_study(base + "[search]\nperiods = [1]\n", default_name="s")
     assert one.attractors == "never" and "attractors" not in one.outputs
