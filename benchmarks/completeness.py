@@ -763,7 +763,13 @@ def main(argv=None) -> int:
     wall = time.perf_counter() - t_all
     h = headline(results) if compared else None
     if h is not None:
-        print()
+        stores = list(dict.fromkeys(r["store"] for r in results if r.get("store")))
+        if len(stores) > 1:
+            # each store on its own (the same points: a before / after comparison)
+            for path in stores:
+                print(f"\n{path}:")
+                print_headline(headline([r for r in results if r.get("store") == path]))
+        print("\nall stores:" if len(stores) > 1 else "")
         print_headline(h)
     print(f"{len(results)} point(s) in {wall:.1f} s")
     if args.json:

@@ -65,9 +65,11 @@ def atlas_line(study: Study, plan: Plan) -> str:
     """The dry run's line on the atlas (scheduler.atlas_tasks): its tiles per round. Its time
     is not estimated (it depends on the orbits the grid finds); BENCHMARKS.md measures it."""
     tiles = len(make_plan(study, atlas_chunks(plan.chunks)).tasks)
-    return (f"atlas        after the grid, every orbit continued into its grid neighbours in "
+    which = ("every orbit" if study.continue_unstable == "all" else
+             "the stable orbits and those of the periods searched")
+    return (f"atlas        after the grid, {which} continued into their grid neighbours in "
             f"rounds of at most {tiles} tile(s) ({TILE_BLOCKS} tasks' blocks along sigma "
-            "each); not in the estimate (20-40 % of the grid's compute on the shipped scenes)")
+            "each); not in the estimate (10-60 % of the grid's compute on the shipped scenes)")
 
 
 def curves_line(study: Study) -> str:

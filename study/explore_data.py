@@ -327,8 +327,9 @@ def point_orbits(ds: xr.Dataset, omega: float, sigma: float, zeta: float) -> xr.
     """The distinct converged orbits stored at the grid point nearest (omega, sigma, zeta)
     (``products.valid_orbits``: duplicates dropped), over dim ``orbit``: ``slot``,
     ``orbit_class``, the stored fields of :data:`ORBIT_TABLE_FIELDS`, ``multipliers`` (orbit,
-    multiplier) and, when stored,
-    ``force_harmonics`` (orbit, harmonic). Attrs: the grid point's omega, sigma, zeta."""
+    multiplier) and, when stored, ``force_harmonics`` (orbit, harmonic) and the census's
+    ``basin_fraction`` of the orbits that are its periodic attractors. Attrs: the grid point's
+    omega, sigma, zeta."""
     pt = ds.sel(omega=[omega], sigma=[sigma], zeta=[zeta], method="nearest")
     valid = P.valid_orbits(pt).values[0, 0, 0]
     cls = P.orbit_classes(pt).values[0, 0, 0]
@@ -345,6 +346,16 @@ def point_orbits(ds: xr.Dataset, omega: float, sigma: float, zeta: float) -> xr.
     if "force_harmonics" in p:
         out["force_harmonics"] = (("orbit", "harmonic"),
                                   p["force_harmonics"].transpose("solution", "harmonic").values)
+    if "attractor_solution" in pt:
+        # the census's basin share of each orbit that is one of its periodic attractors (NaN:
+        # not an attractor the census's transients reached, or the census did not run)
+        a = pt.isel(omega=0, sigma=0, zeta=0)
+        basin = np.full(slots.size, np.nan)
+        for link, share, kind in zip(a["attractor_solution"].values, a["basin_fraction"].values,
+                                     a["attractor_kind"].values):
+            if kind == ATTRACTOR_KINDS["periodic"] and link in slots:
+                basin[np.flatnonzero(slots == link)[0]] = share
+        out["basin_fraction"] = ("orbit", basin)
     out.attrs = {"omega": float(pt["omega"].values[0]), "sigma": float(pt["sigma"].values[0]),
                  "zeta": float(pt["zeta"].values[0]),
                  "exponent": P.exponent_of(ds), "model": ds.attrs.get("model", "hertz"),

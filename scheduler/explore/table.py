@@ -51,6 +51,12 @@ def orbit_table(rows, u) -> str:
              fmt=html.escape),
         line("period", "T", "period", get("period"), fmt=lambda p: f"{int(p)}"),
         line("stable", "", "stable", get("stable"), fmt=lambda b: "yes" if b else "no"),
+    ]
+    if "basin_fraction" in rows[0][1]:
+        body.append(line("basin share (census)", "%", "basin_fraction",
+                         [(k, 100 * x) for k, x in get("basin_fraction")],
+                         fmt=lambda x: _fmt(x, 3)))
+    body += [
         line("largest |multiplier|", "", "max_abs_mu",
              [(k, np.max(np.abs(m))) for k, m in mults]),
         line("multiplier 1", "", "mu1", [(k, m[0]) for k, m in mults], fmt=_complex),

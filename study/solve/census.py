@@ -36,6 +36,16 @@ beyond about k P periods, and the contact is chaotic for that long) or once they
 their periods; where no stable orbit is known, a positive exponent suffices. The others stay
 unsettled with the reason (``unsettled_reason``: the period limit, or the work budget).
 
+Certified orbits (study.solve.certificate): before the first transient, each stable orbit the
+point already knows (the grid's search, the atlas) gets its certified neighbourhood, where its
+m-period map contracts a quadratic Lyapunov function of its monodromy; a transient that enters
+it and shows the predicted contraction m periods later stops there and counts with that orbit
+(it is reached, with its own window measures taken once from a run started on the orbit). A
+stable orbit a transient finds is certified too while more than CERTIFY_AHEAD of the point's
+own transients are to come. On the default scene's lines a transient stops after 70 periods
+where the recognition below took 135 (BENCHMARKS.md, benchmarks/census_ab.py --compare
+certified), every attractor named as without it.
+
 Recognition (study.solve.recognition): the transients run one after another, and one stops as
 soon as it is recognised on what the point's earlier ones found: a periodic attractor's points
 (then it counts with it, without its own refinement and measures) or, in the longer passes of

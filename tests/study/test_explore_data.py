@@ -151,6 +151,30 @@ def test_point_orbits_drop_duplicates_and_keep_the_stored_numbers(hand):
     assert dup.sizes["orbit"] == 1
 
 
+def test_point_orbits_carry_the_census_basin_of_the_orbits_that_are_its_attractors():
+    """The orbit table's basin share: a periodic attractor's basin_fraction on the orbit its
+    attractor_solution names (wherever the slot order put it); NaN for an orbit no attractor
+    names, and for every orbit where the census did not store attractors."""
+    toml = "[grid]\nomega = 2.0\nsigma = 0.6\nzeta = 0.01\n[products]\n" \
+           "outputs = [\"orbits\", \"measures\", \"attractors\"]\n"
+    ds = blank_results(toml, "basins")
+    _put(ds, 0, 0, 0, 0, period=1, stable=False, mult=(-1.3, -0.7))
+    _put(ds, 0, 0, 0, 1, period=2, stable=True, loses=True, min_q=-1.9, max_q=2.1, mult=(0.3, 0.2))
+    _put(ds, 0, 0, 0, 2, period=3, stable=True, min_q=-2.5, max_q=3.0, mult=(0.1, 0.2))
+    for a, (link, share) in enumerate([(2, 0.75), (1, 0.25)]):
+        at = dict(omega=0, sigma=0, zeta=0, attractor=a)
+        ds["attractor_kind"][at] = 1
+        ds["attractor_period"][at] = (3, 2)[a]
+        ds["attractor_solution"][at] = link
+        ds["basin_fraction"][at] = share
+    ds["attractor_count"][dict(omega=0, sigma=0, zeta=0)] = 2
+    orb = E.point_orbits(P.open_store(ds), 2.0, 0.6, 0.01)
+    assert list(orb["period"].values) == [1, 2, 3]
+    np.testing.assert_array_equal(orb["basin_fraction"].values, [np.nan, 0.25, 0.75])
+    none = E.point_orbits(P.open_store(blank_results(MAP, "m")), 2.0, 0.6, 0.01)
+    assert np.isnan(none["basin_fraction"].values).all()
+
+
 def test_orbit_history_and_harmonics_of_a_real_2T_orbit_with_contact_loss():
     """A 2T orbit with contact loss found by shooting (exact events) put in a store: the page's
     integration from its start point closes, has its min q, and its FFT harmonics are the
