@@ -156,7 +156,7 @@ def test_point_orbits_carry_the_census_basin_of_the_orbits_that_are_its_attracto
     attractor_solution names (wherever the slot order put it); NaN for an orbit no attractor
     names, and for every orbit where the census did not store attractors."""
     toml = "[grid]\nomega = 2.0\nsigma = 0.6\nzeta = 0.01\n[products]\n" \
-           "outputs = [\"orbits\", \"measures\", \"attractors\"]\n"
+           "outputs = [\"orbits\", \"measures\", \"force_harmonics\", \"attractors\"]\n"
     ds = blank_results(toml, "basins")
     _put(ds, 0, 0, 0, 0, period=1, stable=False, mult=(-1.3, -0.7))
     _put(ds, 0, 0, 0, 1, period=2, stable=True, loses=True, min_q=-1.9, max_q=2.1, mult=(0.3, 0.2))
