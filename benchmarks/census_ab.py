@@ -12,6 +12,8 @@ found (study.solve.recognition) / every transient runs its whole budget.
 (study.solve.census, "Neighbours") / from the point's own states only.
 ``--compare certified``: transients also stop in the certified neighbourhood of a stable orbit
 the point knows (study.solve.certificate) / only on the points of what earlier ones found.
+``--compare rtol``: the transients' integrator tolerance (census.TRANSIENT_RTOL and the
+certificates' RTOL) 1e-6 / 1e-8.
 
 Each chosen sigma line is searched twice (sweeps and fold turning, then the census at the
 points the study asks it at: study.solve.line), once per mode, the modes' order alternating
@@ -34,10 +36,14 @@ import hertzmap.study.solve.line as line_module
 from hertzmap.study.solve.line import LineSearch
 from hertzmap.study.spec import load_study
 
-#: per comparison: the census module's switch, and the two modes (on, off)
-COMPARISONS = {"recognition": ("RECOGNITION", ("recognition", "full transients")),
-               "neighbours": ("NEIGHBOUR_STARTS", ("neighbour starts", "own states only")),
-               "certified": ("CERTIFIED", ("certified orbits", "attractors' points only"))}
+#: per comparison: the census module's setting, its values in the two modes, and the modes'
+#: names (the first: the shortcut on)
+COMPARISONS = {"recognition": ("RECOGNITION", (True, False), ("recognition", "full transients")),
+               "neighbours": ("NEIGHBOUR_STARTS", (True, False),
+                              ("neighbour starts", "own states only")),
+               "certified": ("CERTIFIED", (True, False),
+                             ("certified orbits", "attractors' points only")),
+               "rtol": ("TRANSIENT_RTOL", (1e-6, 1e-8), ("rtol 1e-6", "rtol 1e-8"))}
 
 
 def main(argv=None) -> int:
@@ -47,7 +53,9 @@ def main(argv=None) -> int:
     ap.add_argument("--offset", type=int, default=0, help="the first line's index")
     ap.add_argument("--compare", choices=sorted(COMPARISONS), default="recognition")
     a = ap.parse_args(argv)
-    switch, modes = COMPARISONS[a.compare]
+    switch, values, modes = COMPARISONS[a.compare]
+    value = dict(zip(modes, values))
+    from hertzmap.study.solve import certificate as certificate_module
     s = load_study(a.study)
     kw = s.solver_kwargs()
     omega, zeta = s.axis("omega"), float(s.axis("zeta")[0])
@@ -71,12 +79,15 @@ def main(argv=None) -> int:
     named = collections.Counter()
     points = collections.Counter()
     exponents = {m: {} for m in modes}
+    sets = {m: {} for m in modes}          # point -> its attractors' (kind, period)
     unreached = {m: collections.Counter() for m in modes}
     sigmas = s.axis("sigma")[a.offset::a.lines]
     for n, sigma in enumerate(sigmas):
         for mode in (modes if n % 2 == 0 else modes[::-1]):
             mode_now[0] = mode
-            setattr(census_module, switch, mode == modes[0])
+            setattr(census_module, switch, value[mode])
+            if switch == "TRANSIENT_RTOL":
+                certificate_module.RTOL = value[mode]
             ls = LineSearch(omega, float(sigma), zeta, s.periods, options)
             ls.sweep()
             ls.turn_folds()
@@ -84,6 +95,7 @@ def main(argv=None) -> int:
                           s.record_periods, kw.get("max_transient_periods"),
                           kw.get("point_steps", 2_000_000), kw.get("lyapunov_error"))
             for i, found in ls.attractors.items():
+                sets[mode][(i, float(sigma))] = sorted((f.kind, f.period) for f in found)
                 points[mode] += 1
                 kinds[mode][tuple(sorted({f.kind for f in found}))] += 1
                 named[mode] += any(f.kind in ("periodic", "non_periodic") for f in found)
@@ -99,7 +111,8 @@ def main(argv=None) -> int:
                 stable[mode]["any"] += bool(periods)
                 for m in periods:
                     stable[mode][m] += 1
-    setattr(census_module, switch, True)
+    setattr(census_module, switch, values[1] if switch == "TRANSIENT_RTOL" else True)
+    certificate_module.RTOL = 1e-8
     line_module.census = census
     print(f"{len(sigmas)} sigma lines of {a.study} (every {a.lines}th from {a.offset}), "
           f"{len(omega)} omega points each")
@@ -117,6 +130,13 @@ def main(argv=None) -> int:
                 > 3 * math.hypot(exponents[modes[0]][p][1], exponents[modes[1]][p][1]))
     print(f"chaotic in both: {len(both)} points, exponents more than 3 combined standard "
           f"errors apart: {apart}")
+    differ = [p for p in set(sets[modes[0]]) & set(sets[modes[1]])
+              if sets[modes[0]][p] != sets[modes[1]][p]]
+    lost = [p for p in differ if not set(sets[modes[1]][p]) <= set(sets[modes[0]][p])]
+    print(f"points whose attractors (kind, period) differ: {len(differ)}; where {modes[0]} "
+          f"lacks one {modes[1]} names: {len(lost)}"
+          + "".join(f"\n  omega {omega[i]:.4g} sigma {sg:.4g}: {sets[modes[0]][(i, sg)]} / "
+                    f"{sets[modes[1]][(i, sg)]}" for i, sg in sorted(differ)[:8]))
     print(f"census CPU, {modes[1]} / {modes[0]}: "
           f"{spent[modes[1]] / max(spent[modes[0]], 1e-9):.2f}x")
     return 0

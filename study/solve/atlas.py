@@ -95,7 +95,7 @@ class TileResult:
 HALO_NAMES = RULE_FIELDS + ("q0", "v0")
 #: what a census round reads of its halo besides: the neighbours' attractors, whose states
 #: its transients also start from (neighbour_starts)
-NEIGHBOUR_NAMES = ("attractor_kind", "strobe_q", "strobe_v")
+NEIGHBOUR_NAMES = ("attractor_kind", "strobe_q", "strobe_v", "attractor_period")
 
 
 def neighbours(idx, shape):
@@ -320,15 +320,18 @@ def census_tile(region: dict[str, np.ndarray], lines: dict[str, np.ndarray],
 def neighbour_starts(region: dict[str, np.ndarray], idx: tuple) -> list[tuple[float, float]]:
     """States on the attractors stored at the grid neighbours of ``region``'s point ``idx``
     along every axis (the snapshot's), as study.solve.census.attractor_starts takes them: the
-    last stroboscopic point of each periodic or chaotic attractor."""
-    kinds, q, v = (region[n] for n in NEIGHBOUR_NAMES)
+    last stroboscopic point of each chaotic attractor, the last m (its phases) of each periodic
+    one of period m."""
+    kinds, q, v, periods = (region[n] for n in NEIGHBOUR_NAMES)
     wanted = [ATTRACTOR_KINDS[k] for k in NEIGHBOUR_KINDS]
     out = []
     for at in neighbours(idx, kinds.shape[:3]):
         for slot in np.flatnonzero(np.isin(kinds[at], wanted)):
-            x = (float(q[at + (slot, -1)]), float(v[at + (slot, -1)]))
-            if np.all(np.isfinite(x)):
-                out.append(x)
+            m = max(1, int(periods[at + (slot,)]))
+            for x in zip(q[at + (slot, slice(-m, None))].tolist(),
+                         v[at + (slot, slice(-m, None))].tolist()):
+                if np.all(np.isfinite(x)):
+                    out.append(x)
     return out
 
 

@@ -567,10 +567,18 @@ def orbit_window(omega, sigma, zeta, a: Attractor, options: dict, record_periods
 
 
 def attractor_starts(found: list[Attractor]) -> list[tuple[float, float]]:
-    """A state on each periodic or chaotic attractor of a census (its last stroboscopic
-    point): the neighbour starts of the points next to it (module docstring, "Neighbours")."""
-    return [(float(a.strobe[-1, 0]), float(a.strobe[-1, 1])) for a in found
-            if a.kind in NEIGHBOUR_KINDS and a.strobe.shape[0]]
+    """States on each periodic or chaotic attractor of a census: the neighbour starts of the
+    points next to it (module docstring, "Neighbours"). A chaotic attractor's last
+    stroboscopic point; each of a periodic attractor's m points (its m phases: next door, an
+    orbit's basin may take some of its phases and not others; measured on the default scene,
+    omega 0.7, sigma 0.95: of a 3T orbit's phases at the neighbouring point, one starts on the
+    3T orbit there, two on the 1T orbit)."""
+    out = []
+    for a in found:
+        if a.kind in NEIGHBOUR_KINDS and a.strobe.shape[0]:
+            m = max(1, a.period) if a.kind == "periodic" else 1
+            out += [(float(q), float(v)) for q, v in a.strobe[-m:]]
+    return out
 
 
 def has_stable_orbit(orbits: list[dict]) -> bool:

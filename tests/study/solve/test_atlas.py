@@ -229,9 +229,10 @@ def test_a_census_round_runs_the_census_again_where_a_stable_orbit_came():
 
 
 def test_a_census_round_starts_from_the_neighbours_periodic_and_chaotic_attractors():
-    """neighbour_starts: the last stroboscopic point of each periodic or non-periodic
-    attractor stored at the point's grid neighbours along every axis (lower first, in axis
-    order), none of an unsettled or failed group, an empty slot or a missing point."""
+    """neighbour_starts: the last stroboscopic point of each non-periodic attractor and the
+    last m (its phases) of each periodic one of period m stored at the point's grid neighbours
+    along every axis (lower first, in axis order), none of an unsettled or failed group, an
+    empty slot or a missing point."""
     from hertzmap.study.schema import ATTRACTOR_KINDS, ATTRACTOR_VARIABLES, STROBE_POINTS
     from hertzmap.study.solve.atlas import neighbour_starts
 
@@ -248,9 +249,13 @@ def test_a_census_round_starts_from_the_neighbours_periodic_and_chaotic_attracto
     put((2, 1, 0), 0, "unsettled", (9.0, 9.0))
     put((1, 0, 0), 0, "failed", (9.0, 9.0))
     put((1, 2, 0), 2, "periodic", (5.0, 6.0))
+    region["attractor_period"][1, 2, 0, 2] = 2                   # a 2T orbit: two phases
     put((1, 1, 1), 0, "non_periodic", (7.0, 8.0))
     put((1, 1, 1), 1, "periodic", (np.nan, 8.0))
     put((0, 0, 0), 0, "periodic", (9.0, 9.0))                   # not a neighbour
-    assert neighbour_starts(region, (1, 1, 0)) == [(1.0, 2.0), (3.0, 4.0), (5.0, 6.0),
-                                                   (7.0, 8.0)]
+    before_last = (-1 + (5.0 + 1) * (STROBE_POINTS - 2) / (STROBE_POINTS - 1),
+                   -1 + (6.0 + 1) * (STROBE_POINTS - 2) / (STROBE_POINTS - 1))
+    got = neighbour_starts(region, (1, 1, 0))
+    assert got[:2] == [(1.0, 2.0), (3.0, 4.0)] and got[4:] == [(7.0, 8.0)]
+    np.testing.assert_allclose(got[2:4], [before_last, (5.0, 6.0)], rtol=1e-14)
     assert neighbour_starts(region, (2, 2, 1)) == []
