@@ -4,7 +4,7 @@
   steps (FAR_FROM_FOLD);
 * ``stall``: a continuation's Newton gives up once its residual creeps (STALL_RATIO).
 
-    .venv/bin/python benchmarks/atlas_rules.py RULE studies/default.toml [--workers 2] [--keep DIR]
+    .venv/bin/python benchmarks/atlas_rules.py RULE scenes/default.toml [--workers 2] [--keep DIR]
 
 The scene's grid once (``hertzmap run --skip-atlas``), copied twice; then the rest of the run
 (the atlas, its census rounds, the curves) on each copy, one after the other: "off" through

@@ -4,7 +4,7 @@ vibro-impact scene's lines, same run: CPU, and what each names.
     .venv/bin/python -m benchmarks.census_ab                          # recognition, every 8th line
     .venv/bin/python -m benchmarks.census_ab --lines 16 --offset 4
     .venv/bin/python -m benchmarks.census_ab --compare neighbours
-    .venv/bin/python -m benchmarks.census_ab --compare certified --study studies/default.toml --lines 8
+    .venv/bin/python -m benchmarks.census_ab --compare certified --study scenes/default.toml --lines 8
 
 ``--compare recognition``: transients stop once recognised on what the point's earlier ones
 found (study.solve.recognition) / every transient runs its whole budget.
@@ -48,7 +48,7 @@ COMPARISONS = {"recognition": ("RECOGNITION", (True, False), ("recognition", "fu
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--study", default="studies/vibro_impact.toml")
+    ap.add_argument("--study", default="scenes/vibro_impact.toml")
     ap.add_argument("--lines", type=int, default=8, help="every k-th sigma line")
     ap.add_argument("--offset", type=int, default=0, help="the first line's index")
     ap.add_argument("--compare", choices=sorted(COMPARISONS), default="recognition")

@@ -18,7 +18,7 @@ benchmarks/vibro_impact_cost.py):
 
 Every omega line is one block, solved by the four in turn (A B C D, then D C B A on the next line,
 so that a drift of the machine's speed falls on all four alike). Orbits are counted from the
-solver's own lists (16 slots: none dropped), per class (study.orbits), and compared orbit by
+solver's own lists (16 slots: none dropped), per class (study.orbit_rules), and compared orbit by
 orbit with the identity rule.
 """
 from __future__ import annotations
@@ -28,7 +28,7 @@ import time
 
 import numpy as np
 
-from hertzmap.study.orbits import CLASS_NAMES, class_codes, same_orbit
+from hertzmap.study.orbit_rules import CLASS_NAMES, class_codes, same_orbit
 from hertzmap.study.solve.block import solve_block
 from hertzmap.study.spec import load_study
 
@@ -41,7 +41,7 @@ SLOTS = 16
 
 def orbits_of(r) -> list[list[dict]]:
     """Per omega point: each orbit's period, stable, min_q, max_q, ptp and trace (what the
-    identity rule study.orbits.same_orbit reads)."""
+    identity rule study.orbit_rules.same_orbit reads)."""
     ok = r["status"][:, 0, 0, :] == 0
     out = []
     for i in range(ok.shape[0]):
@@ -55,7 +55,7 @@ def orbits_of(r) -> list[list[dict]]:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--study", default="studies/default.toml")
+    ap.add_argument("--study", default="scenes/default.toml")
     ap.add_argument("--omega", type=float, nargs=3, metavar=("START", "STOP", "NUM"))
     ap.add_argument("--sigma", type=float, nargs="+")
     ap.add_argument("--zeta", type=float, default=None)

@@ -11,7 +11,7 @@
    rest is the interpreter's exit, which frees numba's compiled modules), and this process's
    CPU (its helper processes, kernels._jit, run on the other core and are not counted in it). The ratio
    cold / warm is taken round by round.
-2. The default study (studies/default.toml) on 2 workers into a temporary store, with an empty
+2. The default study (scenes/default.toml) on 2 workers into a temporary store, with an empty
    numba cache and then warm: "setup" (cluster start and every worker's warm-up, which
    compiles the kernels) and the compute wall, as ``hertzmap run`` prints them; ratio cold /
    warm of the setup.
@@ -57,7 +57,7 @@ def first_orbit(cache: str) -> tuple[float, float, float]:
 
 def study(cache: str, store: str) -> dict[str, float]:
     env = dict(os.environ, NUMBA_CACHE_DIR=cache)
-    cmd = [str(ROOT / ".venv" / "bin" / "hertzmap"), "run", str(ROOT / "studies" / "default.toml"),
+    cmd = [str(ROOT / ".venv" / "bin" / "hertzmap"), "run", str(ROOT / "scenes" / "default.toml"),
            "--workers", "2", "--store", store, "--overwrite", "--error-sample", "0"]
     t0 = time.perf_counter()
     res = subprocess.run(cmd, env=env, cwd=ROOT, capture_output=True, text=True)

@@ -23,7 +23,7 @@ Printed, in one run (Hertz model, n = 3/2, rtol 1e-10, one process unless said):
    traced curve, the h that reaches 1e-3 and that grid's time at the measured cost per
    point; the 2T fold (an existence boundary) is known to one grid step only, so 1e-3 needs
    a step of 1e-3.
-4. **The default scene** (studies/default.toml, which asks for curves) run with ``hertzmap
+4. **The default scene** (scenes/default.toml, which asks for curves) run with ``hertzmap
    run`` on 2 workers, with and without "curves" in its outputs, in ABBA order (``--pairs``
    pairs): whole-command times and their ratio pair by pair (the median is the figure: the
    machine's speed drifts with other jobs), and the curve stage's share.
@@ -45,7 +45,7 @@ from benchmarks.run_summary import run_summary
 from hertzmap.kernels import continuation as cont
 from hertzmap.kernels.continuation.extended_system import CurveSystem, chord_correct
 from hertzmap.kernels import shoot, shoot_batch
-from hertzmap.study.products.curves import contour_lines
+from hertzmap.study.products.bifurcation_curves import contour_lines
 from hertzmap.study.solve.discovery import discover_line
 from hertzmap.study.solve.seeds import linear_response_seed
 
@@ -311,9 +311,9 @@ def run_scene(text, store, label):
 def section_scene(pairs=3):
     print("\n## 4. the default scene with and without curves (hertzmap run, 2 workers, ABBA)")
     print(f"load average before: {os.getloadavg()[0]:.2f}")
-    text = (REPO / "studies" / "default.toml").read_text()
+    text = (REPO / "scenes" / "default.toml").read_text()
     with_curves = 'outputs = ["orbits", "measures", "curves"]'
-    assert with_curves in text, "studies/default.toml no longer asks for curves"
+    assert with_curves in text, "scenes/default.toml no longer asks for curves"
     plain_text = text.replace(with_curves, 'outputs = ["orbits", "measures"]')
     ratios, stage = [], []
     with tempfile.TemporaryDirectory() as d:

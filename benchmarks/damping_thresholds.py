@@ -3,7 +3,7 @@ sigma*(zeta), sigma**(zeta) and the isola's join from a store's products/thresho
 sigma*/zeta against the multiple-scales 36 / (1 + 16 zeta^2 / 9) (paper Eq. 26-27) and the rig's
 measured ~40 at zeta = 0.005, and sigma* against the scipy oracle at two zeta values.
 
-    hertzmap run studies/damping.toml --workers 1 && hertzmap plot results/damping.zarr
+    hertzmap run scenes/damping.toml --workers 1 && hertzmap plot results/damping.zarr
     .venv/bin/python -m benchmarks.damping_thresholds results/damping.zarr
     .venv/bin/python -m benchmarks.damping_thresholds results/damping.zarr --oracle 0.005 0.02
 

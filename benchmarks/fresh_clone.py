@@ -8,7 +8,7 @@ pair (A B, then B A, ...), in one session.
 Each run clones the repository at the revision into a new temporary folder and points
 XDG_CACHE_HOME at a new empty folder (uv's, pip's and hertzmap's numba caches all live under
 it), then runs the three commands of its scripts/run-default.sh one after the other, timing each: the
-install (scripts/install.sh), ``hertzmap run studies/default.toml`` (its setup, grid and
+install (scripts/install.sh), ``hertzmap run scenes/default.toml`` (its setup, grid and
 curves as it prints them: benchmarks.run_summary) and ``hertzmap plot``. The whole is their
 sum (the script itself adds nothing but bash's start). The machine's load average is printed
 with every run: this VM's speed moves with its neighbours.

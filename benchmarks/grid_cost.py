@@ -41,7 +41,7 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.machine import load_average  # noqa: E402
 from hertzmap.kernels import status as st  # noqa: E402
-from hertzmap.kernels.orbit import DEFAULT_MAX_STEPS  # noqa: E402
+from hertzmap.kernels.periodic_orbit import DEFAULT_MAX_STEPS  # noqa: E402
 from hertzmap.kernels.model import MODELS  # noqa: E402
 from hertzmap.kernels import attractors as attractors_mod  # noqa: E402
 from hertzmap.kernels.shooting import F, N_FIELDS, shoot_batch_into  # noqa: E402
@@ -50,7 +50,7 @@ from hertzmap.study.solve import block as block_mod  # noqa: E402
 from hertzmap.study.solve import census as census_mod  # noqa: E402
 from hertzmap.study.solve import line as line_mod  # noqa: E402
 from hertzmap.study.solve import point as point_mod  # noqa: E402
-from hertzmap.study.orbits import same_orbit  # noqa: E402
+from hertzmap.study.orbit_rules import same_orbit  # noqa: E402
 from hertzmap.study.spec import load_study  # noqa: E402
 
 
@@ -132,7 +132,7 @@ class Recorder:
 
 def classify(rec: Recorder, stored: np.ndarray):
     """Seconds and counts per class (see the module's docstring); a solve is a stored orbit's
-    by study.orbits.same_orbit, the rule the block solver keeps orbits by."""
+    by study.orbit_rules.same_orbit, the rule the block solver keeps orbits by."""
     index = defaultdict(list)
     for r in stored:
         index[(r[0], r[1], r[2], int(r[3]))].append(
@@ -160,7 +160,7 @@ def classify(rec: Recorder, stored: np.ndarray):
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--study", default=str(ROOT / "studies" / "default.toml"))
+    ap.add_argument("--study", default=str(ROOT / "scenes" / "default.toml"))
     ap.add_argument("--every", type=int, default=4, help="every k-th sigma line (default 4)")
     ap.add_argument("--sample", type=int, default=1000, help="stored orbits re-solved")
     ap.add_argument("--no-breakdown", action="store_true")

@@ -2,7 +2,7 @@
 period, points holding a stable orbit of each period, the census's attractors by kind (and why
 the unsettled ones are), orbits the slots dropped, orbits the atlas added, and the cost.
 
-    .venv/bin/python benchmarks/map_completeness.py --run studies/default.toml [--workers 2] [--keep DIR]
+    .venv/bin/python benchmarks/map_completeness.py --run scenes/default.toml [--workers 2] [--keep DIR]
     .venv/bin/python benchmarks/map_completeness.py BEFORE.zarr AFTER.zarr
 
 ``--run``: the scene twice in this process's session, one run after the other on the same
@@ -27,7 +27,7 @@ import numpy as np
 import xarray as xr
 
 from hertzmap.study import products as P
-from hertzmap.study.orbits import CLASS_LABELS
+from hertzmap.study.orbit_rules import CLASS_LABELS
 
 
 def counts(path: str) -> dict[str, int]:

@@ -53,7 +53,7 @@ from benchmarks.machine import load_average  # noqa: E402
 
 
 def big_study_file(folder: str) -> str:
-    text = (ROOT / "studies" / "fine_map.toml").read_text()
+    text = (ROOT / "scenes" / "fine_map.toml").read_text()
     text = text.replace("num = 400 }", "num = 4000 }").replace("num = 250 }", "num = 2500 }")
     text = text.replace('name = "fine_map"', 'name = "scale_1e7"')
     path = os.path.join(folder, "scale_1e7.toml")

@@ -4,7 +4,7 @@ kinds, and the CPU of each (issue 16: "no orbit lost, census comparison by class
 before and after").
 
     .venv/bin/python benchmarks/search_ab.py --vs 2ec7ef9                  (default study, every 2nd line)
-    .venv/bin/python benchmarks/search_ab.py --vs 2ec7ef9 --study studies/fine_map.toml --every 5
+    .venv/bin/python benchmarks/search_ab.py --vs 2ec7ef9 --study scenes/fine_map.toml --every 5
 
 B is the revision's study/solve/line.py (the line search: sweeps, fold turning, census and
 the traces of what it finds), loaded as a module beside this tree's and used by this tree's
@@ -13,7 +13,7 @@ block) is this tree's. So it compares changes confined to line.py; for others, r
 benchmarks/orbit_census.py in both trees. Every ``--every``-th sigma line (from ``--offset``)
 is one block, solved by A then B, then B then A on the next line (a drift of the machine's
 speed falls on both alike); CPU is this process's. Orbits come from the solver's own lists
-(16 slots: none dropped), classed by study.orbits and compared orbit by orbit with its identity
+(16 slots: none dropped), classed by study.orbit_rules and compared orbit by orbit with its identity
 rule, as benchmarks/census_comparison.py reads them (its orbits_of).
 """
 from __future__ import annotations
@@ -33,7 +33,7 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.census_comparison import SLOTS, orbits_of  # noqa: E402
 from benchmarks.machine import load_average  # noqa: E402
-from hertzmap.study.orbits import CLASS_NAMES, class_codes, same_orbit  # noqa: E402
+from hertzmap.study.orbit_rules import CLASS_NAMES, class_codes, same_orbit  # noqa: E402
 from hertzmap.study.solve import block as block_mod  # noqa: E402
 from hertzmap.study.spec import load_study  # noqa: E402
 
@@ -54,7 +54,7 @@ def line_module(rev: str, folder: str):
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--vs", required=True, help="the revision B (e.g. a commit)")
-    ap.add_argument("--study", default=str(ROOT / "studies" / "default.toml"))
+    ap.add_argument("--study", default=str(ROOT / "scenes" / "default.toml"))
     ap.add_argument("--every", type=int, default=2, help="every k-th sigma line (default 2)")
     ap.add_argument("--offset", type=int, default=0, help="the first sigma line")
     a = ap.parse_args()

@@ -2,7 +2,7 @@
 targets in turn (A B, then B A, ...), in one session.
 
     .venv/bin/python benchmarks/task_size.py                          (default study, 0.25 vs 2 s)
-    .venv/bin/python benchmarks/task_size.py --study studies/fine_map.toml --pairs 1
+    .venv/bin/python benchmarks/task_size.py --study scenes/fine_map.toml --pairs 1
 
 Each run is ``hertzmap run STUDY --workers 2 --task-seconds S`` into a temporary store (warm
 numba cache: run the study once before). Printed per run: the tasks, the grid's wall and task
@@ -57,7 +57,7 @@ def one_run(study: str, task_seconds: float) -> dict:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--study", default="studies/default.toml")
+    ap.add_argument("--study", default="scenes/default.toml")
     ap.add_argument("--a", type=float, default=0.25, help="task seconds of run A (one sigma line per task on the default study and the fine map, as before 2026-11-24)")
     ap.add_argument("--b", type=float, default=2.0, help="task seconds of run B (the default)")
     ap.add_argument("--pairs", type=int, default=2)

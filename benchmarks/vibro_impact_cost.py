@@ -7,7 +7,7 @@ the orbits the census finds), per omega line, in one process.
 
 CPU seconds (time.process_time) of this process, so that other work on the machine does not
 count; the whole scene's wall time on 2 workers is printed by ``hertzmap run
-studies/vibro_impact.toml --workers 2``.
+scenes/vibro_impact.toml --workers 2``.
 """
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ from hertzmap.study.spec import load_study
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--study", default="studies/vibro_impact.toml")
+    ap.add_argument("--study", default="scenes/vibro_impact.toml")
     ap.add_argument("--lines", type=int, default=8, help="every k-th sigma line")
     a = ap.parse_args(argv)
     s = load_study(a.study)

@@ -14,7 +14,7 @@ import numpy as np
 from hertzmap.kernels import status as st
 from hertzmap.kernels.integrate import N_HARMONICS, N_STATS, integrate
 from hertzmap.kernels.model import check_exponent, model_code, rhs_force
-from hertzmap.kernels.orbit import (DEFAULT_MAX_ITER, DEFAULT_MAX_STEPS, DEFAULT_RTOL, Orbit,  # noqa: F401
+from hertzmap.kernels.periodic_orbit import (DEFAULT_MAX_ITER, DEFAULT_MAX_STEPS, DEFAULT_RTOL, Orbit,  # noqa: F401
                                     shoot, shoot_batch)
 from hertzmap.kernels.shooting import N_FIELDS
 

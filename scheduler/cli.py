@@ -336,9 +336,9 @@ def _basins_args(p: argparse.ArgumentParser) -> None:
             "with its basin entropy, as a product group and a PNG")(_basins_args)
 def cmd_basins(args: argparse.Namespace) -> int:
     """The transients from every cell of the grid of initial states at the grid point, run in
-    row blocks on the cluster (scheduler.basins); the map is written into the store as
+    row blocks on the cluster (scheduler.basin_tasks); the map is written into the store as
     products/basin_map_omega<w>_sigma<s>_zeta<z> and drawn next to the store."""
-    from hertzmap.scheduler.basins import check_request, run_basins
+    from hertzmap.scheduler.basin_tasks import check_request, run_basins
     from hertzmap.scheduler.cluster import ClusterError, ClusterSpec
     from hertzmap.scheduler.errors import RefusedError
 

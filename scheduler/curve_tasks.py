@@ -1,10 +1,10 @@
 """Traced curves as Dask tasks of the same study, after its grid (the ``curves`` output).
 
 The seeds are the grid cells where a test function changes sign, read from the store (the
-lines' ``crossing_*`` records and the stored orbits: study.solve.curves.curve_seeds, in a fixed
-order); one task traces one curve (study.solve.curves.trace_seed). The client commits the
+lines' ``crossing_*`` records and the stored orbits: study.solve.curve_seeds.curve_seeds, in a fixed
+order); one task traces one curve (study.solve.curve_seeds.trace_seed). The client commits the
 finished traces **in seed order** (scheduler.store.write_curve_part) through a
-study.solve.curves.SeedBook: a seed that lies on a curve committed from an earlier seed, or
+study.solve.curve_seeds.SeedBook: a seed that lies on a curve committed from an earlier seed, or
 near an earlier seed whose trace did not cover it, is skipped before it is shipped and again
 when its turn to commit comes; a trace that starts on an earlier curve is committed as a
 duplicate (no vertices); so the curves kept depend on the grid only, never on which task
@@ -34,13 +34,13 @@ from hertzmap.study.products.results import quiet
 from hertzmap.study.products.traced_curves import (combine_traced_curves, part_attrs, trace_from_part,
                                           traced_curves_dataset)
 from hertzmap.study.schema import CROSSING_VARIABLES
-from hertzmap.study.solve.curves import SEED_SOURCES, Seed, SeedBook, curve_seeds, window
+from hertzmap.study.solve.curve_seeds import SEED_SOURCES, Seed, SeedBook, curve_seeds, window
 from hertzmap.study.spec import Study
 from hertzmap.scheduler.stage import Stage
 
 IN_FLIGHT_PER_WORKER = 2
 #: what traces one seed's curve (module:function, imported on the worker by name)
-DEFAULT_TRACER = "hertzmap.study.solve.curves:trace_seed"
+DEFAULT_TRACER = "hertzmap.study.solve.curve_seeds:trace_seed"
 
 
 def trace_task(spec: dict[str, Any]) -> dict[str, Any]:
@@ -58,13 +58,13 @@ def trace_task(spec: dict[str, Any]) -> dict[str, Any]:
 
 
 def warm_curve_kernels() -> float:
-    """Load (or compile) the curve kernels in this process (study.solve.curves.curve_kernels:
+    """Load (or compile) the curve kernels in this process (study.solve.curve_seeds.curve_kernels:
     the workers' warm-up compiled them when the grid ran in this run; a run that resumes at its
     curves has no warm-up). Returns the seconds it took."""
     import scipy.optimize  # noqa: F401  (the extremum search's; ~0.4 s on a first import)
 
     from hertzmap.kernels import compile_kernels
-    from hertzmap.study.solve.curves import curve_kernels
+    from hertzmap.study.solve.curve_seeds import curve_kernels
 
     t0 = time.perf_counter()
     compile_kernels(curve_kernels())

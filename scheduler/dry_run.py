@@ -10,7 +10,7 @@ from hertzmap.scheduler.report import fmt_bytes, fmt_time
 from hertzmap.scheduler.resources import check_resources
 from hertzmap.scheduler.store import Store, StoreError, read_attrs
 from hertzmap.study.schema import bytes_per_point, stored_variables
-from hertzmap.study.solve.curves import swept_planes
+from hertzmap.study.solve.curve_seeds import swept_planes
 from hertzmap.study.spec import AXES, Study
 
 

@@ -40,14 +40,14 @@ def warm_up_kernels(kwargs: dict[str, Any] | None = None, curves: bool = False) 
     in order, each once: the integrator (every entry point calls it; typing them needs only
     its signature, so the other worker types its entries meanwhile), the entry points the
     study's blocks call (study.solve.block.entry_kernels) and, with ``curves``, those of the
-    traced curves (study.solve.curves.curve_kernels); the census's, the largest, last, where
+    traced curves (study.solve.curve_seeds.curve_kernels); the census's, the largest, last, where
     the other worker (which takes the list backward) starts."""
     from hertzmap.kernels.attractors import attractor_batch_into
     from hertzmap.kernels.integrate import integrate
     from hertzmap.study.solve.block import entry_kernels
     entries = [integrate] + entry_kernels(**(kwargs or {}))
     if curves:
-        from hertzmap.study.solve.curves import curve_kernels
+        from hertzmap.study.solve.curve_seeds import curve_kernels
         entries += curve_kernels()
     entries = list(dict.fromkeys(entries))
     entries.sort(key=lambda d: d is attractor_batch_into)

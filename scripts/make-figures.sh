@@ -52,7 +52,7 @@ for scene in $SCENES; do
     *)
         [ -n "${FIGURES[$scene]+x}" ] || { echo "no figures listed for scene $scene" >&2; exit 2; }
         t0=$(ms)
-        "$HM" run "studies/$scene.toml" --store "$STORES/$scene.zarr" --workers "${WORKERS:-2}"
+        "$HM" run "scenes/$scene.toml" --store "$STORES/$scene.zarr" --workers "${WORKERS:-2}"
         t1=$(ms)
         "$HM" plot "$STORES/$scene.zarr" --out "$OUT" --which ${FIGURES[$scene]}
         t2=$(ms)

@@ -4,5 +4,5 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install.sh
-.venv/bin/hertzmap run studies/default.toml "$@"
+.venv/bin/hertzmap run scenes/default.toml "$@"
 .venv/bin/hertzmap plot results/default.zarr

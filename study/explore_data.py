@@ -28,7 +28,7 @@ import xarray as xr
 
 from hertzmap.kernels.records import ORBIT
 from hertzmap.study import products as P
-from hertzmap.study.orbits import CLASS_LABELS
+from hertzmap.study.orbit_rules import CLASS_LABELS
 from hertzmap.study.schema import ATTRACTOR_KINDS
 
 __all__ = [
@@ -151,7 +151,7 @@ def _set_styles() -> tuple[dict[int, str], dict[int, str]]:
     return ({c: _hex(v) for c, v in plots.SET_COLORS.items()}, dict(plots.SET_LABELS))
 
 
-_CLASS_SHORT = CLASS_LABELS      # study.orbits: one label per class
+_CLASS_SHORT = CLASS_LABELS      # study.orbit_rules: one label per class
 
 
 # ---------------------------------------------------------------------------------------------

@@ -40,7 +40,7 @@ from hertzmap.study import products as P  # noqa: E402
 from hertzmap.study.products.catalog import NAMED_FREQUENCIES, WHICH, check_which  # noqa: E402
 from hertzmap.study.analytic import multiple_scales as mms  # noqa: E402
 from hertzmap.study.analytic.rig import restoring_force  # noqa: E402
-from hertzmap.study.orbits import CLASS_LABELS  # noqa: E402
+from hertzmap.study.orbit_rules import CLASS_LABELS  # noqa: E402
 
 __all__ = [
     "WHICH",
@@ -67,7 +67,7 @@ __all__ = [
 
 DPI = 100
 
-#: Colour and legend label of each orbit class (study.orbits codes 1..8).
+#: Colour and legend label of each orbit class (study.orbit_rules codes 1..8).
 _CLASS_COLORS = {1: "tab:blue", 2: "tab:green", 3: "tab:red", 4: "#9ecae1", 5: "#fcae91",
                  6: "tab:purple", 7: "#c6c6c6", 8: "#dadaeb", 9: "#e7298a", 10: "#fbb4d9"}
 CLASS_STYLE = {code: (color, CLASS_LABELS[code]) for code, color in _CLASS_COLORS.items()}
@@ -167,7 +167,7 @@ _TRACED_LONGER_STYLE = {
                  label="fold of mT, m >= 3 (traced; where stable mT orbits end)"),
     "flip": dict(color="tab:olive", lw=1.0, ls=":", label="flip of mT, m >= 3 (traced)"),
 }
-#: The grid contour each traced (kind, period) replaces (study.products.curves CURVES names).
+#: The grid contour each traced (kind, period) replaces (study.products.bifurcation_curves CURVES names).
 _GRID_FOR_TRACED = {"flip_1T": ("flip", 1), "grazing_1T": ("grazing", 1),
                     "grazing_2T": ("grazing", 2), "boundary_2T": ("fold", 2),
                     "isola": ("fold", 2), "coexistence_1T": ("fold", 1)}
@@ -433,7 +433,7 @@ def plot_bifurcation_diagram(diag, path, *, title=None) -> Path:
 
 
 def plot_basin_map(basins, path, *, title=None) -> Path:
-    """A basin map (study.products.basins): each cell of the grid of initial states (q, q') at
+    """A basin map (study.products.basin_map): each cell of the grid of initial states (q, q') at
     tau = 0 coloured by the attractor its transient ends on (a categorical colour map), the
     periodic attractors' stroboscopic points marked (an m T orbit: m points); S_b and S_bb
     (nats) in the title."""

@@ -1,4 +1,4 @@
-"""The scenes shipped with hertzmap: the study files of the repo's studies/ folder, installed as
+"""The scenes shipped with hertzmap: the study files of the repo's scenes/ folder, installed as
 package data of ``hertzmap.scenes``, so that ``hertzmap run default`` works from any folder.
 
 A study argument is a path when a file of that name exists, else the name of a scene.
@@ -10,7 +10,7 @@ from pathlib import Path
 
 from hertzmap.study.spec import Study, StudyError, load_study
 
-#: the package the scenes are installed in (pyproject.toml maps it to studies/)
+#: the package the scenes are installed in (pyproject.toml maps it to scenes/)
 SCENES_PACKAGE = "hertzmap.scenes"
 SUFFIX = ".toml"
 

@@ -213,7 +213,7 @@ VARIABLES: dict[str, VarSpec] = {v.name: v for v in [
             "estimated omega where a fold, flip or grazing curve crosses the omega line (sigma, "
             "zeta) between two neighbouring grid points of the block: the test function "
             "interpolated linearly between the two matched orbits (flip, grazing), the midpoint "
-            "where a branch ends in a fold; the seed of a traced curve (study.solve.curves); "
+            "where a branch ends in a fold; the seed of a traced curve (study.solve.curve_seeds); "
             "ordered by omega; NaN: empty slot", extra=(("crossing", CROSSING_SLOTS),),
             layout="line"),
     VarSpec("crossing_kind", "int8", 0, "kind of the test function's sign change", "1",

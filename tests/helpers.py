@@ -288,7 +288,7 @@ def hand_built_results() -> xr.Dataset:
     set_orbit(ds, 2, 0, 1, period=2, stable=True, min_q=-0.8, max_q=0.9)
     set_orbit(ds, 2, 0, 2, period=2, stable=False, min_q=-0.5, max_q=0.6)
     # (0, 1): stable 1T with contact loss, and the same orbit again (its invariants within
-    # study.orbits.SAME_ORBIT_TOL): a duplicate, not a second orbit
+    # study.orbit_rules.SAME_ORBIT_TOL): a duplicate, not a second orbit
     mu = np.sqrt(np.exp(-2 * 0.01 * 2 * np.pi / 1.0))      # |mu1 mu2| = exp(-2 zeta T)
     set_orbit(ds, 0, 1, 0, period=1, stable=True, loses=True, mult=(-mu, -mu), min_q=-1.6,
               max_q=2.0, ff=0.1, iv=0.5)
@@ -335,7 +335,7 @@ outputs = ["orbits", "measures", "force_harmonics", "bifurcations", "attractors"
 
 
 def fake_trace(index, kind, period, zeta, sigma, codim2=()):
-    """One traced curve as study.solve.curves returns it, every value made up: a curve of
+    """One traced curve as study.solve.curve_seeds returns it, every value made up: a curve of
     ``kind`` and ``period`` through the ``sigma`` values (its lowest vertex flagged the
     extremum), omega from 1 to 2."""
     from hertzmap.study.products.traced_curves import VERTEX_EXTREMUM
@@ -381,9 +381,9 @@ SLOW_TRACER = "tests.helpers:slow_trace_seed"
 
 
 def slow_trace_seed(seed, bounds, **kwargs):
-    """study.solve.curves.trace_seed after a pause ($HERTZMAP_CURVE_DELAY s, default 1): a
+    """study.solve.curve_seeds.trace_seed after a pause ($HERTZMAP_CURVE_DELAY s, default 1): a
     curve stage slow enough for a test to kill it between two committed curves."""
-    from hertzmap.study.solve.curves import trace_seed
+    from hertzmap.study.solve.curve_seeds import trace_seed
 
     time.sleep(float(os.environ.get("HERTZMAP_CURVE_DELAY", "1")))
     return trace_seed(seed, bounds, **kwargs)

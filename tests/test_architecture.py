@@ -118,7 +118,7 @@ def test_kernels_are_pure_numerics():
 def test_kernel_modules_do_not_import_the_front_door():
     """kernels.api (re-exported by kernels/__init__.py) is the kernels' interface for the layers
     above; a kernel module takes what it needs from the module that defines it (shoot from
-    kernels.orbit), so that importing one kernel module does not import them all."""
+    kernels.periodic_orbit), so that importing one kernel module does not import them all."""
     bad = [f"{path.relative_to(REPO)}:{line} imports {t}"
            for m, path in MODULES.items() if m.startswith("kernels.") and m != "kernels.api"
            for t, line in _imports(path) if t in ("kernels", "kernels.api")]
@@ -144,7 +144,7 @@ def test_zarr_writes_and_locks_only_in_the_store_module():
     assert not bad, bad
 
 
-@pytest.mark.parametrize("modules", ["study.spec, study.schema, study.orbits, study.solve.block",
+@pytest.mark.parametrize("modules", ["study.spec, study.schema, study.orbit_rules, study.solve.block",
                                      "study.products, study.plots, study.analytic.rig"])
 def test_study_layer_imports_neither_dask_nor_the_scheduler(modules):
     installed = ", ".join(f"{INSTALLED}.{m}" for m in modules.split(", "))
@@ -175,8 +175,8 @@ ONE_DEFINITION = {
     "BIFURCATION_SLOTS": "study.schema",
     "BIFURCATION_KINDS": "study.schema",
     "PRODUCT_GROUP": "study.schema",
-    "ORBIT_CLASSES": "study.orbits",
-    "SAME_ORBIT_TOL": "study.orbits",
+    "ORBIT_CLASSES": "study.orbit_rules",
+    "SAME_ORBIT_TOL": "study.orbit_rules",
     "LOCK_SUFFIX": "scheduler.store",
 }
 

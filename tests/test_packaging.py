@@ -65,7 +65,7 @@ def test_the_wheel_holds_one_name_every_package_and_the_scenes(wheel):
         for module in (REPO / folder).rglob("*.py"):
             rel = module.relative_to(REPO / folder)
             expected.add("/".join((PACKAGE, installed, *rel.parts)))
-    scenes = {f"{PACKAGE}/scenes/{p.name}" for p in (REPO / "studies").glob("*.toml")}
+    scenes = {f"{PACKAGE}/scenes/{p.name}" for p in (REPO / "scenes").glob("*.toml")}
     assert len(scenes) >= 10
     missing = (expected | scenes) - set(names)
     assert not missing, sorted(missing)

@@ -1,4 +1,4 @@
-"""Time of one grid block of the fine map (studies/fine_map.toml), the unit of work of a task.
+"""Time of one grid block of the fine map (scenes/fine_map.toml), the unit of work of a task.
 
     .venv/bin/python benchmarks/archive/block_time.py [--lines 100:103] [--rounds 4]
 

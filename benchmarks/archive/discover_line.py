@@ -9,7 +9,7 @@ import argparse
 
 import numpy as np
 
-from hertzmap.study.orbits import CLASS_NAMES
+from hertzmap.study.orbit_rules import CLASS_NAMES
 from hertzmap.study.solve.discovery import discover_line
 
 

@@ -3,7 +3,7 @@ period, Newton budget and outcome.
 
     .venv/bin/python benchmarks/archive/grid_steps.py          (about 10 s after the numba cache)
 
-The block: every 4th omega and every 25th sigma of studies/fine_map.toml (100 x 10 points,
+The block: every 4th omega and every 25th sigma of scenes/fine_map.toml (100 x 10 points,
 zeta 0.01, 1T and 2T seeds, rtol 1e-10). The 1T solves have a budget of 40 Newton iterations,
 the 2T ones 15 (study.block MAX_ITER_1T, MAX_ITER_2T); status 0 is converged, 1 not converged
 (kernels.status). Steps are DOP853 steps, accepted and rejected, of all the Newton maps.

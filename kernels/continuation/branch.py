@@ -34,7 +34,7 @@ from hertzmap.kernels.continuation.core import (BOUNDARY, BRANCH_DIFFERENCE, BRA
                                                 floquet_multipliers, fold_function,
                                                 illinois_bracket, illinois_trial, null_vector,
                                                 predict_correct)
-from hertzmap.kernels.orbit import DEFAULT_MAX_STEPS, DEFAULT_RTOL
+from hertzmap.kernels.periodic_orbit import DEFAULT_MAX_STEPS, DEFAULT_RTOL
 
 # ---- records -------------------------------------------------------------------------------
 

@@ -38,7 +38,7 @@ from hertzmap.kernels import status as st
 from hertzmap.kernels._jit import kernel
 from hertzmap.kernels.integrate import integrator_scratch
 from hertzmap.kernels.model import check_exponent, contact_loss_level, model_code
-from hertzmap.kernels.orbit import DEFAULT_MAX_STEPS, DEFAULT_RTOL, shoot
+from hertzmap.kernels.periodic_orbit import DEFAULT_MAX_STEPS, DEFAULT_RTOL, shoot
 from hertzmap.kernels.shooting import _map
 
 # ---- how a branch or a curve ends --------------------------------------------------------------

@@ -28,7 +28,7 @@ from hertzmap.kernels.continuation.core import (BOUNDARY, BRANCH_POINT, BRANCH_S
                                                 predict_correct, tangent)
 from hertzmap.kernels.continuation.extended_system import (CURVE_KINDS, CURVE_PARAMS,
                                                            CurveSystem, chord_correct)
-from hertzmap.kernels.orbit import DEFAULT_MAX_STEPS, DEFAULT_RTOL, shoot
+from hertzmap.kernels.periodic_orbit import DEFAULT_MAX_STEPS, DEFAULT_RTOL, shoot
 
 #: vertex flags (bit mask): why a vertex is where it is
 VERTEX_SEED = 1          # the corrected start point of the trace

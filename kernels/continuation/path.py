@@ -32,11 +32,11 @@ def arc_path(system, x0, omega, sigma, period, direction, w_lo, w_hi, *, ds, dp_
     ``tol`` in its iterations); from then on, a central difference. Returns the points taken.
 
     Why the switch: the forward difference's error grows with the map's curvature in omega,
-    which grows with the period. On a stable 16T orbit met by the census (studies/fine_map.toml,
+    which grows with the period. On a stable 16T orbit met by the census (scenes/fine_map.toml,
     sigma 0.939, omega 1.167) the corrector converged only linearly, the steps shrank and the
     path spent its whole point budget (2,400 points each way; tests/kernels/continuation/
     test_path.py follows that path); with the switch the line's search takes a twelfth of the
-    time (``benchmarks/search_ab.py --vs REV --study studies/fine_map.toml --every 250 --offset
+    time (``benchmarks/search_ab.py --vs REV --study scenes/fine_map.toml --every 250 --offset
     233`` against a revision without it). Paths that never stall keep the forward difference.
 
     The steps grow (by 1.5 after a corrector of at most 2 iterations) to 4 ds times

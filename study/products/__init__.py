@@ -13,7 +13,7 @@ each, what each takes and which figures draw from it is declared once, in ``cata
 One module per topic (docs/products.md has the reference):
 
 * ``results``: :func:`open_store`, :func:`completed`, :func:`contact_threshold`, :func:`rig_of`;
-* ``classes``: :func:`orbit_classes`, :func:`valid_orbits` (study.orbits rules over the slots);
+* ``classes``: :func:`orbit_classes`, :func:`valid_orbits` (study.orbit_rules rules over the slots);
 * ``maps``: :func:`loss_of_contact_map`, :func:`isola_mask`;
 * ``curves``: :func:`bifurcation_curves` (contours of grid indicators), :func:`located_curves`
   (located points linked across sigma lines), :func:`contour_lines`, :func:`curve_segments`;
@@ -34,14 +34,14 @@ numpy / xarray / contourpy / scipy.ndimage only: no Dask, no scheduler, no write
 """
 from __future__ import annotations
 
-from hertzmap.study.products.attractors import diagram_line, stroboscopic_diagram, stroboscopic_diagrams
+from hertzmap.study.products.stroboscopic import diagram_line, stroboscopic_diagram, stroboscopic_diagrams
 from hertzmap.study.products.catalog import (PRODUCTS, RUN_PRODUCTS, WHICH, Context, Figure, Product,
                                              compute_products)
 from hertzmap.study.products.classes import orbit_classes, valid_orbits
-from hertzmap.study.products.curves import (CURVES, LOCATED_KINDS, bifurcation_curves, contour_lines,
+from hertzmap.study.products.bifurcation_curves import (CURVES, LOCATED_KINDS, bifurcation_curves, contour_lines,
                                    curve_segments, located_curves)
 from hertzmap.study.products.maps import MAP_CLASSES, STABLE_SET_FLAGS, isola_mask, loss_of_contact_map
-from hertzmap.study.products.multiple_scales import (MMS_HALF_WIDTH, mms_curves, mms_curves_over,
+from hertzmap.study.products.mms import (MMS_HALF_WIDTH, mms_curves, mms_curves_over,
                                                      mms_response, mms_response_over)
 from hertzmap.study.products.paper_numbers import branch_end, flip_minimum
 from hertzmap.study.products.response import force_harmonics, frequency_response, time_histories

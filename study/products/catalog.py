@@ -25,11 +25,11 @@ from typing import Callable, Mapping, Sequence
 
 import xarray as xr
 
-from hertzmap.study.products.attractors import attractor_ids, stroboscopic_diagrams
+from hertzmap.study.products.stroboscopic import attractor_ids, stroboscopic_diagrams
 from hertzmap.study.products.classes import orbit_classes
-from hertzmap.study.products.curves import bifurcation_curves, located_curves
+from hertzmap.study.products.bifurcation_curves import bifurcation_curves, located_curves
 from hertzmap.study.products.maps import loss_of_contact_map
-from hertzmap.study.products.multiple_scales import (MMS_HALF_WIDTH, mms_curves_over,
+from hertzmap.study.products.mms import (MMS_HALF_WIDTH, mms_curves_over,
                                                      mms_response_over, mms_window)
 from hertzmap.study.products.response import force_harmonics, frequency_response, time_histories
 from hertzmap.study.products.results import open_store, rig_of, source_attrs

@@ -1,5 +1,5 @@
-"""The class of every stored orbit (study.orbits classes: paper Fig. 6 I-V, extended), and the
-slots that hold distinct converged orbits (study.orbits identity rule)."""
+"""The class of every stored orbit (study.orbit_rules classes: paper Fig. 6 I-V, extended), and the
+slots that hold distinct converged orbits (study.orbit_rules identity rule)."""
 from __future__ import annotations
 
 from typing import Any
@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from hertzmap.study.orbits import ORBIT_CLASSES, class_codes, first_of_duplicates
+from hertzmap.study.orbit_rules import ORBIT_CLASSES, class_codes, first_of_duplicates
 from hertzmap.study.products.results import var_attrs
 
 
@@ -19,7 +19,7 @@ def class_flag_attrs() -> dict[str, Any]:
 def valid_orbits(ds: xr.Dataset) -> xr.DataArray:
     """Bool (omega, sigma, zeta, solution): converged slots that hold distinct orbits.
 
-    A slot that is the same orbit as a converged slot before it (study.orbits identity rule:
+    A slot that is the same orbit as a converged slot before it (study.orbit_rules identity rule:
     period, min q, max q and tr M) is left out; products count and classify valid orbits only.
     """
     ds = ds.transpose("omega", "sigma", "zeta", "solution", ...)
@@ -33,7 +33,7 @@ def valid_orbits(ds: xr.Dataset) -> xr.DataArray:
 
 
 def orbit_classes(ds: xr.Dataset) -> xr.DataArray:
-    """Class of every slot (omega, sigma, zeta, solution), int8 codes of study.orbits.ORBIT_CLASSES.
+    """Class of every slot (omega, sigma, zeta, solution), int8 codes of study.orbit_rules.ORBIT_CLASSES.
 
     Needs ``loses_contact`` (the ``measures`` output); without it contact loss is read as False.
     Duplicated slots (see :func:`valid_orbits`) get class 0.

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from hertzmap.study.orbits import ORBIT_CLASSES
+from hertzmap.study.orbit_rules import ORBIT_CLASSES
 from hertzmap.study.schema import ATTRACTOR_KINDS
 from hertzmap.study.products.classes import orbit_classes, valid_orbits
 from hertzmap.study.products.results import (var_attrs, coord_attrs, quiet, source_attrs,

@@ -2,7 +2,7 @@
 read off them: the isola boundary, sigma** and where the isola joins the flip-born branch.
 
 The traced curves are computed by ``hertzmap run`` for studies with the ``curves`` output
-(study.solve.curves, one Dask task per curve) and stored by the scheduler one curve at a time;
+(study.solve.curve_seeds, one Dask task per curve) and stored by the scheduler one curve at a time;
 this module defines their variables once, builds the product from the traces
 (:func:`traced_curves_dataset`, :func:`combine_traced_curves`) and reads it
 (:func:`traced_segments`, :func:`isola_boundary`). numpy / xarray only.
@@ -26,14 +26,14 @@ from hertzmap.kernels.records import VERTEX
 from hertzmap.study.products.results import var_attrs
 from hertzmap.study.schema import BIFURCATION_KINDS
 
-#: Plane codes (study.solve.curves.PLANES order).
+#: Plane codes (study.solve.curve_seeds.PLANES order).
 PLANE_CODES = {("omega", "sigma"): 1, ("omega", "zeta"): 2, ("sigma", "zeta"): 3}
 #: Codimension-2 kinds, by code (1-based, kernels.continuation.CODIM2_KINDS order).
 CODIM2_CODES = {k: i + 1 for i, k in enumerate(CODIM2_KINDS)}
 #: End status codes of a curve (kernels.continuation.BRANCH_STATUS: "meets_1T_orbit" is a 2T
 #: curve that ends on the 1T orbit).
 STATUS_MEANINGS = BRANCH_STATUS
-#: What became of each seed (study.solve.curves.SeedBook.outcomes), by code.
+#: What became of each seed (study.solve.curve_seeds.SeedBook.outcomes), by code.
 SEED_OUTCOMES = {1: "traced", 2: "covered", 3: "start_fail", 4: "on_earlier_curve",
                  5: "off_seed", 6: "near_untraced"}
 _OUTCOME_CODE = {name: code for code, name in SEED_OUTCOMES.items()}
@@ -93,7 +93,7 @@ TRACED_VARIABLES: dict[str, tuple[tuple[str, ...], str, object, dict]] = {
         "end (start_fail on both: the seed did not converge onto a curve)", **_STATUS_ATTRS)),
     "curve_seed": (("curve",), "int32", -1, var_attrs(
         "seed index", "1", "place of the curve's seed in the study's seed order "
-        "(study.solve.curves.curve_seeds)")),
+        "(study.solve.curve_seeds.curve_seeds)")),
     "curve_seed_omega": (("curve",), "float64", np.nan, var_attrs(
         "omega of the seed", "1", "the estimated crossing of the seed the curve was traced from")),
     "curve_seed_sigma": (("curve",), "float64", np.nan, var_attrs("sigma of the seed", "1", "")),
@@ -143,7 +143,7 @@ TRACED_VARIABLES: dict[str, tuple[tuple[str, ...], str, object, dict]] = {
         "(fold_flip: spread of the extrapolation to the 1T orbit)")),
     # -- seeds: the completeness check ---------------------------------------------------------
     "seed_kind": (("seed",), "int8", 0, var_attrs(
-        "kind of the seed's sign change", "1", _KIND_DOC + " (study.solve.curves.crossings)",
+        "kind of the seed's sign change", "1", _KIND_DOC + " (study.solve.curve_seeds.crossings)",
         **_KIND_ATTRS)),
     "seed_period": (("seed",), "int8", 0, var_attrs(
         "period of the seed's orbits", "1", "in forcing periods")),
@@ -158,7 +158,7 @@ TRACED_VARIABLES: dict[str, tuple[tuple[str, ...], str, object, dict]] = {
     "seed_zeta": (("seed",), "float64", np.nan, var_attrs("zeta of the seed", "1", "")),
     "seed_curve": (("seed",), "int32", -1, var_attrs(
         "covering curve", "1", "the curve (dim curve) passing within COVER_CELLS grid steps of "
-        "the seed with matching orbit invariants (study.solve.curves.covers); -1: none (see "
+        "the seed with matching orbit invariants (study.solve.curve_seeds.covers); -1: none (see "
         "seed_outcome)")),
     "seed_outcome": (("seed",), "int8", 0, var_attrs(
         "what became of the seed", "1", "traced: a curve was traced from it (seed_curve); "
@@ -188,7 +188,7 @@ def _status_code(name: str) -> int:
 
 
 def traced_curves_dataset(results: list[dict], attrs: dict | None = None) -> xr.Dataset:
-    """The product from traces (study.solve.curves.trace_seed results, in seed order): one
+    """The product from traces (study.solve.curve_seeds.trace_seed results, in seed order): one
     entry of dim ``curve`` per result (a failed trace has no vertices), its vertices and its
     codimension-2 points. Curve ids are positions in ``results``."""
     cols: dict[str, list] = {name: [] for name in TRACED_VARIABLES}
@@ -242,7 +242,7 @@ def traced_curves_dataset(results: list[dict], attrs: dict | None = None) -> xr.
         "title": "bifurcation curves traced by two-parameter continuation",
         "method": "pseudo-arclength continuation of Phi(x) - x = 0, g = 0 (g: fold, flip or "
                   "grazing test function) from the grid cells where a test function changes "
-                  "sign (kernels.continuation.trace_curve, study.solve.curves)",
+                  "sign (kernels.continuation.trace_curve, study.solve.curve_seeds)",
         "accuracy": "vertices solve the curve's equations to the integrator's tolerance "
                     "(residual); refined extrema, edges and codimension-2 points are vertices",
         **(attrs or {}),
@@ -251,7 +251,7 @@ def traced_curves_dataset(results: list[dict], attrs: dict | None = None) -> xr.
 
 
 def seeds_dataset(seeds: list[dict] | None) -> xr.Dataset:
-    """The ``seed`` dim's variables from the seeds' records (study.solve.curves.SeedBook.outcomes:
+    """The ``seed`` dim's variables from the seeds' records (study.solve.curve_seeds.SeedBook.outcomes:
     dicts kind, period, plane, fixed, omega, sigma, zeta, curve, outcome, ref), in seed order."""
     seeds = seeds or []
     col = {
@@ -413,7 +413,7 @@ def part_attrs(result: dict, duplicate_of: int = -1) -> dict:
 def trace_from_part(part: xr.Dataset) -> dict:
     """A stored one-curve part read back as a trace (seed, status, duplicate_of (-1 unless a
     duplicate), vertices: omega, sigma, zeta, q0, v0, min_q, max_q, flag), enough to tell
-    which seeds lie on it (study.solve.curves.covers)."""
+    which seeds lie on it (study.solve.curve_seeds.covers)."""
     seed = json.loads(part.attrs[SEED_ATTR])
     seed["plane"] = tuple(seed["plane"])
     return {"seed": seed, "status": tuple(json.loads(part.attrs[STATUS_ATTR])),

@@ -12,8 +12,8 @@ zeta) from the orbit's start point, at its period (study.solve.point.shoot_targe
 of a pass in one kernel call; Newton gives up once its residual creeps: STALL_RATIO); a shot
 that fails from an orbit far from its fold is tried again in two half steps (FAR_FROM_FOLD: the
 fold-aware step). An orbit that the continuity rule already pairs with one of the neighbour's
-(study.orbits.match_neighbours) is not shot. A converged orbit new there by the identity rule
-(study.orbits.same_orbit) joins the point with ``atlas_round = r`` and is offered in turn to
+(study.orbit_rules.match_neighbours) is not shot. A converged orbit new there by the identity rule
+(study.orbit_rules.same_orbit) joins the point with ``atlas_round = r`` and is offered in turn to
 its neighbours in the tile, until the tile gains nothing more; the halo gets it next round. The
 point is written again (study.solve.point_state: every orbit, in slot order; the tile's arrays
 grow where a point holds more than they have room for), its census attractors keep their
@@ -34,13 +34,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from hertzmap.kernels import status as st
-from hertzmap.study.orbits import fold_function, match_neighbours, same_orbit
+from hertzmap.study.orbit_rules import fold_function, match_neighbours, same_orbit
 from hertzmap.study.schema import (ATTRACTOR_KINDS, ATTRACTOR_VARIABLES, BIFURCATION_KINDS,
                                    CROSSING_SLOTS, CROSSING_VARIABLES, ORBIT_VARIABLES,
                                    VARIABLES)
 from hertzmap.study.solve.block import record_line
 from hertzmap.study.solve.census import NEIGHBOUR_KINDS, census, first_pass_only
-from hertzmap.study.solve.curves import line_crossings
+from hertzmap.study.solve.curve_seeds import line_crossings
 from hertzmap.study.solve.point import shoot_targets
 from hertzmap.study.solve.point_state import (RULE_FIELDS, _Lazy, stored_states,  # noqa: F401
                                               write_states)
@@ -60,7 +60,7 @@ MAX_ITER = 10
 #: (benchmarks/atlas_rules.py stall) the default scene's counts are identical and the
 #: vibro-impact scene loses no stable orbit at any point.
 STALL_RATIO = 0.9
-#: A shot that failed from an orbit whose fold function (study.orbits.fold_function) is at least
+#: A shot that failed from an orbit whose fold function (study.orbit_rules.fold_function) is at least
 #: this far from zero is tried again in two half steps (the fold-aware step): no multiplier is
 #: near +1, so the orbit does not end at a fold between the two points, and the step was too
 #: long for Newton (orbits that change fast: long flights, contact loss). Nearer a fold the
@@ -353,7 +353,7 @@ def _same_crossing(a, b) -> bool:
 def _recount_crossings(out, own_shape, lo, changed, before, now, omega, level, periods):
     """The crossings of every (sigma, zeta) line of the tile that gained an orbit: those the
     grid recorded (found with every orbit it met, stored or not), and those that the line's
-    orbits as the round leaves them add (study.solve.curves.line_crossings, before and after:
+    orbits as the round leaves them add (study.solve.curve_seeds.line_crossings, before and after:
     only the new ones join). A line whose crossings were not recorded (-1) stays so."""
     w = np.asarray(omega, float)
     # a point's orbits enter the crossings of its two edges only: those edges are looked at

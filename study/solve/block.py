@@ -16,7 +16,7 @@ did not reach by continuation are continued. Exploratory 2T seeds get 15 Newton 
 these made a block 5.6x cheaper (15 -> 2.7 ms per point with 1T and 2T, sigma 0.2/0.5/0.8 lines
 at zeta 0.01) with no orbit lost and 4 more found.
 
-Distinct solutions are kept once (the identity rule of study.orbits); a 2T solve that lands on
+Distinct solutions are kept once (the identity rule of study.orbit_rules); a 2T solve that lands on
 the 1T orbit (minimal period 1) is not a new orbit. Every orbit found is stored, in the slots
 study.solve.point_state orders (slot 0: the 1T result, converged or the failure status of its
 best try). The arrays are those of the stored schema (study.schema), sized by the data.
@@ -34,7 +34,7 @@ from hertzmap.kernels.model import MODELS, contact_loss_level
 from hertzmap.study.schema import (ATTRACTOR_VARIABLES, BIFURCATION_KINDS, BIFURCATION_SLOTS,
                                    BIFURCATION_VARIABLES, CROSSING_SLOTS, CROSSING_VARIABLES,
                                    ORBIT_VARIABLES, empty_arrays)
-from hertzmap.study.solve.curves import line_crossings
+from hertzmap.study.solve.curve_seeds import line_crossings
 from hertzmap.study.solve.discovery import discover_line
 from hertzmap.study.solve.line import LINEAR_SEED_STRIDE, MMS_SEED_STRIDE, LineSearch
 from hertzmap.study.solve.point_state import PointState, write_states
@@ -120,7 +120,7 @@ def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hert
     same with or without it.
 
     ``crossings=True`` also records, along each omega line, where a test function changes sign
-    between two neighbouring grid points of the block (study.solve.curves.line_crossings, over
+    between two neighbouring grid points of the block (study.solve.curve_seeds.line_crossings, over
     every orbit the line search found, stored in the slots or not): the seeds of the traced
     curves, in the schema's CROSSING_VARIABLES (shape (1, len(sigma), len(zeta),
     CROSSING_SLOTS)). No kernel call: the grid results are the same with or without it.

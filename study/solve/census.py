@@ -8,7 +8,7 @@ map (kernels.attractors): it settles on a stable periodic orbit of period m <= 1
 shooting), or it does not within its period budget. The census groups the outcomes of one point
 into attractors:
 
-* **periodic**: a stable orbit (the identity rule of study.orbits); new orbits join the point's
+* **periodic**: a stable orbit (the identity rule of study.orbit_rules); new orbits join the point's
   orbits and are stored like any other, with their period;
 * **non_periodic**: the transients that did not settle, when the point has no stable orbit (from
   shooting, or found here) and their largest Lyapunov exponent over the record window is
@@ -84,8 +84,8 @@ from hertzmap.kernels.attractors import (A, LYAPUNOV_FIELDS, N_ATTRACTOR_FIELDS,
                                 NO_LABEL, attractor_batch_into, lyapunov_into)
 from hertzmap.kernels.model import MODELS
 from hertzmap.kernels.shooting import N_FIELDS
-from hertzmap.study.basins import BasinEntropy, scattered_basin_entropy
-from hertzmap.study.orbits import same_orbit
+from hertzmap.study.basin_entropy import BasinEntropy, scattered_basin_entropy
+from hertzmap.study.orbit_rules import same_orbit
 from hertzmap.study.solve.certificate import certify, orbit_points
 from hertzmap.study.solve.point import shoot_seeds, solutions_from_rows
 from hertzmap.study.solve.recognition import (NOTHING_KNOWN, OPEN_LEADERS, KnownAttractors,
@@ -693,7 +693,7 @@ def census_basin_entropy(found: list[Attractor]) -> BasinEntropy:
     """The basin entropy of a census's initial states in TRANSIENT_BOX (those of a reach box
     sample another density and are left out), each labelled by the attractor its transient
     reached, the box cut into cells of about STATES_PER_BOX states
-    (study.basins.scattered_basin_entropy)."""
+    (study.basin_entropy.scattered_basin_entropy)."""
     pts = [x for a in found for x in a.states]
     labels = np.array([n for n, a in enumerate(found) for _ in a.states], int)
     pts = np.array(pts, float).reshape(-1, 2)

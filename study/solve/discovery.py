@@ -18,9 +18,9 @@ A line is a set of omega values at fixed (sigma, zeta). Discovery runs in three 
    consecutive points of a branch are refined on the branch (kernels.continuation.branch);
    2T branches ending on the 1T orbit give "branch_point" entries (the flip seen from 2T).
 
-Distinct solutions are kept once (the identity rule of study.orbits: invariants min q, max q,
+Distinct solutions are kept once (the identity rule of study.orbit_rules: invariants min q, max q,
 trace M, which do not change under the T-shift of a 2T orbit). Each is classified as in paper
-Fig. 6 (study.orbits classes). ``benchmarks/archive/discover_line.py`` prints what a line holds.
+Fig. 6 (study.orbit_rules classes). ``benchmarks/archive/discover_line.py`` prints what a line holds.
 """
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ import numpy as np
 from hertzmap.kernels import simulate
 from hertzmap.kernels import continuation as cont
 from hertzmap.kernels import status as st
-from hertzmap.study.orbits import ORBIT_CLASSES, class_code
+from hertzmap.study.orbit_rules import ORBIT_CLASSES, class_code
 from hertzmap.study.solve.line import grid_crossings
 from hertzmap.study.solve.point import is_known, merge_new_orbits, shoot_seeds_minimal, solve_point
 from hertzmap.study.solve.seeds import initial_states, mms_seeds
@@ -70,7 +70,7 @@ class LineResult:
     seconds: dict = field(default_factory=dict)
 
     def classes(self):
-        """(len(omega), 8) counts of solutions per orbit class (study.orbits codes 1..8 in
+        """(len(omega), 8) counts of solutions per orbit class (study.orbit_rules codes 1..8 in
         columns 0..7)."""
         out = np.zeros((len(self.omega), len(ORBIT_CLASSES) - 1), int)
         for i, sols in enumerate(self.solutions):

@@ -17,7 +17,7 @@ branches beyond folds (paper section 3.2, Fig. 6-10).
    followed along the line by natural continuation until that branch ends too (another fold:
    turned again) or joins a known orbit. Bounded: a few turns per line and period.
 
-Orbits are kept once (study.orbits identity rule).
+Orbits are kept once (study.orbit_rules identity rule).
 """
 from __future__ import annotations
 
@@ -29,7 +29,7 @@ import numpy as np
 
 from hertzmap.kernels import continuation as cont
 from hertzmap.kernels import status as st
-from hertzmap.study.orbits import (CONTINUITY_SHARE, continuity_distance, fold_function,
+from hertzmap.study.orbit_rules import (CONTINUITY_SHARE, continuity_distance, fold_function,
                           match_neighbours, same_orbit)
 from hertzmap.study.solve.census import attractor_starts, census, needs_second_census
 from hertzmap.study.solve.point import merge_new_orbits, shoot_seeds_minimal, solve_point
@@ -46,7 +46,7 @@ from hertzmap.study.solve.seeds import mms_seeds
 #: 0.27x of the sweeps less; at every 4th point they lost short 2T segments (28 of 7832). What
 #: matters is their spacing in omega, not in grid points: by default (MMS_SEED_STRIDE None) they
 #: are shot every k-th point, k the largest with k steps <= MMS_SEED_SPACING (the default grid's
-#: step: every point there; every 2nd on studies/fine_map.toml's step of 0.005, where every
+#: step: every point there; every 2nd on scenes/fine_map.toml's step of 0.005, where every
 #: point cost 1.4x the line's search for the same stored orbits, 10 of its lines).
 LINEAR_SEED_STRIDE = 8
 MMS_SEED_STRIDE = None
@@ -208,7 +208,7 @@ class LineSearch:
         Stops when KNOWN_RUN crossings in a row give orbits already known (the branch is
         retracing one) or orbits of a lower period dividing this one (past a flip, the path
         follows the branch of the orbit this one doubled from, as a double cover: a 16T path
-        on studies/fine_map.toml went round an 8T loop for its whole point budget), or the
+        on scenes/fine_map.toml went round an 8T loop for its whole point budget), or the
         window is left. Returns the number of new orbits."""
         h = self.grid_step
         lo, hi = float(self.omega.min()) - h, float(self.omega.max()) + h
@@ -243,7 +243,7 @@ class LineSearch:
             return got[0] if got else None
 
         def continues(a, b) -> bool:
-            """b (at the next grid point) is on a's branch: study.orbits' continuity rule, made
+            """b (at the next grid point) is on a's branch: study.orbit_rules' continuity rule, made
             strict for a step that must not cross a fold (any change of the fold function's
             sign stops it, with no floor: the pseudo-arclength leg then turns the fold) and
             scaled by the orbit it starts from."""

@@ -3,7 +3,7 @@
 A *solution* is a dict with the stored variables of one slot (study.schema ORBIT_VARIABLES:
 period, status, x0 as the start point, multipliers, stable, min_q, ...) plus the monodromy and
 its trace; the solver adds bookkeeping keys (``omega``, ``continued``, ``x0_prev``...).
-Distinct orbits are kept once by the identity rule of study.orbits.
+Distinct orbits are kept once by the identity rule of study.orbit_rules.
 """
 from __future__ import annotations
 
@@ -12,11 +12,11 @@ import math
 import numpy as np
 
 from hertzmap.kernels import status as st
-from hertzmap.kernels.orbit import DEFAULT_MAX_ITER, DEFAULT_MAX_STEPS
+from hertzmap.kernels.periodic_orbit import DEFAULT_MAX_ITER, DEFAULT_MAX_STEPS
 from hertzmap.kernels.model import MODELS
 from hertzmap.kernels.records import ORBIT
 from hertzmap.kernels.shooting import F, N_FIELDS, shoot_batch_into
-from hertzmap.study.orbits import same_orbit
+from hertzmap.study.orbit_rules import same_orbit
 from hertzmap.study.solve.seeds import continuation_seed, flip_seeds, linear_response_seed
 
 MAX_ITER_1T = 40
@@ -135,7 +135,7 @@ def merge_new_orbits(found, candidates):
 
 
 def is_known(sol, sols) -> bool:
-    """sol is the same orbit as one of sols (study.orbits identity rule)."""
+    """sol is the same orbit as one of sols (study.orbit_rules identity rule)."""
     return any(same_orbit(sol, s) for s in sols)
 
 

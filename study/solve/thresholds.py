@@ -40,7 +40,7 @@ import numpy as np
 
 from hertzmap.kernels import continuation as cont
 from hertzmap.kernels.continuation.extended_system import CurveSystem, chord_correct
-from hertzmap.kernels.orbit import shoot
+from hertzmap.kernels.periodic_orbit import shoot
 from hertzmap.study.analytic import multiple_scales as mms
 
 #: The thresholds and the curve whose lowest point each is: (kind, period).

@@ -2,12 +2,12 @@
 
 Two folders stand in for a clone of the repository:
 
-* the **small** workspace, where commands are executed: ``studies/`` holds every scene with its
+* the **small** workspace, where commands are executed: ``scenes/`` holds every scene with its
   grid cut down to a few points of the original grid (:data:`SMALL`: the same grid values, so a
   number read off a store is the one the full scene gives wherever the cut keeps what it depends
   on), ``results/`` starts empty, and ``.venv``, ``benchmarks/``, ``scripts/``, ``tests/`` point
-  at the repository's. ``hertzmap run studies/X.toml`` there makes a small ``results/X.zarr``.
-* the **real** workspace (``studies/`` is the repository's), where the commands marked ``long``
+  at the repository's. ``hertzmap run scenes/X.toml`` there makes a small ``results/X.zarr``.
+* the **real** workspace (``scenes/`` is the repository's), where the commands marked ``long``
   or ``cluster`` are dry-run and every ``hertzmap run`` of a scene is dry-run too (the real study
   file is valid and plans).
 
@@ -74,7 +74,7 @@ SMALL: dict[str, dict] = {
 
 #: what replaces a scene name in text (the figures' own folder is the repository's)
 STORE_RE = re.compile(r"results/([A-Za-z0-9_.-]+?)\.zarr")
-STUDY_RE = re.compile(r"studies/([A-Za-z0-9_.-]+?)\.toml")
+STUDY_RE = re.compile(r"scenes/([A-Za-z0-9_.-]+?)\.toml")
 PLACEHOLDER = re.compile(r"\b(STUDY|STORE|PATH|ADDRESS|KEY|VALUE|PID|JOBID|TESTS|REV|N|S|FIG|NAME|DIR|"
                          r"NN|OLD)\b|<[^>]*>|\.\.\.|\[[^\]=]*\]|figNN|\bx\.zarr|study\.toml|"
                          r"tiny\.toml|big\.toml")
@@ -162,16 +162,16 @@ class Workspace:
             _link(root / name, REPO / name)
         _link(root / ".venv", Path(sys.prefix))
         if small:
-            (root / "studies").mkdir(exist_ok=True)
-            for p in sorted((REPO / "studies").glob("*.toml")):
+            (root / "scenes").mkdir(exist_ok=True)
+            for p in sorted((REPO / "scenes").glob("*.toml")):
                 if p.stem not in SMALL:
-                    raise DocError(f"studies/{p.name} has no cut-down grid in "
+                    raise DocError(f"scenes/{p.name} has no cut-down grid in "
                                    f"tests/docs/harness.py SMALL")
-                (root / "studies" / p.name).write_text(small_study(p))
+                (root / "scenes" / p.name).write_text(small_study(p))
         else:
-            (root / "studies").mkdir(exist_ok=True)
-            for p in sorted((REPO / "studies").glob("*.toml")):
-                _link(root / "studies" / p.name, p)
+            (root / "scenes").mkdir(exist_ok=True)
+            for p in sorted((REPO / "scenes").glob("*.toml")):
+                _link(root / "scenes" / p.name, p)
 
     # the scenes a command or snippet needs, made first with the docs' own two commands
     def ensure(self, text: str) -> None:
@@ -183,7 +183,7 @@ class Workspace:
                 self.make_scene(name)
 
     def make_scene(self, name: str) -> None:
-        for cmd in (f"hertzmap run studies/{name}.toml --workers 2",
+        for cmd in (f"hertzmap run scenes/{name}.toml --workers 2",
                     f"hertzmap plot results/{name}.zarr"):
             r = self.run(cmd)
             if r.returncode != 0:
@@ -299,7 +299,7 @@ def check_command(cmd: Command, small: Workspace, real: Workspace) -> str:
             return "parsed"
         if sub == "run" and len(argv) > 2 and argv[2] in SMALL:
             # a shipped scene by its name: in the workspaces, the scene's copy there
-            argv = [*argv[:2], f"studies/{argv[2]}.toml", *argv[3:]]
+            argv = [*argv[:2], f"scenes/{argv[2]}.toml", *argv[3:]]
             text = shlex.join(argv)
         if sub == "run" and not has_placeholder(text):
             study = next((a for a in argv[2:] if a.endswith(".toml")), None)

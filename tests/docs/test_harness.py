@@ -41,12 +41,12 @@ def _run_page(page: Path, spaces) -> list[str]:
 
 GOOD = """# A page
 
-    hertzmap run studies/default.toml --dry-run
+    hertzmap run scenes/default.toml --dry-run
     hertzmap plot --paper fig02
 
 <!-- doc-test: cluster -->
 
-    hertzmap run studies/default.toml --cluster slurm --cluster-option queue=q
+    hertzmap run scenes/default.toml --cluster slurm --cluster-option queue=q
 
 <!-- doc-test: prints 0.5 -->
 ```python
@@ -66,12 +66,12 @@ BROKEN = {
     "a number the text does not have":
         "The value is 0.3.\n\n<!-- doc-test: prints 0.25 -->\n```python\nprint(0.5 / 2)\n```\n",
     "an option hertzmap does not have":
-        "    hertzmap run studies/default.toml --dry-run --fast\n",
+        "    hertzmap run scenes/default.toml --dry-run --fast\n",
     "a command hertzmap does not have": "    hertzmap draw results/default.zarr\n",
-    "a study that does not exist": "    hertzmap run studies/nosuch.toml --dry-run\n",
+    "a study that does not exist": "    hertzmap run scenes/nosuch.toml --dry-run\n",
     "a command that fails": "    hertzmap status results/nosuch.zarr\n",
     "a long command with a bad option":
-        "<!-- doc-test: long -->\n\n    hertzmap run studies/fine_map.toml --wrokers 2\n",
+        "<!-- doc-test: long -->\n\n    hertzmap run scenes/fine_map.toml --wrokers 2\n",
     "a script that does not exist": "    .venv/bin/python benchmarks/nosuch.py\n",
     "a module without a __main__": "    .venv/bin/python -m hertzmap.study.solve.discovery --sigma 0.2\n",
     "a script option it does not take": "    .venv/bin/python benchmarks/paper_checks.py --fast\n",
@@ -81,7 +81,7 @@ BROKEN = {
     "a synopsis that leaves an option out":
         "<!-- doc-test: usage -->\n\n    hertzmap status STORE [--json]\n",
     "an output sample that changed":
-        "<!-- doc-test: output -->\n```\n$ hertzmap run studies/default.toml --dry-run\n"
+        "<!-- doc-test: output -->\n```\n$ hertzmap run scenes/default.toml --dry-run\n"
         "study        default (hash 731f3b440965)\ntasks        77 (chunk 161 omega; about 2s each)\n```\n",
 }
 
@@ -125,7 +125,7 @@ def test_blocks_and_commands_are_found(tmp_path):
   x = 1
   ```
 
-      hertzmap run studies/default.toml \\
+      hertzmap run scenes/default.toml \\
           --workers 2 && hertzmap plot results/default.zarr
 
 | a | `python -c "print(1)"` |
@@ -133,6 +133,6 @@ def test_blocks_and_commands_are_found(tmp_path):
     kinds = [b.kind for b in md.blocks(page)]
     assert kinds == ["python", "shell"]
     cmds = [c.text for c in md.all_commands(page)]
-    assert cmds == ["hertzmap run studies/default.toml --workers 2",
+    assert cmds == ["hertzmap run scenes/default.toml --workers 2",
                     "hertzmap plot results/default.zarr",
                     "hertzmap status results/default.zarr", 'python -c "print(1)"']

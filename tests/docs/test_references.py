@@ -18,7 +18,7 @@ PAGES = [REPO / p for p in DOC_FILES]
 _PATH = re.compile(r"(?<![\w./-])((?:kernels|study|scheduler|benchmarks|tests|scripts|studies|docs)"
                    r"/[\w./-]*[\w/])(::[\w\[\]-]+)?")
 #: example names the prose uses for the reader's own files
-_EXAMPLES = {"studies/x.toml", "studies/big.toml", "studies/fig", "studies/figNN.toml",
+_EXAMPLES = {"scenes/x.toml", "scenes/big.toml", "scenes/fig", "scenes/figNN.toml",
              "docs/figures/explore/<name>"}
 _DOTTED = re.compile(r"\b(kernels|study|scheduler|benchmarks)((?:\.[A-Za-z_]\w*)+)")
 _SPAN = re.compile(r"`([^`\n]+)`")
@@ -197,15 +197,15 @@ def test_nothing_tracked_in_results():
 
 
 def test_every_scene_is_in_the_index_with_its_time():
-    """docs/index.md lists every study file of studies/ in its scene table, with a time."""
+    """docs/index.md lists every study file of scenes/ in its scene table, with a time."""
     text = (REPO / "docs" / "index.md").read_text()
     rows = {m.group(1): m.group(0) for m in re.finditer(r"^\| \[?`?(\w+)`?\]?[^|]*\|.*$", text,
                                                          re.M)}
     bad = []
-    for p in sorted((REPO / "studies").glob("*.toml")):
+    for p in sorted((REPO / "scenes").glob("*.toml")):
         row = rows.get(p.stem)
         if row is None:
-            bad.append(f"studies/{p.name} is not in docs/index.md's scene table")
+            bad.append(f"scenes/{p.name} is not in docs/index.md's scene table")
         elif not re.search(r"\d+(\.\d+)?(-\d+(\.\d+)?)? (s|min)\b", row):
             bad.append(f"docs/index.md: the row of {p.stem} gives no time")
     assert not bad, "\n".join(bad)

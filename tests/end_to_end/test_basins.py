@@ -1,5 +1,5 @@
 """``hertzmap basins`` end to end on a tiny real store (3 omega values around the bistable point
-omega 1.7, sigma 1.0, zeta 0.05 of tests/study/solve/test_basins.py): the map computed in row
+omega 1.7, sigma 1.0, zeta 0.05 of tests/study/solve/test_basin_grid.py): the map computed in row
 blocks on an embedded local cluster is the map computed in one process, stored as its product
 group with attrs on every variable, and drawn; bad input is refused, naming the option and what
 is allowed, with the store untouched."""
@@ -14,8 +14,8 @@ import pytest
 import xarray as xr
 
 from hertzmap.scheduler.cli import main
-from hertzmap.study.products.basins import basin_map_name
-from hertzmap.study.solve.basins import basin_map
+from hertzmap.study.products.basin_map import basin_map_name
+from hertzmap.study.solve.basin_grid import basin_map
 from tests.helpers import solved_results
 
 STUDY = """

@@ -2,7 +2,7 @@
 3T orbit exists (the atlas issue: "the default map shows no band"), checked against the traced
 curve and the scipy oracle, not against the map's own reading of the store.
 
-The study is a small window of the default scene (studies/default.toml: the same model, solver
+The study is a small window of the default scene (scenes/default.toml: the same model, solver
 and search; outputs orbits, measures, curves) across the bottom of the U-shaped 3T fold curve of
 the default map (omega 0.55-2.38, lowest sigma 0.4246 near omega 1.6). In the default scene the
 grid's own search found no 3T orbit on the sigma lines 0.425-0.5625 there (the census finds it

@@ -70,7 +70,7 @@ def hand():
     _put(ds, 2, 2, 0, 1, period=2, stable=True, loses=True, min_q=-1.9, max_q=2.1, ff=0.25,
          iv=0.8, mult=(0.3, 0.2))
     # (1.5, 0.3, zeta 0.01): the same 1T orbit twice (its invariants within the identity rule
-    # of study.orbits): one orbit
+    # of study.orbit_rules): one orbit
     _put(ds, 1, 1, 0, 1, period=1, stable=True, mult=(0.5, 0.4), min_q=-0.1 + 1e-9)
     return ds
 

@@ -1,4 +1,4 @@
-"""study.scenes: the shipped scenes are the repo's studies/*.toml, each a valid study; a study
+"""study.scenes: the shipped scenes are the repo's scenes/*.toml, each a valid study; a study
 argument is a file when one exists, else a scene's name; an unknown name's error names them."""
 from __future__ import annotations
 
@@ -11,9 +11,9 @@ from tests.helpers import REPO
 
 def test_the_scenes_are_the_repos_study_files_and_each_is_valid():
     scenes = scene_paths()
-    assert sorted(scenes) == sorted(p.stem for p in (REPO / "studies").glob("*.toml"))
+    assert sorted(scenes) == sorted(p.stem for p in (REPO / "scenes").glob("*.toml"))
     for name, path in scenes.items():
-        assert path.read_text() == (REPO / "studies" / f"{name}.toml").read_text()
+        assert path.read_text() == (REPO / "scenes" / f"{name}.toml").read_text()
         assert load_study(path).name == name
 
 

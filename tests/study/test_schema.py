@@ -10,7 +10,7 @@ import pytest
 
 from hertzmap.kernels import status
 from hertzmap.study import products as P
-from hertzmap.study.orbits import ORBIT_CLASSES
+from hertzmap.study.orbit_rules import ORBIT_CLASSES
 from hertzmap.study.schema import (BIFURCATION_KINDS, BIFURCATION_SLOTS, OUTPUT_VARIABLES,
                                    STORE_FORMAT, VARIABLES, StoreFormatError, bytes_per_point,
                                    check_block, check_format, empty_arrays, pad_slots,

@@ -1,5 +1,5 @@
 """study.spec, the study file: parsing, defaults, canonical form and hash, validation errors,
-the scene files in studies/."""
+the scene files in scenes/."""
 from __future__ import annotations
 
 import json
@@ -15,7 +15,7 @@ from tests.helpers import REPO
 
 
 def test_scene_files_are_valid_studies():
-    root = REPO / "studies"
+    root = REPO / "scenes"
     scenes = sorted(root.glob("fig*.toml"))
     assert len(scenes) >= 10
     for f in scenes:
@@ -228,7 +228,7 @@ def test_validation_error_names_field_and_range(text, field, allowed):
 
 
 def test_shipped_studies_are_valid():
-    for path in sorted((REPO / "studies").glob("*.toml")):
+    for path in sorted((REPO / "scenes").glob("*.toml")):
         s = load_study(path)
         assert s.size >= 1, path
 

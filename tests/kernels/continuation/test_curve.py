@@ -213,7 +213,7 @@ def test_trace_failures_are_statuses():
 # ---- the 3T -> 6T and 5T -> 10T flip curves of the default scene ----------------------------
 #
 # Orbits of period 3 and 5 with long flights (min q down to -40) at high sigma, zeta 0.01. The
-# seeds are the attractor census's orbits of studies/default.toml (grid point and start point
+# seeds are the attractor census's orbits of scenes/default.toml (grid point and start point
 # as stored; the crossing's omega as the study's seed estimates it); the expected values are the
 # oracle's own flip points: brentq on 1 + tr M + det M with sigma held at the vertex's value and
 # omega free, each orbit by scipy root on the oracle's period map, M from the variational

@@ -9,7 +9,7 @@ from hertzmap.kernels import continuation as cont
 from hertzmap.kernels import shoot
 from hertzmap.kernels import status as st
 
-# A stable 16T orbit the census meets on studies/fine_map.toml's line sigma = 0.939 (grid point
+# A stable 16T orbit the census meets on scenes/fine_map.toml's line sigma = 0.939 (grid point
 # 233 of 250) at omega = 1.1667 (point 133 of 400): a bouncing motion with long flights, born
 # from a flip of an unstable 8T orbit; its branch spans omega ~1.139 .. 1.247.
 FINE_OMEGA = np.linspace(0.5, 2.5, 400)

@@ -1,4 +1,4 @@
-"""study.products.attractors.attractor_ids on hand-set attractors (every value set here): one id
+"""study.products.stroboscopic.attractor_ids on hand-set attractors (every value set here): one id
 for periodic attractors on one branch and for overlapping chaotic clouds, separate ids for a
 fold between two orbits, a distant cloud, and kinds that differ."""
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from hertzmap.study.products.attractors import attractor_ids
+from hertzmap.study.products.stroboscopic import attractor_ids
 
 N = 5
 

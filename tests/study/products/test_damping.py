@@ -9,7 +9,7 @@ import pytest
 
 from hertzmap.study import products as P
 from hertzmap.study.products.traced_curves import combine_traced_curves, traced_curves_dataset
-from hertzmap.study.solve.curves import Seed, trace_seed
+from hertzmap.study.solve.curve_seeds import Seed, trace_seed
 from tests.helpers import blank_results
 from tests.study.solve.test_thresholds import ISOLA_START
 
@@ -19,7 +19,7 @@ GRID = "[grid]\nomega = [1.9, 2.0]\nsigma = [0.2, 0.4]\nzeta = [0.008, 0.01]\n"
 @pytest.fixture(scope="module")
 def two_zeta():
     """A blank store of two zeta values and the isola's 2T fold curve traced at zeta 0.01 from
-    a rough start near its lowest point (the curves output's trace, study.solve.curves)."""
+    a rough start near its lowest point (the curves output's trace, study.solve.curve_seeds)."""
     ds = P.open_store(blank_results(GRID))
     seed = Seed(0, ("omega", "sigma"), 0.01, "fold", 2, ISOLA_START[2], ISOLA_START[3], 0.01,
                 ISOLA_START[0], ISOLA_START[1], hold="sigma")

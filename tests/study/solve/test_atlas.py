@@ -11,7 +11,7 @@ import pytest
 from benchmarks import oracle
 from hertzmap.kernels import shoot
 from hertzmap.study.schema import ORBIT_VARIABLES, empty_arrays
-from hertzmap.study.orbits import fold_function
+from hertzmap.study.orbit_rules import fold_function
 from hertzmap.study.solve.atlas import FAR_FROM_FOLD, MAX_ITER, neighbours, propagate_tile
 from hertzmap.study.solve.point import shoot_seeds_minimal, shoot_targets
 from hertzmap.study.solve.point_state import PointState, write_states

@@ -8,7 +8,7 @@ import pytest
 from benchmarks import oracle
 from hertzmap.kernels import shoot
 from hertzmap.kernels import status as st
-from hertzmap.study.orbits import same_orbit
+from hertzmap.study.orbit_rules import same_orbit
 from hertzmap.study.schema import ORBIT_VARIABLES, check_block
 from hertzmap.study.solve import discovery
 from hertzmap.study.solve.block import solve_block

@@ -10,7 +10,7 @@ import pytest
 from benchmarks import oracle
 from hertzmap.kernels import status as st
 from hertzmap.kernels.attractors import A
-from hertzmap.study.orbits import class_code, same_orbit
+from hertzmap.study.orbit_rules import class_code, same_orbit
 from hertzmap.study.solve.line import LineSearch
 
 OPTIONS = dict(exponent=1.5, model="hertz", rtol=1e-10, harmonics=False, seeds=())
@@ -108,7 +108,7 @@ def test_census_never_runs_nothing():
     assert not ls.attractors
 
 
-# A stable 16T orbit the census meets on studies/fine_map.toml's line sigma = 0.939 (grid point
+# A stable 16T orbit the census meets on scenes/fine_map.toml's line sigma = 0.939 (grid point
 # 233 of 250) at omega = 1.1667 (point 133 of 400): a bouncing motion with long flights, born
 # from a flip of an unstable 8T orbit; its branch spans omega ~1.139 .. 1.247.
 FINE_OMEGA = np.linspace(0.5, 2.5, 400)

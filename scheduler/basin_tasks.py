@@ -1,5 +1,5 @@
 """``hertzmap basins``: the basin map of a store's grid point on a grid of initial states,
-computed in row blocks on a Dask cluster (study.solve.basins), written into the store as the
+computed in row blocks on a Dask cluster (study.solve.basin_grid), written into the store as the
 product group ``products/basin_map_omega<w>_sigma<s>_zeta<z>`` (scheduler.store) and drawn
 next to it (study.plots.plot_basin_map).
 
@@ -21,7 +21,7 @@ from hertzmap.scheduler.errors import RefusedError, StoreError
 from hertzmap.scheduler.store import Lock, read_attrs, write_product
 from hertzmap.study.schema import StoreFormatError, check_format, study_from_attrs
 from hertzmap.study.spec import StudyError
-from hertzmap.study.solve.basins import basin_block, grid_axes, merge_blocks, row_blocks
+from hertzmap.study.solve.basin_grid import basin_block, grid_axes, merge_blocks, row_blocks
 from hertzmap.study.solve.seeds import TRANSIENT_BOX
 
 #: the largest grid of initial states, per side (a 2000 x 2000 map is 4e6 transients)
@@ -127,7 +127,7 @@ def run_basins(req: BasinRequest, cluster: ClusterSpec, out: Path, *,
     draw the figure into ``out``. Returns the group, the figure's path, the seconds the map
     took and the map's entropies."""
     from hertzmap.study.plots import plot_basin_map
-    from hertzmap.study.products.basins import basin_map_dataset, basin_map_name
+    from hertzmap.study.products.basin_map import basin_map_dataset, basin_map_name
 
     with Lock(req.store):       # refused while a run writes the store; nothing computed then
         pass

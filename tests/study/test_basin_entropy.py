@@ -1,4 +1,4 @@
-"""study.basins against closed forms: the basin entropy S_b and the boundary basin entropy S_bb
+"""study.basin_entropy against closed forms: the basin entropy S_b and the boundary basin entropy S_bb
 (Daza et al. 2016) of label maps whose box entropies are known by hand, and the uncertainty
 fraction of a straight boundary."""
 from __future__ import annotations
@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from hertzmap.study.basins import basin_entropy, scattered_basin_entropy, uncertainty_fraction
+from hertzmap.study.basin_entropy import basin_entropy, scattered_basin_entropy, uncertainty_fraction
 
 
 def _binary_entropy(p):

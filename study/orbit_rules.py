@@ -28,7 +28,7 @@ invariants (min q, max q) differ by at most ``CONTINUITY_SHARE (1 + ptp)`` and t
 functions (1 - mu1)(1 - mu2) do not have opposite signs (a branch changes that sign only at a
 fold, where it turns back): :func:`match_neighbours` pairs them one to one, closest first. The
 line search (study.solve.line) finds its branch ends with it, the traced curves' seeds
-(study.solve.curves) the sign changes of the test functions between neighbouring grid points.
+(study.solve.curve_seeds) the sign changes of the test functions between neighbouring grid points.
 """
 from __future__ import annotations
 

@@ -7,7 +7,7 @@ the census's kernel, with the census's detection and refinement: study.solve.cen
 labels each cell by its outcome:
 
 * a stable periodic orbit (confirmed by shooting; two orbits are the same by
-  study.orbits.same_orbit): one label per orbit, the largest basin first;
+  study.orbit_rules.same_orbit): one label per orbit, the largest basin first;
 * a transient that did not settle within the budget: one label, ``non_periodic`` when no stable
   orbit was reached from any cell and the largest Lyapunov exponent of a representative
   (Benettin over record_periods, the census's test: study.solve.census.is_chaotic) is positive,
@@ -29,8 +29,8 @@ from hertzmap.kernels import status as st
 from hertzmap.kernels.attractors import A, N_ATTRACTOR_FIELDS
 from hertzmap.kernels.records import STROBE_POINTS
 from hertzmap.kernels.shooting import N_FIELDS
-from hertzmap.study.basins import BOX_SIDE, BasinEntropy, basin_entropy, uncertainty_fraction
-from hertzmap.study.orbits import same_orbit
+from hertzmap.study.basin_entropy import BOX_SIDE, BasinEntropy, basin_entropy, uncertainty_fraction
+from hertzmap.study.orbit_rules import same_orbit
 from hertzmap.study.solve.census import (is_chaotic, run_transients, strobe_points,
                                          window_exponent)
 from hertzmap.study.solve.point import solutions_from_rows

@@ -148,12 +148,12 @@ def _cloud_distance(a: np.ndarray, b: np.ndarray) -> float:
 def attractor_ids(ds: xr.Dataset) -> xr.Dataset:
     """An identity for the census's attractors across the grid: two attractors of neighbouring
     grid points (one step along omega, sigma or zeta) are one when both are periodic and their
-    orbits lie on one branch (study.orbits.match_neighbours: the same period, invariants close,
+    orbits lie on one branch (study.orbit_rules.match_neighbours: the same period, invariants close,
     no fold between them), or both are chaotic or unsettled and their stroboscopic clouds
     overlap (:data:`CLOUD_SHARE`); an id is a connected set of such attractors (numbered in grid
     order, so the same store gives the same ids). ``attractor_id`` (omega, sigma, zeta,
     attractor), and per id its kind, period, points and mean basin fraction."""
-    from hertzmap.study.orbits import match_neighbours
+    from hertzmap.study.orbit_rules import match_neighbours
 
     if "computed" not in ds:
         ds = open_store(ds)

@@ -2,7 +2,7 @@
 
 **Seeds.** A fold, flip or grazing curve that crosses the grid shows where a test function of
 the stored orbits changes sign between two neighbouring grid points, along any swept axis
-(:func:`crossings`, between the orbits matched by the continuity rule of study.orbits):
+(:func:`crossings`, between the orbits matched by the continuity rule of study.orbit_rules):
 
 * flip: 1 + tr M + det M = (1 + mu1)(1 + mu2) of two matched orbits of one period (1T -> 2T,
   2T -> 4T, ... mT -> 2mT);
@@ -56,7 +56,7 @@ import xarray as xr
 from hertzmap.kernels import continuation as cont
 from hertzmap.kernels import status as st
 from hertzmap.kernels.continuation import extended_system
-from hertzmap.study.orbits import (CONTINUITY_SHARE, continuity_distance, flip_function, fold_function,
+from hertzmap.study.orbit_rules import (CONTINUITY_SHARE, continuity_distance, flip_function, fold_function,
                           match_neighbours)
 from hertzmap.study.schema import BIFURCATION_KINDS
 from hertzmap.study.spec import AXES

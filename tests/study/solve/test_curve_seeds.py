@@ -1,4 +1,4 @@
-"""study.solve.curves: seeds from the grid's sign changes (kinds, planes, order), one trace per
+"""study.solve.curve_seeds: seeds from the grid's sign changes (kinds, planes, order), one trace per
 curve (coverage, the completeness check), the spec's "curves" output, and the traced-curves product (study.products)."""
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from hertzmap.study.products.traced_curves import (CODIM2_CODES, combine_traced_
                                           trace_from_part, traced_curves_dataset,
                                           traced_segments)
 from hertzmap.study.schema import BIFURCATION_KINDS, CROSSING_SLOTS
-from hertzmap.study.solve import curves as C
+from hertzmap.study.solve import curve_seeds as C
 from hertzmap.study.spec import StudyError, parse_study
 
 Z = 0.01
@@ -23,7 +23,7 @@ LEVEL = -1.5          # contact-loss level of the Hertz law n = 1.5 (min q = -n)
 
 
 def orbit(period, mu, min_q=-0.1, max_q=0.1, x0=(0.0, 0.0)):
-    """An orbit record as study.solve.curves reads the stored slots."""
+    """An orbit record as study.solve.curve_seeds reads the stored slots."""
     return dict(period=period, x0=x0, min_q=min_q, max_q=max_q, ptp=max_q - min_q,
                 multipliers=np.asarray(mu, complex))
 

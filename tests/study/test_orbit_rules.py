@@ -1,4 +1,4 @@
-"""study.orbits: the class of an orbit and the identity rule, on hand-made orbits and on real
+"""study.orbit_rules: the class of an orbit and the identity rule, on hand-made orbits and on real
 ones (a 2T orbit and its T-shift are one orbit; a 1T orbit is not the 2T solve that landed on
 it)."""
 from __future__ import annotations
@@ -7,7 +7,7 @@ from hypothesis import given, strategies as hs
 import numpy as np
 
 from hertzmap.kernels import shoot, simulate
-from hertzmap.study.orbits import (CLASS_LABELS, CLASS_NAMES, ORBIT_CLASSES, SAME_ORBIT_TOL, class_code,
+from hertzmap.study.orbit_rules import (CLASS_LABELS, CLASS_NAMES, ORBIT_CLASSES, SAME_ORBIT_TOL, class_code,
                           class_codes, first_of_duplicates, same_orbit)
 
 

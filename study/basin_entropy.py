@@ -15,8 +15,8 @@ Natural logarithms: both are in nats. Labels are integers, one per attractor (an
 caller tells apart, "unsettled" or "failed" included, is an attractor here); a negative label
 is a state not computed, left out of the boxes.
 
-Used by the census (per grid point, over its scattered initial states: study.solve.basins) and
-by the basin map of a grid of initial states (study.solve.basins.basin_map).
+Used by the census (per grid point, over its scattered initial states: study.solve.basin_grid) and
+by the basin map of a grid of initial states (study.solve.basin_grid.basin_map).
 """
 from __future__ import annotations
 

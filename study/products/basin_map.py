@@ -1,4 +1,4 @@
-"""The basin map product: a study.solve.basins.BasinMap as a Dataset, stored by ``hertzmap
+"""The basin map product: a study.solve.basin_grid.BasinMap as a Dataset, stored by ``hertzmap
 basins`` as the zarr group ``products/<basin_map_name(...)>`` of the store.
 
 It is not an entry of the registry (catalog.PRODUCTS): a registry product is a function of
@@ -31,7 +31,7 @@ def _attrs(long_name: str, description: str, units: str = "1") -> dict[str, str]
 
 
 def basin_map_dataset(bm, source: dict[str, Any]) -> xr.Dataset:
-    """The Dataset of a basin map ``bm`` (study.solve.basins.BasinMap); ``source``: the attrs
+    """The Dataset of a basin map ``bm`` (study.solve.basin_grid.BasinMap); ``source``: the attrs
     naming the store it was computed from (study.products.results.source_attrs)."""
     k = len(bm.attractors)
     strobe_q = np.full((k, STROBE_POINTS), np.nan)

@@ -1,4 +1,4 @@
-"""study.solve.basins: a basin map at a point where a stable 1T and a stable 2T orbit coexist
+"""study.solve.basin_grid: a basin map at a point where a stable 1T and a stable 2T orbit coexist
 (omega 1.7, sigma 1.0, zeta 0.05, Hertz n = 1.5), checked cell by cell against the oracle
 (scipy solve_ivp with contact-switch events, benchmarks/oracle.py: no code shared with the
 kernels): each attractor is a fixed point of the oracle's own period map, and the oracle's
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from benchmarks import oracle
-from hertzmap.study.solve.basins import basin_map, grid_axes
+from hertzmap.study.solve.basin_grid import basin_map, grid_axes
 from hertzmap.study.solve.block import solve_block
 from hertzmap.study.solve.census import Attractor, census_basin_entropy
 from hertzmap.study.solve.seeds import initial_states
