@@ -227,3 +227,15 @@ def test_every_module_is_named_in_the_architecture_doc():
         if name not in doc and not re.search(rf"`{re.escape(path.stem)}\.py`", doc):
             unnamed.append(str(path.relative_to(REPO)))
     assert not unnamed, f"modules docs/architecture.md does not name: {unnamed}"
+
+
+def test_no_two_modules_share_a_file_name():
+    """A module is found by its name: no two modules of kernels/, study/, scheduler/ have the
+    same file name, nor names that differ by a plural's s (``curve.py`` beside ``curves.py``)."""
+    seen: dict[str, list[str]] = {}
+    for path in MODULES.values():
+        if path.name == "__init__.py":
+            continue
+        seen.setdefault(path.stem.removesuffix("s"), []).append(str(path.relative_to(REPO)))
+    twice = {k: v for k, v in seen.items() if len(v) > 1}
+    assert not twice, f"modules sharing a name: {twice}"
