@@ -249,10 +249,9 @@ def cmd_status(args: argparse.Namespace) -> int:
 def _plot_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("store", type=Path, nargs="?", help="a store written by hertzmap run")
     p.add_argument("--out", type=Path, default=Path("results"), help="folder for the PNGs (default results/)")
-    p.add_argument("--which", nargs="+", default=["auto"], metavar="FIG",
-                   help="auto (default: every figure the store's products support) or: map "
-                   "measures lyapunov zeta_maps bifurcation response harmonics strobe "
-                   "histories thresholds impact_onset")
+    from hertzmap.study.plots import which_help
+
+    p.add_argument("--which", nargs="+", default=["auto"], metavar="FIG", help=which_help())
     p.add_argument("--zeta", type=float, default=None, metavar="Z",
                    help="draw the figures of this zeta only (the store's nearest value; by "
                    "default the maps and the other per-zeta figures of every zeta)")
@@ -287,7 +286,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
             stored = list_products(args.store)
             given = {name: read_product(args.store, name) for name in P.RUN_PRODUCTS
                      if name in stored}
-            prods = P.compute_products(ds, which=args.which, given=given)
+            prods = P.compute_products(ds, wanted=plots.products_for(args.which), given=given)
             if not args.no_products:
                 write_products(args.store, prods)
                 prods = {name: read_product(args.store, name) for name in prods}

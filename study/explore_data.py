@@ -131,7 +131,7 @@ def units_of(ds: xr.Dataset, rig: Any = None) -> Units:
 
 
 # ---------------------------------------------------------------------------------------------
-# colours (the PNG figures' own, study/plots.py, as hex for a browser)
+# colours (the PNG figures' own, study/plots/style.py, as hex for a browser)
 # ---------------------------------------------------------------------------------------------
 
 def _hex(color: str) -> str:
@@ -141,14 +141,14 @@ def _hex(color: str) -> str:
 
 def class_colors() -> dict[int, tuple[str, str]]:
     """{orbit class code: (hex colour, label)}: the colours of the PNG figures."""
-    from hertzmap.study import plots
-    return {c: (_hex(col), label) for c, (col, label) in plots.CLASS_STYLE.items()}
+    from hertzmap.study.plots import style
+    return {c: (_hex(col), label) for c, (col, label) in style.CLASS_STYLE.items()}
 
 
 def _set_styles() -> tuple[dict[int, str], dict[int, str]]:
-    from hertzmap.study import plots
+    from hertzmap.study.plots import style
     # the loss-of-contact map's colours and labels of its classes (map_class)
-    return ({c: _hex(v) for c, v in plots.SET_COLORS.items()}, dict(plots.SET_LABELS))
+    return ({c: _hex(v) for c, v in style.SET_COLORS.items()}, dict(style.SET_LABELS))
 
 
 _CLASS_SHORT = CLASS_LABELS      # study.orbit_rules: one label per class

@@ -35,7 +35,7 @@ numpy / xarray / contourpy / scipy.ndimage only: no Dask, no scheduler, no write
 from __future__ import annotations
 
 from hertzmap.study.products.stroboscopic import diagram_line, stroboscopic_diagram, stroboscopic_diagrams
-from hertzmap.study.products.catalog import (PRODUCTS, RUN_PRODUCTS, WHICH, Context, Figure, Product,
+from hertzmap.study.products.catalog import (PRODUCTS, RUN_PRODUCTS, Context, Product,
                                              compute_products)
 from hertzmap.study.products.classes import orbit_classes, valid_orbits
 from hertzmap.study.products.bifurcation_curves import (CURVES, LOCATED_KINDS, bifurcation_curves, contour_lines,
@@ -62,5 +62,5 @@ __all__ = [
     "TRACED_VARIABLES", "traced_segments", "failed_traces", "isola_boundary",
     "stroboscopic_diagrams", "diagram_line", "mms_curves_over", "mms_response_over",
     "thresholds", "impact_onset", "THRESHOLD_VARIABLES", "MEASURED_STAR_RATIO", "MEASURED_ZETA",
-    "PRODUCTS", "RUN_PRODUCTS", "WHICH", "Context", "Figure", "Product",
+    "PRODUCTS", "RUN_PRODUCTS", "Context", "Product",
 ]

@@ -1,21 +1,19 @@
-"""The products, declared once: which exist, when the results support each, how each is
-computed and which figures draw from it.
+"""The products, declared once: which exist, when the results support each and how each is
+computed (the figures drawn from them are declared in study.plots.figure_catalog).
 
 Each :class:`Product` of :data:`PRODUCTS` (in the order they are computed: a product comes
 after the products it takes) names
 
 * ``needs(ds, context)``: whether the results support it (``ds``: study.products.open_store;
-  ``context``: a :class:`Context`, the figures asked for and the products at hand);
+  ``context``: a :class:`Context`, the products asked for and those at hand);
 * ``compute(ds, *inputs, **optional)``: the pure function, given the results and the products
   named in ``inputs`` (earlier entries, or :data:`RUN_PRODUCTS`, written by ``hertzmap run``),
-  and those named in ``optional`` that are at hand, by name;
-* ``figures``: the figures of study/plots.py drawn from it, each a :class:`Figure` (its
-  ``--which`` name and plotting function).
+  and those named in ``optional`` that are at hand, by name.
 
 The thresholds that decide a product (how many lines, which lines) are declared here, next to
 their entry, and nowhere else. :func:`compute_products` is the loop over the registry;
 ``hertzmap plot`` writes what it returns into the store (scheduler.store) and draws the
-figures from the stored groups (study.plots.plot_results, a loop over the same registry).
+figures from the stored groups (study.plots.plot_results).
 """
 from __future__ import annotations
 
@@ -36,26 +34,18 @@ from hertzmap.study.products.results import open_store, rig_of, source_attrs
 from hertzmap.study.products.damping import impact_onset, thresholds
 from hertzmap.study.products.traced_curves import isola_boundary
 
-__all__ = ["Figure", "Product", "Context", "PRODUCTS", "RUN_PRODUCTS", "WHICH", "MAX_LINES",
+__all__ = ["Product", "Context", "PRODUCTS", "RUN_PRODUCTS", "MAX_LINES",
            "NAMED_FREQUENCIES", "STROBE_SIGMA_LINES", "STROBE_ZETA_LINES", "product",
-           "check_which", "compute_products"]
-
-
-@dataclass(frozen=True)
-class Figure:
-    """A figure drawn from a product: ``which``, its name for ``hertzmap plot --which`` and in
-    its files' names (``<study>_<which>[_...].png``), and ``plot``, the function of study/plots.py
-    that draws one of its PNGs."""
-    which: str
-    plot: str
+           "compute_products"]
 
 
 @dataclass(frozen=True)
 class Context:
-    """What besides the results decides a product: ``which``, the figures asked for
-    (``hertzmap plot --which``: "auto" or :data:`WHICH` names), and ``products``, the products
-    at hand by name (those of :data:`RUN_PRODUCTS` the store holds, and those computed so far)."""
-    which: tuple[str, ...] = ("auto",)
+    """What besides the results decides a product: ``wanted``, the products asked for by name
+    (the figures of ``hertzmap plot --which``: study.plots.products_for; None: every product
+    the results support), and ``products``, the products at hand by name (those of
+    :data:`RUN_PRODUCTS` the store holds, and those computed so far)."""
+    wanted: tuple[str, ...] | None = None
     products: Mapping[str, xr.Dataset] = field(default_factory=dict)
 
 
@@ -66,7 +56,6 @@ class Product:
     description: str
     needs: Callable[[xr.Dataset, Context], bool]
     compute: Callable[..., xr.Dataset]
-    figures: tuple[Figure, ...] = ()
     inputs: tuple[str, ...] = ()
     #: products it takes when at hand (keyword arguments of ``compute``, by name)
     optional: tuple[str, ...] = ()
@@ -117,8 +106,9 @@ def _at_hand(name: str) -> Callable[[xr.Dataset, Context], bool]:
 
 
 def _histories_wanted(ds: xr.Dataset, context: Context) -> bool:
-    return "histories" in context.which or ("auto" in context.which
-                                            and ds.sizes["omega"] <= NAMED_FREQUENCIES)
+    if context.wanted is not None:
+        return "time_histories" in context.wanted
+    return ds.sizes["omega"] <= NAMED_FREQUENCIES
 
 
 PRODUCTS: tuple[Product, ...] = (
@@ -128,39 +118,32 @@ PRODUCTS: tuple[Product, ...] = (
                 source_attrs(ds, "orbit classes"))),
     Product("loss_of_contact_map", "per grid point: the kinds of stable response, contact loss, "
             "coexistence, the census's attractors and the curves' indicators",
-            _always, loss_of_contact_map,
-            (Figure("map", "plot_loss_of_contact_map"), Figure("measures", "plot_map_measures"),
-             Figure("lyapunov", "plot_lyapunov_map"), Figure("zeta_maps", "plot_zeta_maps"))),
+            _always, loss_of_contact_map),
     Product("bifurcation_curves", "contour lines of the map's indicators (flip, grazing, 2T "
             "boundary, isola)",
-            _always, lambda ds, lcm: bifurcation_curves(lcm),
-            (Figure("bifurcation", "plot_bifurcation_set"),), inputs=("loss_of_contact_map",)),
+            _always, lambda ds, lcm: bifurcation_curves(lcm), inputs=("loss_of_contact_map",)),
     Product("located_bifurcations", "the stored fold / flip / grazing points linked into curves",
             _stored("bifurcation_kind"), located_curves),
     Product("mms_curves", "the multiple-scales thresholds sigma1, sigma2, sigma*",
             _always, mms_curves_over),
     Product("frequency_response", f"response curves of every orbit (at most {MAX_LINES} lines)",
-            _few_lines, lambda ds: frequency_response(ds, rig=rig_of(ds)),
-            (Figure("response", "plot_frequency_response"),)),
+            _few_lines, lambda ds: frequency_response(ds, rig=rig_of(ds))),
     Product("mms_response", f"the multiple-scales frequency response (at most {MAX_LINES} "
             f"lines; omega within abs(omega - 2) <= {MMS_HALF_WIDTH:g})",
             _mms_window_in_few_lines, mms_response_over),
     Product("force_harmonics", "contact-force harmonics on a common frequency axis",
-            _stored("force_harmonics"), lambda ds: force_harmonics(ds, rig=rig_of(ds)),
-            (Figure("harmonics", "plot_force_harmonics"),)),
+            _stored("force_harmonics"), lambda ds: force_harmonics(ds, rig=rig_of(ds))),
     Product("stroboscopic_diagram", "the census's stroboscopic points and the stored orbits "
             f"along at most {STROBE_SIGMA_LINES} x {STROBE_ZETA_LINES} (sigma, zeta) lines",
             _stored("strobe_q"),
             lambda ds: stroboscopic_diagrams(ds, sigma_lines=STROBE_SIGMA_LINES,
-                                             zeta_lines=STROBE_ZETA_LINES),
-            (Figure("strobe", "plot_bifurcation_diagram"),)),
+                                             zeta_lines=STROBE_ZETA_LINES)),
     Product("attractor_ids", "an identity for the census's attractors across the grid "
             "(continued orbits, overlapping stroboscopic clouds), with each one's extent",
             _stored("attractor_kind", "strobe_q"), attractor_ids),
     Product("time_histories", "F_exp of every stable orbit over 4 forcing cycles (scenes of at "
             f"most {NAMED_FREQUENCIES} omega values, or asked for)",
-            _histories_wanted, lambda ds: time_histories(ds, rig=rig_of(ds)),
-            (Figure("histories", "plot_time_histories"),)),
+            _histories_wanted, lambda ds: time_histories(ds, rig=rig_of(ds))),
     Product("isola_boundary", "sigma** of the isola and where it joins the flip curve, read off "
             "the traced curves",
             _at_hand("traced_curves"), lambda ds, traced: isola_boundary(traced),
@@ -168,18 +151,13 @@ PRODUCTS: tuple[Product, ...] = (
     Product("thresholds", "sigma*, sigma** and the isola's join at each zeta, by continuation, "
             "and sigma*(zeta), sigma**(zeta) continued in zeta (studies of two or more zeta "
             "values)",
-            _zeta_swept, thresholds, (Figure("thresholds", "plot_thresholds"),),
-            optional=("traced_curves", "isola_boundary")),
+            _zeta_swept, thresholds, optional=("traced_curves", "isola_boundary")),
     Product("impact_onset", "where vibro-impacts start: the lowest sigma at which a stable "
             "response loses contact, over (omega, zeta), in the rig's units with a [rig] "
             "(maps of two or more zeta values)",
             _zeta_swept_map, lambda ds, lcm: impact_onset(lcm, rig_of(ds)),
-            (Figure("impact_onset", "plot_impact_onset"),), inputs=("loss_of_contact_map",)),
+            inputs=("loss_of_contact_map",)),
 )
-
-#: Every figure's --which name, in the registry's order.
-WHICH = tuple(f.which for p in PRODUCTS for f in p.figures)
-
 
 def product(name: str) -> Product:
     """The registry's entry ``name``."""
@@ -189,25 +167,17 @@ def product(name: str) -> Product:
     raise KeyError(f"no product {name!r}; the products: {', '.join(p.name for p in PRODUCTS)}")
 
 
-def check_which(which: Sequence[str]) -> tuple[str, ...]:
-    """``which`` as a tuple; ValueError on a name that is neither "auto" nor a figure's."""
-    which = tuple(which)
-    bad = [w for w in which if w not in WHICH + ("auto",)]
-    if bad:
-        raise ValueError(f"unknown figure(s) {bad}; choose from auto, {', '.join(WHICH)}")
-    return which
-
-
-def compute_products(results: str | Path | xr.Dataset, *, which: Sequence[str] = ("auto",),
+def compute_products(results: str | Path | xr.Dataset, *, wanted: Sequence[str] | None = None,
                      given: Mapping[str, xr.Dataset] | None = None) -> dict[str, xr.Dataset]:
     """Every product of :data:`PRODUCTS` that the results support, by name (a pure function:
-    nothing is written). ``which``: the figures asked for (decides ``time_histories``);
+    nothing is written). ``wanted``: the products asked for (study.plots.products_for of the
+    figures asked for; it decides ``time_histories``), None for every one;
     ``given``: products at hand (those of :data:`RUN_PRODUCTS` the store holds), taken by
     the products that need them and not returned."""
     ds = open_store(results)
     at_hand = dict(given or {})
     out: dict[str, xr.Dataset] = {}
-    context = Context(check_which(which), at_hand)
+    context = Context(None if wanted is None else tuple(wanted), at_hand)
     for p in PRODUCTS:
         if p.needs(ds, context):
             out[p.name] = at_hand[p.name] = p.compute(

@@ -52,9 +52,11 @@ def real(tmp_path_factory):
 def test_every_figure_of_the_registry_is_drawn_from_its_product_alone(real, tmp_path,
                                                                       monkeypatch):
     ds, prods = real
-    for product in P.PRODUCTS:
-        for figure in product.figures:
-            assert callable(getattr(plots, figure.plot)), figure
+    names = {p.name for p in P.PRODUCTS} | set(P.RUN_PRODUCTS)
+    for figure in plots.FIGURES:
+        assert callable(figure.draw) and figure.help, figure
+        assert set(figure.products) <= names, figure      # it draws from declared products
+    assert len(plots.WHICH) == len(set(plots.WHICH))
     # nothing is computed while drawing: every product function of study.products fails
     def computed(*args, **kwargs):
         raise AssertionError("a product computed while drawing")
@@ -65,7 +67,7 @@ def test_every_figure_of_the_registry_is_drawn_from_its_product_alone(real, tmp_
         monkeypatch.setattr(P, name, computed)
     monkeypatch.setattr(P, "PRODUCTS", tuple(dataclasses.replace(p, compute=computed)
                                              for p in P.PRODUCTS))
-    paths = plots.plot_results(ds, prods, tmp_path, which=list(P.WHICH))
+    paths = plots.plot_results(ds, prods, tmp_path, which=list(plots.WHICH))
     assert sorted(p.name for p in paths) == sorted(
         ["real_map.png", "real_measures.png", "real_lyapunov.png", "real_bifurcation.png",
          "real_response_sigma0.3.png", "real_response_sigma0.5.png",
@@ -100,7 +102,7 @@ def _two_zeta_map():
 
 def test_a_store_of_several_zeta_gets_one_figure_per_zeta_or_the_chosen_one(tmp_path):
     ds = _two_zeta_map()
-    prods = {n: v for n, v in P.compute_products(ds, which=["map"]).items()
+    prods = {n: v for n, v in P.compute_products(ds, wanted=plots.products_for(["map"])).items()
              if n != "thresholds"}
     names = {p.name for p in plots.plot_results(ds, prods, tmp_path / "all", which=["map"])}
     assert names == {"z_map_zeta0.005.png", "z_map_zeta0.01.png"}
@@ -120,9 +122,63 @@ def test_the_thresholds_figure_from_its_product(tmp_path):
 
 def test_the_maps_of_several_zeta_side_by_side_and_the_impact_onset_chart(tmp_path):
     ds = _two_zeta_map()
-    prods = {n: v for n, v in P.compute_products(ds, which=["map"]).items()
+    prods = {n: v for n, v in P.compute_products(ds, wanted=plots.products_for(["map"])).items()
              if n != "thresholds"}
     paths = plots.plot_results(ds, prods, tmp_path, which=["zeta_maps", "impact_onset"])
     assert sorted(p.name for p in paths) == ["z_impact_onset.png", "z_zeta_maps.png"]
     for p in paths:
         assert 1000 < p.stat().st_size < 300_000
+
+
+def _off_the_canvas(fig) -> float:
+    """How far (inches) what a figure draws reaches beyond its canvas: matplotlib's tight
+    bounding box of every drawn artist (axes, tick labels in view, titles, legends, texts)
+    against the figure's own box; 0 when everything is on it."""
+    tight = fig.get_tightbbox(fig.canvas.get_renderer())
+    w, h = fig.get_size_inches()
+    return max(0.0, -tight.x0, -tight.y0, tight.x1 - w, tight.y1 - h)
+
+
+def test_no_figure_cuts_off_a_legend_or_a_label(real, tmp_path, monkeypatch):
+    """Every figure of a store, and a map whose legend lists every kind of response and every
+    curve (as the vibro-impact scene's), drawn as `save` draws it: everything drawn lies on
+    the canvas; the crowded legend takes two columns beside the axes."""
+    from hertzmap.study.plots import style
+
+    checked, cut = [], {}
+    saving = style.save
+
+    def save(fig, path):
+        style.fit(fig)
+        over = _off_the_canvas(fig)
+        if over > 0.01:
+            cut[str(path)] = over
+        checked.append(fig)
+        return saving(fig, path)
+
+    for module in ("plane_figures", "line_figures", "damping_figures", "basin_figures",
+                   "paper_figures"):
+        monkeypatch.setattr(f"hertzmap.study.plots.{module}.save", save)
+    ds, prods = real
+    plots.plot_results(ds, prods, tmp_path, which=list(plots.WHICH))
+    # every kind of response at once, and every curve: the longest legend a map can have
+    toml = ("[grid]\nomega = {start = 1.9, stop = 2.1, num = 12}\n"
+            "sigma = {start = 0.1, stop = 0.5, num = 10}\nzeta = 0.01\n")
+    big = blank_results(toml, "crowded")
+    for i in range(12):
+        for j in range(10):
+            set_orbit(big, i, j, 0, period=1, stable=True)
+    big = P.open_store(big)
+    crowded = P.compute_products(big)
+    lcm = crowded["loss_of_contact_map"]
+    codes = [c for c in style.SET_COLORS if c > 0]
+    field = lcm["map_class"].values
+    field.flat[:] = [codes[i % len(codes)] for i in range(field.size)]
+    lcm["stable_longer"].values[...] = 1
+    path = plots.plot_loss_of_contact_map(lcm, crowded["bifurcation_curves"],
+                                          tmp_path / "crowded.png", mms=crowded["mms_curves"],
+                                          traced=fake_traced_curves())
+    assert len(checked) >= 10 and not cut, cut
+    legend = checked[-1].legends[0]
+    assert len(legend.get_texts()) > style.LEGEND_ROWS and legend._ncols == 2
+    assert path.is_file()

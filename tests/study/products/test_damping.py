@@ -75,7 +75,7 @@ def test_without_traced_curves_sigma_star_only_and_why():
 
 def test_only_studies_that_sweep_zeta_get_it():
     one = P.open_store(blank_results(GRID.replace("[0.008, 0.01]", "0.01")))
-    assert "thresholds" not in P.compute_products(one, which=["map"])
+    assert "thresholds" not in P.compute_products(one)
 
 
 def test_impact_onset_is_the_lowest_sigma_where_a_stable_response_loses_contact():
@@ -102,4 +102,4 @@ def test_impact_onset_is_the_lowest_sigma_where_a_stable_response_loses_contact(
                                onset["sigma_impact_onset"].values * Rig.paper().N)
     np.testing.assert_allclose(onset["frequency_hz"].values, ds["omega"].values
                                * Rig.paper().f0)
-    assert "impact_onset" in P.compute_products(ds, which=["map"])
+    assert "impact_onset" in P.compute_products(ds)

@@ -1,0 +1,162 @@
+"""Figures along one (sigma, zeta) line: the frequency response, the contact-force harmonics, the
+stroboscopic bifurcation diagram, the time histories.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+from hertzmap.study.plots.style import CLASS_STYLE, save, zeta_label
+
+
+def plot_bifurcation_diagram(diag, path, *, title=None) -> Path:
+    """The brute-force bifurcation diagram (study.products.stroboscopic_diagram): stroboscopic q
+    of every attractor against omega, with the stored orbits' start points over it."""
+    fig, ax = plt.subplots(figsize=(8.2, 4.6), layout="constrained")
+    kind = diag["strobe_kind"].values
+    st = diag["orbit_stable"].values
+    # the unstable orbits first, faint: on the vibro-impact lines the census's close returns
+    # find many orbits embedded in the chaotic set
+    if (~st).any():
+        ax.scatter(diag["orbit_omega"].values[~st], diag["orbit_q0"].values[~st], s=2,
+                   color="0.6", alpha=0.5, lw=0, label="stored orbit, unstable")
+    styles = {1: ("k", "periodic attractor"), 2: ("tab:red", "non-periodic (chaotic)"),
+              3: ("tab:orange", "unsettled transient")}
+    for k, (color, label) in styles.items():
+        sel = kind == k
+        if sel.any():
+            ax.scatter(diag["strobe_omega"].values[sel], diag["strobe_q"].values[sel], s=3,
+                       color=color, lw=0, alpha=0.8, label=label)
+    if st.any():
+        ax.scatter(diag["orbit_omega"].values[st], diag["orbit_q0"].values[st], s=12,
+                   facecolors="none", edgecolors="tab:blue", lw=0.8, label="stored orbit, stable")
+    q = np.concatenate([diag["strobe_q"].values, diag["orbit_q0"].values])
+    if q.size and np.nanmin(q) < -20:
+        # flights reach q ~ -600 at low omega while the orbits in contact sit near 0
+        ax.set_yscale("symlog", linthresh=2.0)
+    ax.set_xlabel("omega")
+    ax.set_ylabel("q at tau = 0 mod T")
+    ax.set_title(title or f"Stroboscopic bifurcation diagram, sigma = {diag.attrs['sigma']:g}, "
+                 f"zeta = {diag.attrs['zeta']:g}", fontsize=10)
+    ax.legend(fontsize=7, loc="lower right", markerscale=2.5)
+    return save(fig, path)
+
+
+def plot_frequency_response(fr, path, *, sigma=None, zeta=None, zoom=None, mms=None,
+                            title=None) -> Path:
+    """Peak-to-peak q against omega, every orbit coloured by its class (paper Fig. 6, 8, 10).
+    ``zoom`` = (omega_min, omega_max) adds a detail panel (Fig. 6b)."""
+    line = fr.sel(sigma=fr["sigma"].values[0] if sigma is None else sigma, method="nearest")
+    line = line.sel(zeta=line["zeta"].values[0] if zeta is None else zeta, method="nearest")
+    ncols = 2 if zoom else 1
+    fig, axes = plt.subplots(1, ncols, figsize=(6.2 * ncols, 4.3), layout="constrained",
+                             squeeze=False)
+    cls = line["orbit_class"].values
+    om = np.broadcast_to(line["omega"].values[:, None], cls.shape)
+    ptp = line["ptp"].values
+    for ax in axes[0]:
+        for c, (color, label) in CLASS_STYLE.items():
+            sel = cls == c
+            if not sel.any():
+                continue
+            stable = c in (1, 2, 3, 6)
+            ax.plot(om[sel], ptp[sel], "o" if stable else ".", ms=3 if stable else 2.5,
+                    color=color, label=label, ls="none", zorder=3 if stable else 2)
+        if mms is not None:
+            mm = mms.sel(sigma=float(line["sigma"]), zeta=float(line["zeta"]), method="nearest")
+            # MMS ptp of the 2T response is about 2 A plus the 1T part; show 2A for reference
+            ax.plot(mm["omega"], 2 * mm["A_upper"], color="k", lw=0.8, label="MMS 2A (upper)")
+            ax.plot(mm["omega"], 2 * mm["A_lower"], color="k", lw=0.8, ls="--",
+                    label="MMS 2A (lower)")
+        ax.set_xlabel("omega")
+        ax.set_ylabel("peak-to-peak q")
+    if zoom:
+        ax = axes[0][1]
+        ax.set_xlim(*zoom)
+        inside = (om >= zoom[0]) & (om <= zoom[1]) & np.isfinite(ptp)
+        if inside.any():
+            ax.set_ylim(0, 1.08 * float(np.nanmax(ptp[inside])))
+        ax.set_title("detail", fontsize=9)
+    axes[0][0].legend(fontsize=7, loc="upper left")
+    fig.suptitle(title or f"Frequency response, sigma = {float(line['sigma']):g}, "
+                 f"{zeta_label(float(line['zeta']))}", fontsize=10)
+    if "frequency_hz" in line.coords:
+        f0 = float(line.attrs.get("rig_f0_hz", np.nan))
+        sec = axes[0][0].secondary_xaxis("top", functions=(lambda w: w * f0, lambda f: f / f0))
+        sec.set_xlabel("excitation frequency [Hz]", fontsize=8)
+    return save(fig, path)
+
+
+def plot_force_harmonics(fh, path, *, sigma=None, zeta=None, title=None) -> Path:
+    """Contact-force harmonics of the stable responses against omega (Fig. 12-13 counterpart):
+    H1 (at omega), H2 (at 2 omega) and the subharmonic H1/2 (at omega/2)."""
+    line = fh.sel(sigma=fh["sigma"].values[0] if sigma is None else sigma, method="nearest")
+    line = line.sel(zeta=line["zeta"].values[0] if zeta is None else zeta, method="nearest")
+    rig = "force_amplitude_N" in line
+    amp = line["force_amplitude_N" if rig else "force_amplitude"]
+    unit = "N" if rig else "F/N"
+    xname = "frequency_hz" if "frequency_hz" in line.coords else "omega"
+    x = line[xname].values
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6), layout="constrained")
+    cls = line["orbit_class"].values
+    for ax, r, name in zip(axes, (1.0, 2.0, 0.5), ("H1 (excitation frequency)",
+                                                   "H2 (twice the excitation frequency)",
+                                                   "H1/2 (subharmonic)")):
+        a = amp.sel(ratio=r).values
+        for c, (color, label) in CLASS_STYLE.items():
+            sel = cls == c
+            if not sel.any():
+                continue
+            xx = np.broadcast_to(x[:, None], cls.shape)[sel]
+            stable = c in (1, 2, 3, 6)
+            ax.plot(xx, a[sel], "o" if stable else ".", ms=3 if stable else 2, color=color,
+                    label=label, ls="none")
+        ax.set_title(name, fontsize=9)
+        ax.set_xlabel("excitation frequency [Hz]" if xname == "frequency_hz" else "omega")
+        ax.set_ylabel(f"amplitude [{unit}]")
+    axes[0].legend(fontsize=7)
+    fig.suptitle(title or f"Contact-force harmonics, sigma = {float(line['sigma']):g}, "
+                 f"{zeta_label(float(line['zeta']))}", fontsize=10)
+    return save(fig, path)
+
+
+def plot_time_histories(th, path, *, title=None, max_cases=6, largest_only=True) -> Path:
+    """F_exp against forcing cycles omega tau / 2 pi (paper Fig. 14-15), one panel per orbit.
+
+    ``largest_only``: one panel per omega, the orbit of largest ptp (the resonant response,
+    reached sweeping omega down as in the experiment); else every orbit of the product."""
+    if largest_only and th.sizes["case"] and "ptp" in th.coords:
+        keep = []
+        for w in np.unique(th["omega"].values)[::-1]:
+            idx = np.flatnonzero(th["omega"].values == w)
+            keep.append(int(idx[np.nanargmax(np.nan_to_num(th["ptp"].values[idx], nan=-1.0))]))
+        th = th.isel(case=keep)
+    n = min(int(th.sizes["case"]), max_cases)
+    fig, axes = plt.subplots(n, 1, figsize=(6.5, 1.6 * n + 0.7), layout="constrained",
+                             squeeze=False, sharex=True)
+    for i in range(n):
+        ax = axes[i][0]
+        c = th.isel(case=i)
+        ax.plot(c["time"], c["F_exp"], color="k", lw=1.0)
+        ax.axhline(-1.0, color="tab:red", lw=0.6, ls=":")
+        ax.set_ylabel("F_exp")
+        ax.text(0.01, 0.95, f"omega = {float(c['omega']):.4g}, {int(c['period'])}T"
+                + ("" if bool(c["stable"]) else " (unstable)"), transform=ax.transAxes,
+                va="top", fontsize=8)
+    axes[-1][0].set_xlabel("omega tau / 2 pi (forcing cycles)")
+    fig.suptitle(title or f"Normal force F_exp = F/N - 1, sigma = {th.attrs.get('sigma', '')}, "
+                 f"zeta = {th.attrs.get('zeta', '')}", fontsize=10)
+    return save(fig, path)
+
+
+def zoom_for(fr, sigma, zeta):
+    """(1.85, 2.1) when the line is wider and has 2T orbits there (the detail of Fig. 6b)."""
+    line = fr.sel(sigma=sigma, zeta=zeta, method="nearest")
+    om = line["omega"].values
+    if not (om.min() < 1.85 and om.max() > 2.05):
+        return None
+    near = (om >= 1.85) & (om <= 2.1)
+    if not (line["period"].values[near] == 2).any():
+        return None
+    return (1.85, min(float(om.max()), 2.1))
