@@ -16,9 +16,10 @@ the point knows (study.solve.certificate) / only on the points of what earlier o
 certificates' RTOL) 1e-6 / 1e-8.
 
 Each chosen sigma line is searched twice (sweeps and fold turning, then the census at the
-points the study asks it at: study.solve.line), once per mode, the modes' order alternating
-from line to line so that a drift of the machine's speed falls on both; only the census's CPU
-(time.process_time of this process) is counted. Printed per mode: census CPU, census points,
+points the study asks it at: study.solve.line), once per mode: one ABBA round of
+benchmarks/abba.py per line, the modes' order alternating from line to line so that a drift
+of the machine's speed falls on both; only the census's CPU (time.process_time of this
+process) is counted, in all and line by line (the ratios' median and spread). Printed per mode: census CPU, census points,
 points per kind of attractor set, points holding a stable orbit (per period, and in all),
 points named (a periodic or non-periodic attractor), attractors no own state reached (basin
 fraction 0: found from a neighbour), and for the points both call chaotic how many exponents
@@ -29,12 +30,17 @@ from __future__ import annotations
 import argparse
 import collections
 import math
+import sys
 import time
+from pathlib import Path
 
-import hertzmap.study.solve.census as census_module
-import hertzmap.study.solve.line as line_module
-from hertzmap.study.solve.line import LineSearch
-from hertzmap.study.spec import load_study
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+import hertzmap.study.solve.census as census_module  # noqa: E402
+import hertzmap.study.solve.line as line_module  # noqa: E402
+from benchmarks.abba import abba  # noqa: E402
+from hertzmap.study.solve.line import LineSearch  # noqa: E402
+from hertzmap.study.spec import load_study  # noqa: E402
 
 #: per comparison: the census module's setting, its values in the two modes, and the modes'
 #: names (the first: the shortcut on)
@@ -82,9 +88,12 @@ def main(argv=None) -> int:
     sets = {m: {} for m in modes}          # point -> its attractors' (kind, period)
     unreached = {m: collections.Counter() for m in modes}
     sigmas = s.axis("sigma")[a.offset::a.lines]
-    for n, sigma in enumerate(sigmas):
-        for mode in (modes if n % 2 == 0 else modes[::-1]):
+
+    def variant(mode):
+        def search(k):
+            sigma = sigmas[k]
             mode_now[0] = mode
+            before = spent[mode]
             setattr(census_module, switch, value[mode])
             if switch == "TRANSIENT_RTOL":
                 certificate_module.RTOL = value[mode]
@@ -111,6 +120,10 @@ def main(argv=None) -> int:
                 stable[mode]["any"] += bool(periods)
                 for m in periods:
                     stable[mode][m] += 1
+            return {"census CPU": spent[mode] - before}
+        return search
+
+    res = abba({m: variant(m) for m in modes}, len(sigmas))
     setattr(census_module, switch, values[1] if switch == "TRANSIENT_RTOL" else True)
     certificate_module.RTOL = 1e-8
     line_module.census = census
@@ -139,6 +152,7 @@ def main(argv=None) -> int:
                     f"{sets[modes[1]][(i, sg)]}" for i, sg in sorted(differ)[:8]))
     print(f"census CPU, {modes[1]} / {modes[0]}: "
           f"{spent[modes[1]] / max(spent[modes[0]], 1e-9):.2f}x")
+    print(res.report(modes[1], modes[0], "census CPU", "  line by line"))
     return 0
 
 

@@ -3,12 +3,12 @@ sigma*(zeta), sigma**(zeta) and the isola's join from a store's products/thresho
 sigma*/zeta against the multiple-scales 36 / (1 + 16 zeta^2 / 9) (paper Eq. 26-27) and the rig's
 measured ~40 at zeta = 0.005, and sigma* against the scipy oracle at two zeta values.
 
-    hertzmap run scenes/damping.toml --workers 1 && hertzmap plot results/damping.zarr
+    hertzmap run scenes/damping.toml --workers 2
     .venv/bin/python -m benchmarks.damping_thresholds results/damping.zarr
     .venv/bin/python -m benchmarks.damping_thresholds results/damping.zarr --oracle 0.005 0.02
 
-Without products/thresholds in the store (hertzmap plot not run) the product is computed
-here, in memory, from the store and its traced curves.
+The run writes products/thresholds (the scene's thresholds output). A store of a study without
+that output gets it computed here, in memory, from the store and its traced curves.
 """
 from __future__ import annotations
 
@@ -29,7 +29,7 @@ def thresholds_of(store: str) -> xr.Dataset:
     except (FileNotFoundError, KeyError, OSError, ValueError):
         ds = P.open_store(store)
         traced = xr.open_zarr(store, group="products/traced_curves").load()
-        return P.compute_products(ds, given={"traced_curves": traced})["thresholds"]
+        return P.thresholds(ds, traced)
 
 
 def print_table(t: xr.Dataset) -> None:

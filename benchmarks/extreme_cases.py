@@ -1,6 +1,8 @@
-"""The stiff and extreme cases of the kernels: the case table and the routine that solves,
-checks and measures one case. Used by tests/kernels/test_extremes.py (which asserts on the rows)
-and benchmarks/extremes.py (which prints them as the markdown table of BENCHMARKS.md).
+"""The stiff and extreme cases of the kernels: the case table, the routine that solves, checks
+and measures one case (tests/kernels/test_extremes.py asserts on the rows), and, run as a
+script, the rows as the markdown table of RELIABILITY.md.
+
+    .venv/bin/python benchmarks/extreme_cases.py        (about 10-20 s with a warm numba cache)
 
 For each case: shoot at rtol 1e-10 from up to four guesses (linear response first), stop at the
 first converged orbit (the cases of ROUTES, which no guess reaches, first from the point where
@@ -8,6 +10,14 @@ a continuation in sigma or omega arrives). A converged orbit is measured by (1) 
 its start point mapped by kernels.simulate at rtol 1e-12 (the state-only integration path, no
 variational equations, no Newton), (2) its Liouville error (det M against exp(-2 zeta P)),
 (3) its distance to a reference re-solved at rtol 1e-13 from it.
+
+The table, per case: the status at rtol 1e-10 (first of up to four guesses that converges;
+"guess" is its index, 0 = linear response; the cases of ROUTES start from the point of a
+continuation in sigma or omega instead, not timed here), the start-point error against a
+re-solve at rtol 1e-13, the residual of the state-only integration (|simulate(x0, P) - x0|),
+the Liouville error, the largest Floquet multiplier modulus (> 1: unstable), contact switches
+per orbit, flight fraction, integrator steps of one period map (on the orbit), Newton
+iterations of the successful (or last) solve, and the time of all guesses.
 """
 from __future__ import annotations
 
@@ -167,3 +177,30 @@ def case_args(case):
     elif name in ROUTES:
         extra = continuation_guess(omega, sigma, zeta, m, n, ROUTES[name])
     return name, omega, sigma, zeta, m, n, extra
+
+
+# -- the table ----------------------------------------------------------------------------
+
+def fmt(x, spec=".1e"):
+    return "-" if x != x else format(x, spec)
+
+
+def print_table():
+    print(f"| case | omega | sigma | zeta | T | n | status (rtol {RTOL:g}) | guess | err vs 1e-13 | "
+          "self-map | Liouville | max abs multiplier | switches | flight | steps/map | Newton it | ms |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for case in CASES:
+        name, omega, sigma, zeta, m, n, extra = case_args(case)
+        r = solve_case(omega, sigma, zeta, m, n, extra)
+        guess = '-' if r['guess'] is None else str(r['guess'])
+        mu = f"{abs(r['orbit'].multipliers).max():.3g}" if r['converged'] else '-'
+        if name in ROUTES and r['guess'] == 0:
+            guess = f"continuation in {ROUTES[name][0]} from {ROUTES[name][1]:g}"
+        print(f"| {name} | {omega:g} | {sigma:.6g} | {zeta:g} | {m} | {n:.4g} | {r['status']} | "
+              f"{guess} | {fmt(r['err'])} | {fmt(r['self_map'])} | "
+              f"{fmt(r['liouville'])} | {mu} | {r['events']} | {fmt(r['flight'], '.3f')} | {r['steps'] if r['steps'] >= 0 else '-'} | {r['iterations']} | "
+              f"{1e3 * r['seconds']:.1f} |")
+
+
+if __name__ == "__main__":
+    print_table()

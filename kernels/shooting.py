@@ -214,7 +214,7 @@ def shoot_into(omega, sigma, zeta, m, q_guess, v_guess, n, model, rtol, atol, ma
             # line search to the bottom (7 maps), and hopeless runs from exploratory seeds took
             # two thirds of a grid block's work. Giving up at the first such step cut more, but
             # lost 2T orbits of the isola reached by continuation (10 of 1531 on the band of
-            # benchmarks/orbit_census.py); so did giving up on heavily damped decreasing steps.
+            # benchmarks/search_ab.py --save/--against); so did giving up on heavily damped decreasing steps.
             break
         if stats[S_H_FIRST] > 0.0:
             h = stats[S_H_FIRST]

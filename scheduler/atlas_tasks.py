@@ -22,13 +22,13 @@ from typing import Any, TextIO
 import numpy as np
 
 from hertzmap.scheduler.plan import make_plan
-from hertzmap.scheduler.stage import Stage
-from hertzmap.scheduler.store import (ATLAS_ATTR, Store, read_atlas_tile, read_region,
+from hertzmap.scheduler.stage import Stage, Task, TaskRunner
+from hertzmap.scheduler.store import (ATLAS_ATTR, read_atlas_tile, read_region,
                                       remove_atlas_stage, stage_atlas_tile, staged_atlas_tiles)
+from hertzmap.scheduler.worker import DEFAULT_SOLVER
 from hertzmap.study.schema import (ATTRACTOR_VARIABLES, CROSSING_VARIABLES, ORBIT_VARIABLES,
                                    VARIABLES, stored_variables)
 from hertzmap.study.solve.atlas import HALO_NAMES, NEIGHBOUR_NAMES, atlas_names, census_points
-from hertzmap.study.spec import Study
 
 #: the stored variables the atlas needs (the orbits' identity and continuity invariants)
 NEEDS = ("min_q", "max_q", "ptp")
@@ -121,17 +121,21 @@ def atlas_task(spec: dict[str, Any]) -> dict[str, Any]:
             "seconds": time.perf_counter() - t0, "pid": os.getpid()}
 
 
-class AtlasRun(Stage):
-    """The atlas stage of one run of a study into its (locked) store."""
+class AtlasStage(Stage):
+    """The atlas stage of one run of a study into its (locked) store: its continuation rounds
+    (costed as the stage "atlas") and census rounds ("census")."""
 
-    def __init__(self, study: Study, store: Store, out: TextIO, err: TextIO, interrupt,
-                 command: str = "hertzmap run", enabled: bool = True,
-                 tile: str = DEFAULT_ATLAS_TILE, owner: dict | None = None):
-        super().__init__(study, store, out, err, interrupt, command, owner)
-        #: False with another block solver than hertzmap's (a test's stand-in): the atlas
-        #: continues real orbits, which such a grid does not hold
-        self.enabled = enabled
-        self.tile = tile
+    name = "atlas"
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        opts = self.opts
+        #: False with another block solver than hertzmap's (a test's stand-in) or --no-atlas:
+        #: the atlas continues real orbits, which such a grid does not hold
+        self.enabled = (opts is None or (getattr(opts, "solver", DEFAULT_SOLVER) == DEFAULT_SOLVER
+                                         and getattr(opts, "atlas", True)))
+        self.tile = getattr(opts, "atlas_tile", DEFAULT_ATLAS_TILE)
+        study = self.study
         self.options["harmonics"] = "force_harmonics" in study.outputs
         self.stored = stored_variables(study)
         self.names = atlas_names(self.stored)
@@ -146,6 +150,12 @@ class AtlasRun(Stage):
                                                    if n in self.stored and n not in self.names)
         else:
             self.census = None
+
+    def not_run(self) -> str | None:
+        if self.enabled and not self.applies():
+            return ("atlas: not run (it matches orbits by min_q, max_q and ptp: add the "
+                    "\"measures\" output)")
+        return None
 
     def applies(self) -> bool:
         """The atlas matches orbits by their invariants: it runs on studies that store them."""
@@ -213,11 +223,9 @@ class AtlasRun(Stage):
                 "periods": tuple(st.periods), "tile_function": self.tile,
                 "unstable": st.continue_unstable}
 
-    def run(self, client, n_workers: int) -> dict[str, Any]:
+    def run(self, runner: TaskRunner) -> dict[str, Any]:
         """Run (or resume) the rounds to the fixed point. Returns the atlas summary (also
         printed)."""
-        from distributed import as_completed
-
         plan = make_plan(self.study, atlas_chunks(self.store.chunks))
         by_index = {t.index: t for t in plan.tasks}
         state = self.state()
@@ -225,59 +233,8 @@ class AtlasRun(Stage):
                    "compute": 0.0, "tiles": 0, "by_period": {}}
         t0 = time.perf_counter()
         while state["phase"] != "done":
-            r = int(state["round"])
-            if state["phase"] == "computing":
-                active = self._active_tiles(plan, r, state.get("kind", "continue"))
-                staged = staged_atlas_tiles(self.store.path, r)
-                todo = [t for t in active if t.index not in staged]
-                futures = client.map(atlas_task, [self._spec(t, r, state) for t in todo],
-                                     key=[f"hertzmap-atlas-{self.study.hash[:12]}-{r}-"
-                                          + "-".join(map(str, t.index)) for t in todo],
-                                     pure=False)
-                for fut in as_completed(futures):
-                    res = fut.result()      # its worker has staged the tile
-                    fut.release()
-                    summary["censuses" if state.get("kind") == "census" else "shots"] += \
-                        res["shots"]
-                    summary["compute"] += res["seconds"]
-                    summary["tiles"] += 1
-                state["phase"] = "committing"
-                state["active"] = [list(t.index) for t in active]
-                with self.interrupt.critical():
-                    self.store.set_attrs(**{ATLAS_ATTR: state})
-            # commit: idempotent, from the staged tiles of the round's active set
-            added = 0
-            with self.interrupt.critical():
-                for index in map(tuple, state.get("active", [])):
-                    arrays = read_atlas_tile(self.store.path, r, index)
-                    if not arrays:
-                        continue
-                    new = arrays["atlas_round"] == r
-                    added += int(new.sum())
-                    for p, n in zip(*np.unique(arrays["period"][new], return_counts=True)):
-                        summary["by_period"][int(p)] = summary["by_period"].get(int(p), 0) + int(n)
-                    self.store.write_block(by_index[index].slices, arrays,
-                                           tuple(n for n in self.census_names if n in arrays)
-                                           if self.census else self.names)
-                kind = state.get("kind", "continue")
-                state["rounds"] = list(state.get("rounds", [])) + [
-                    {"round": r, "added": added, "kind": kind}]
-                state.pop("active", None)
-                # continuation rounds to the fixed point; then a census round where the atlas
-                # brought a stable orbit to a chaotic point; the orbits it finds are continued
-                # in turn (the next round offers them from their own tiles too)
-                if added:
-                    state.update(round=r + 1, phase="computing", kind="continue",
-                                 after_census=kind == "census")
-                elif kind == "continue" and self.census and self._census_tiles(plan):
-                    state.update(round=r + 1, phase="computing", kind="census",
-                                 after_census=False)
-                else:
-                    state.update(phase="done")
-                self.store.set_attrs(**{ATLAS_ATTR: state})
-                remove_atlas_stage(self.store.path)
-            summary["rounds"] += 1
-            summary["added"] += added
+            with runner.timed("census" if state.get("kind") == "census" else "atlas"):
+                self._round(runner, plan, by_index, state, summary)
         summary["wall"] = time.perf_counter() - t0
         summary["not_continued"] = self.not_continued()
         if state.get("not_continued") != {str(p): n for p, n in summary["not_continued"].items()}:
@@ -291,6 +248,70 @@ class AtlasRun(Stage):
                                f"in {summary['total_rounds']} round(s)")
         print(atlas_line(summary), file=self.out, flush=True)
         return summary
+
+    def _round(self, runner: TaskRunner, plan, by_index: dict, state: dict,
+               summary: dict) -> None:
+        """One round (or the rest of one cut short): its tiles computed and staged, then
+        committed whole; ``state`` (the store's ``hertzmap_atlas``) moves to the next."""
+        r = int(state["round"])
+        if state["phase"] == "computing":
+            kind = state.get("kind", "continue")
+            active = self._active_tiles(plan, r, kind)
+            staged = staged_atlas_tiles(self.store.path, r)
+            todo = [t for t in active if t.index not in staged]
+            tasks = [Task(self.key(r, *t.index), self._spec(t, r, state), t.size)
+                     for t in todo]
+
+            def tally(task: Task, res: dict) -> None:
+                # its worker has staged the tile: the round commits once all are staged
+                summary["censuses" if kind == "census" else "shots"] += res["shots"]
+                summary["compute"] += res["seconds"]
+                summary["tiles"] += 1
+
+            cost = runner.map("census" if kind == "census" else "atlas", atlas_task, tasks,
+                              tally, label=f"{'census' if kind == 'census' else 'atlas'} "
+                              f"round {r}", total=len(active),
+                              done_before=len(active) - len(todo))
+            if cost.failed:
+                raise RuntimeError(f"atlas round {r}: {len(cost.failed)} tile(s) failed: "
+                                   f"{cost.failed[0][1]}")
+            state["phase"] = "committing"
+            state["active"] = [list(t.index) for t in active]
+            with self.interrupt.critical():
+                self.store.set_attrs(**{ATLAS_ATTR: state})
+        # commit: idempotent, from the staged tiles of the round's active set
+        added = 0
+        with self.interrupt.critical():
+            for index in map(tuple, state.get("active", [])):
+                arrays = read_atlas_tile(self.store.path, r, index)
+                if not arrays:
+                    continue
+                new = arrays["atlas_round"] == r
+                added += int(new.sum())
+                for p, n in zip(*np.unique(arrays["period"][new], return_counts=True)):
+                    summary["by_period"][int(p)] = summary["by_period"].get(int(p), 0) + int(n)
+                self.store.write_block(by_index[index].slices, arrays,
+                                       tuple(n for n in self.census_names if n in arrays)
+                                       if self.census else self.names)
+            kind = state.get("kind", "continue")
+            state["rounds"] = list(state.get("rounds", [])) + [
+                {"round": r, "added": added, "kind": kind}]
+            state.pop("active", None)
+            # continuation rounds to the fixed point; then a census round where the atlas
+            # brought a stable orbit to a chaotic point; the orbits it finds are continued
+            # in turn (the next round offers them from their own tiles too)
+            if added:
+                state.update(round=r + 1, phase="computing", kind="continue",
+                             after_census=kind == "census")
+            elif kind == "continue" and self.census and self._census_tiles(plan):
+                state.update(round=r + 1, phase="computing", kind="census",
+                             after_census=False)
+            else:
+                state.update(phase="done")
+            self.store.set_attrs(**{ATLAS_ATTR: state})
+            remove_atlas_stage(self.store.path)
+        summary["rounds"] += 1
+        summary["added"] += added
 
 
 def atlas_line(s: dict[str, Any]) -> str:

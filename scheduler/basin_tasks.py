@@ -10,7 +10,9 @@ Everything the user gives is checked before a cluster starts or anything is writ
 """
 from __future__ import annotations
 
+import sys
 import time
+import uuid
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,6 +20,8 @@ import numpy as np
 
 from hertzmap.scheduler.cluster import ClusterSpec, close_quietly, make_client
 from hertzmap.scheduler.errors import RefusedError, StoreError
+from hertzmap.scheduler.interrupt import DeferInterrupt
+from hertzmap.scheduler.stage import Task, TaskRunner
 from hertzmap.scheduler.store import Lock, read_attrs, write_product
 from hertzmap.study.schema import StoreFormatError, check_format, study_from_attrs
 from hertzmap.study.spec import StudyError
@@ -120,6 +124,16 @@ def check_request(store: str | Path, omega: float, sigma: float, zeta: float | N
         int(study.transient_periods), int(study.record_periods), study.name, study.hash)
 
 
+def basin_task(spec: dict) -> dict:
+    """One row block of a basin map (runs on a worker): study.solve.basin_grid.basin_block of
+    the spec's point, rows and options, with the seconds it took."""
+    t0 = time.perf_counter()
+    w, s, z = spec["point"]
+    block = basin_block(w, s, z, spec["q"], spec["v"], spec["options"],
+                        spec["transient_periods"], spec["record_periods"])
+    return {"block": block, "seconds": time.perf_counter() - t0}
+
+
 def run_basins(req: BasinRequest, cluster: ClusterSpec, out: Path, *,
                rows_per_task: int = ROWS_PER_TASK, client=None) -> dict:
     """Compute the basin map of ``req`` on the cluster (row blocks as tasks; ``client``: an
@@ -139,10 +153,21 @@ def run_basins(req: BasinRequest, cluster: ClusterSpec, out: Path, *,
     if own:
         client, cluster_obj = make_client(cluster)
     try:
-        futures = [client.submit(basin_block, omega, sigma, zeta, q, v[s], req.options,
-                                 req.transient_periods, req.record_periods, pure=False)
-                   for s in row_blocks(v.size, rows_per_task)]
-        blocks = client.gather(futures)
+        rows = list(row_blocks(v.size, rows_per_task))
+        call = uuid.uuid4().hex[:8]     # one map's keys: never an earlier map's results
+        tasks = [Task(f"hertzmap-basins-{req.study_hash[:12]}-{call}-{i}",
+                      {"point": req.point, "q": q, "v": v[s], "options": req.options,
+                       "transient_periods": req.transient_periods,
+                       "record_periods": req.record_periods}, q.size * (s.stop - s.start))
+                 for i, s in enumerate(rows)]
+        blocks: dict[str, dict] = {}
+        runner = TaskRunner(client, DeferInterrupt(), sys.stderr)
+        cost = runner.map("basin map", basin_task, tasks,
+                          lambda task, res: blocks.update({task.key: res["block"]}), unit="points")
+        if cost.failed:
+            raise RuntimeError(f"basin map: {len(cost.failed)} row block(s) failed: "
+                               f"{cost.failed[0][1]}")
+        blocks = [blocks[t.key] for t in tasks]
     finally:
         if own:
             close_quietly(client, cluster_obj)

@@ -103,21 +103,16 @@ def cmd_run(args: argparse.Namespace) -> int:
     except StudyError as exc:
         return _error(f"{args.study}: {exc}")
 
-    from hertzmap.scheduler.cluster import ClusterSpec, parse_cluster_options
+    from hertzmap.scheduler.cluster import parse_cluster_options
     from hertzmap.scheduler.dry_run import describe
     from hertzmap.scheduler.errors import ClusterError, RefusedError
-    from hertzmap.scheduler.run import RunOptions, default_store_path, run_study
+    from hertzmap.scheduler.run import RunOptions, cluster_for, default_store_path, run_study
     from hertzmap.scheduler.worker import DEFAULT_SOLVER
 
     try:
-        if args.scheduler:
-            spec = ClusterSpec(kind="address", address=args.scheduler, workers=args.workers)
-        else:
-            spec = ClusterSpec(kind=args.cluster or "local", workers=args.workers,
-                               options=parse_cluster_options(args.cluster_option))
-            if spec.kind == "local" and args.cluster_option:
-                raise ClusterError("--cluster-option is for dask-jobqueue clusters (--cluster slurm ...)")
-        spec.check()
+        spec = cluster_for(study, scheduler=args.scheduler, cluster=args.cluster,
+                           workers=args.workers,
+                           options=parse_cluster_options(args.cluster_option))
     except ClusterError as exc:
         return _error(str(exc))
     if args.task_seconds is not None and not 0 < args.task_seconds < float("inf"):
@@ -126,14 +121,6 @@ def cmd_run(args: argparse.Namespace) -> int:
         return _error(f"--task-timeout must be > 0 and finite, got {args.task_timeout}")
     if args.error_sample is not None and args.error_sample < 0:
         return _error(f"--error-sample must be >= 0, got {args.error_sample}")
-    if spec.kind == "local" and spec.workers is None:
-        from hertzmap.scheduler.cluster import INPROCESS, default_workers
-        from hertzmap.scheduler.plan import is_small_study
-        # nothing said of where to run: a small study runs in-process
-        if args.cluster is None and is_small_study(study):
-            spec = ClusterSpec(kind=INPROCESS)
-        else:
-            spec.workers = default_workers()
 
     opts = RunOptions(
         store=args.store or default_store_path(study),
@@ -271,28 +258,17 @@ def cmd_plot(args: argparse.Namespace) -> int:
     with the groups hertzmap run wrote (the traced curves). With --no-products nothing is
     written and the figures are drawn from the products in memory."""
     from hertzmap.scheduler.errors import StoreError
-    from hertzmap.scheduler.store import list_products, read_product, write_products
+    from hertzmap.scheduler.library import plot
+    from hertzmap.scheduler.store import list_products
     from hertzmap.study import plots
-    from hertzmap.study import products as P
 
     if args.store is None and not args.paper:
         return _error("plot: give a STORE or --paper FIG ...")
     try:
         paths = plots.plot_paper(args.paper, args.out) if args.paper else []
         if args.store is not None:
-            if not (Path(args.store) / "zarr.json").is_file():
-                raise ValueError(f"{args.store} is not a zarr store")
-            ds = P.open_store(args.store)
-            stored = list_products(args.store)
-            given = {name: read_product(args.store, name) for name in P.RUN_PRODUCTS
-                     if name in stored}
-            prods = P.compute_products(ds, wanted=plots.products_for(args.which), given=given)
-            if not args.no_products:
-                write_products(args.store, prods)
-                prods = {name: read_product(args.store, name) for name in prods}
-            paths += plots.plot_results(ds, {**given, **prods}, args.out, args.which,
-                                        prefix=ds.attrs.get("hertzmap_study_name")
-                                        or Path(args.store).stem, zeta=args.zeta)
+            paths += plot(args.store, args.which, out=args.out, zeta=args.zeta,
+                          write=not args.no_products)
     except (ValueError, KeyError, FileNotFoundError, StoreError) as exc:
         return _error(f"plot: {exc}")
     for p in paths:

@@ -28,15 +28,14 @@ from typing import Any, TextIO
 import numpy as np
 import xarray as xr
 
-from hertzmap.scheduler.store import (Store, finish_traced_curves, has_traced_curves, read_curve_parts,
-                             write_curve_part)
+from hertzmap.scheduler.stage import Stage, Task, TaskRunner
+from hertzmap.scheduler.store import (TRACED_CURVES, Store, finish_traced_curves,
+                                      has_run_product, read_curve_parts, write_curve_part)
 from hertzmap.study.products.results import quiet
 from hertzmap.study.products.traced_curves import (combine_traced_curves, part_attrs, trace_from_part,
                                           traced_curves_dataset)
 from hertzmap.study.schema import CROSSING_VARIABLES
 from hertzmap.study.solve.curve_seeds import SEED_SOURCES, Seed, SeedBook, curve_seeds, window
-from hertzmap.study.spec import Study
-from hertzmap.scheduler.stage import Stage
 
 IN_FLIGHT_PER_WORKER = 2
 #: what traces one seed's curve (module:function, imported on the worker by name)
@@ -79,28 +78,27 @@ def seed_dataset(store: Store) -> xr.Dataset:
         return ds[names].load()
 
 
-class CurveRun(Stage):
+class CurveStage(Stage):
     """The curve stage of one run of a study into its (locked) store."""
 
-    def __init__(self, study: Study, store: Store, out: TextIO, err: TextIO, interrupt,
-                 command: str = "hertzmap run", tracer: str = DEFAULT_TRACER):
-        super().__init__(study, store, out, err, interrupt, command)
-        self.tracer = tracer
-        self.axes = {n: study.axis(n) for n in ("omega", "sigma", "zeta")}
+    name = "curves"
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.tracer = getattr(self.opts, "curve_tracer", DEFAULT_TRACER)
+        self.axes = {n: self.study.axis(n) for n in ("omega", "sigma", "zeta")}
 
     def pending(self) -> bool:
         """True when the study asks for curves and its store does not hold them yet."""
-        return "curves" in self.study.outputs and not has_traced_curves(self.store.path,
-                                                                          self.study.hash)
+        return "curves" in self.study.outputs and not has_run_product(
+            self.store.path, TRACED_CURVES, self.study.hash)
 
-    def run(self, client, n_workers: int) -> dict[str, Any]:
+    def run(self, runner: TaskRunner) -> dict[str, Any]:
         """Trace, commit and combine the study's curves. Returns the curve summary (also
         printed)."""
-        from distributed import wait
-
         t0 = time.perf_counter()
         # every worker loads the curve kernels first, so that the traces' times are theirs
-        client.run(warm_curve_kernels)
+        runner.client.run(warm_curve_kernels)
         t_warm = time.perf_counter() - t0
         t1 = time.perf_counter()
         seeds = curve_seeds(seed_dataset(self.store), self.level, self.study.periods)
@@ -114,12 +112,11 @@ class CurveRun(Stage):
         if committed:
             print(f"resuming the curves of {self.store.path}: {len(committed)} committed",
                   file=self.out, flush=True)
-        in_flight: dict[int, Any] = {}
         finished: dict[int, dict] = {}
-        window_size = IN_FLIGHT_PER_WORKER * max(1, n_workers)
-        key = self.study.hash[:12]
+        window_size = IN_FLIGHT_PER_WORKER * runner.n_workers
         pointer = 0
-        try:
+        with runner.window(self.name, trace_task) as traces:
+            in_flight = traces.in_flight
             while True:
                 # 1. commit, in seed order, what can be decided
                 while pointer < len(seeds):
@@ -127,9 +124,7 @@ class CurveRun(Stage):
                         trace = trace_from_part(committed[pointer])
                         book.commit(trace, trace["duplicate_of"])
                     elif book.skip(pointer):
-                        fut = in_flight.pop(pointer, None)
-                        if fut is not None:
-                            fut.cancel()
+                        traces.cancel(pointer)
                         if finished.pop(pointer, None) is not None:
                             summary["dropped"] += 1
                     elif pointer in finished:
@@ -146,7 +141,7 @@ class CurveRun(Stage):
                     else:
                         break
                     pointer += 1
-                if pointer >= len(seeds) or summary["failed"]:
+                if pointer >= len(seeds) or traces.cost.failed:
                     break
                 # 2. ship the first undecided seed (always: the commits wait for it), then,
                 # ahead of it, seeds not yet known to be skipped whose family (plane, kind,
@@ -165,30 +160,18 @@ class CurveRun(Stage):
                     busy.add(SeedBook.family(seed))
                     spec = {"seed": seed.as_dict(), "bounds": window(self.axes, seed.plane),
                             "options": self.options, "tracer": self.tracer}
-                    in_flight[ship] = client.submit(trace_task, spec, pure=False,
-                                                    key=f"hertzmap-curve-{key}-{ship}")
+                    traces.submit(ship, Task(self.key(ship), spec))
                 if not in_flight:
                     break               # nothing can be decided (cannot happen; bounded anyway)
                 # 3. wait for a trace
-                done, _ = wait(list(in_flight.values()), return_when="FIRST_COMPLETED")
-                for i, fut in list(in_flight.items()):
-                    if fut not in done:
+                for i, res in traces.wait():
+                    if res is None:     # failed for good (after retries): in traces.cost
                         continue
-                    del in_flight[i]
-                    try:
-                        res = fut.result()
-                    except Exception as exc:   # a task that failed for good (after retries)
-                        summary["failed"].append((fut.key, f"{type(exc).__name__}: {exc}"))
-                        continue
-                    finally:
-                        fut.release()
                     summary["traced"] += 1
                     summary["compute"] += res.get("seconds", 0.0)
                     summary["vertices_traced"] += len(res["vertices"]["omega"])
                     finished[i] = res
-        finally:
-            for fut in in_flight.values():
-                fut.cancel()
+        summary["failed"] = list(traces.cost.failed)
         summary["complete"] = pointer >= len(seeds) and not summary["failed"]
         if summary["complete"]:
             ordered = [committed[i] for i in book.curve_ids()]

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import json
 import math
+import time
 from typing import Any
 
 import numpy as np
 
+from hertzmap.scheduler.stage import Task, TaskRunner
 from hertzmap.scheduler.worker import DEFAULT_SOLVER, solve_points
 from hertzmap.study.spec import Study
 
@@ -17,9 +19,18 @@ ERROR_RTOL_FACTOR = 1e-3
 RTOL_FLOOR = 1e-13
 
 
-def estimate_error(client, study: Study, samples: list[tuple], *, solver: str = DEFAULT_SOLVER,
+def error_task(spec: dict[str, Any]) -> dict[str, Any]:
+    """Re-solve the sample (runs on a worker): scheduler.worker.solve_points of the spec's
+    points, options, solver and seeds, with the seconds it took."""
+    t0 = time.perf_counter()
+    refs = solve_points(spec["points"], spec["kwargs"], spec["solver"], spec["seeds"])
+    return {"refs": refs, "seconds": time.perf_counter() - t0}
+
+
+def estimate_error(runner: TaskRunner, study: Study, samples: list[tuple], *, solver: str = DEFAULT_SOLVER,
                    rtol_factor: float = ERROR_RTOL_FACTOR) -> dict[str, Any]:
-    """Re-solve sampled converged points at a tighter tolerance; report the deviation of (q0, v0).
+    """Re-solve sampled converged points at a tighter tolerance (one task of the runner's
+    stage "error sample"); report the deviation of (q0, v0).
 
     ``samples``: (omega, sigma, zeta, period, q0, v0) of converged slots. Each point is solved
     alone at rtol * rtol_factor (not below 1e-13), with the sampled orbit's own start point as
@@ -38,8 +49,14 @@ def estimate_error(client, study: Study, samples: list[tuple], *, solver: str = 
     kwargs["rtol"] = rtol_ref
     points = [s[:3] for s in samples]
     seeds = [[(int(p), float(q0), float(v0))] for (_, _, _, p, q0, v0) in samples]
-    fut = client.submit(solve_points, points, kwargs, solver, seeds, pure=False)
-    refs = fut.result()
+    got: dict[str, Any] = {}
+    spec = {"points": points, "kwargs": kwargs, "solver": solver, "seeds": seeds}
+    cost = runner.map("error sample", error_task,
+                      [Task(f"hertzmap-error-{study.hash[:12]}", spec, len(points))],
+                      lambda task, res: got.update(res), unit="tasks")
+    if cost.failed:
+        raise RuntimeError(cost.failed[0][1])
+    refs = got["refs"]
     devs = []
     for (w, s, z, p, q0, v0), ref in zip(samples, refs):
         ok = (ref["status"] == 0) & (ref["period"] == p)

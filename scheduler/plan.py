@@ -23,7 +23,7 @@ from hertzmap.study.spec import Study
 #: search). Calibrated on the block solver (see docs/running.md); used only to size tasks
 #: and for --dry-run estimates.
 SECONDS_PER_POINT = {1: 1.4e-4, 2: 6.4e-4}  # study.solve.block, default window (zeta 0.01, 5 sigma
-#: lines): 0.134 ms per point for 1T, 0.772 ms for 1T + 2T on 2 cores (benchmarks/grid_cost.py)
+#: lines): 0.134 ms per point for 1T, 0.772 ms for 1T + 2T on 2 cores (benchmarks/run_cost.py grid)
 #: extra per point with [search] discover = true (transients + continuation, ~1.5 s per
 #: 161-point line, docs/discovery.md)
 SECONDS_PER_POINT_DISCOVER = 1e-2
@@ -34,7 +34,8 @@ MIN_TASKS = 16
 
 
 @dataclass(frozen=True)
-class Task:
+class Block:
+    """One block of the grid: one zarr chunk of the store, the grid stage's one task."""
     index: tuple[int, int, int]             # chunk index (omega_chunk, sigma_chunk, zeta_chunk)
     slices: tuple[slice, slice, slice]      # grid slices of the chunk
 
@@ -46,16 +47,12 @@ class Task:
     def size(self) -> int:
         return math.prod(self.shape)
 
-    def key(self, study_hash: str) -> str:
-        i, j, k = self.index
-        return f"hertzmap-{study_hash[:12]}-{i}-{j}-{k}"
-
 
 @dataclass(frozen=True)
 class Plan:
     study: Study
     chunks: tuple[int, int, int]
-    tasks: tuple[Task, ...]
+    tasks: tuple[Block, ...]
 
     @property
     def counts(self) -> tuple[int, int, int]:
@@ -77,7 +74,7 @@ SECONDS_PER_CENSUS_STATE = 4.5e-3
 CENSUS_SHARE = 0.01
 #: Solver seconds per initial state at the census's probe points (study.solve.line
 #: PROBE_POINTS per line, run whatever shooting found): transients that settle on the point's
-#: orbits and the tracing along the line of what they find. benchmarks/grid_cost.py on the
+#: orbits and the tracing along the line of what they find. benchmarks/run_cost.py grid on the
 #: default study (no point there without a stable orbit: the census phase is all probes):
 #: 1.56-1.75 s for 80 probe points of 16 states, 1.2-1.4 ms per state.
 SECONDS_PER_PROBE_STATE = 1.25e-3
@@ -144,7 +141,7 @@ def make_plan(study: Study, chunks: tuple[int, int, int]) -> Plan:
     chunks = tuple(min(int(c), n) for c, n in zip(chunks, study.shape))
     counts = chunk_counts(study.shape, chunks)
     tasks = tuple(
-        Task(index=idx, slices=chunk_slices(study.shape, chunks, idx))
+        Block(index=idx, slices=chunk_slices(study.shape, chunks, idx))
         for idx in np.ndindex(*counts)
     )
     return Plan(study=study, chunks=chunks, tasks=tasks)

@@ -1,10 +1,10 @@
-"""Run a study: plan, open/create the store, ship blocks to Dask, flag them as they come.
-
-Each task's worker writes its own block into the store (scheduler.store.write_task_block: a
-region write of whole chunks that no other task shares) and returns a summary of a few
-hundred bytes; the client, which holds the store's lock, sets the task's ``task_done`` flag
-once the task has returned (``distributed.as_completed``). Durability comes from the store,
-not from Dask: rerunning the same command computes only the tasks not flagged.
+"""Run a study: plan, open (or create) and lock the store, then run each pending stage of
+:data:`STAGES` in order through one scheduler.stage.TaskRunner: the grid (each block written by
+its worker, flagged ``task_done`` by the client once the task has returned), the error sample,
+the atlas rounds and census rounds, the traced curves, the thresholds in zeta. Durability comes
+from the store, not from Dask: rerunning the same command computes only what no stage has
+committed. The run summary ends with each stage's cost and the tasks that ran again after a
+lost worker.
 """
 
 from __future__ import annotations
@@ -20,25 +20,25 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from hertzmap.scheduler.cluster import (INPROCESS, JOBQUEUE, LOCAL_KINDS, ClusterSpec,
-                                        WorkerJobsEnded, close_quietly, make_client,
-                                        wait_for_first_worker, where_line, worker_count)
-from hertzmap.scheduler.atlas_tasks import DEFAULT_ATLAS_TILE, AtlasRun
-from hertzmap.scheduler.curve_tasks import DEFAULT_TRACER, CurveRun
+                                        WorkerJobsEnded, close_quietly, default_workers,
+                                        make_client, wait_for_first_worker, where_line,
+                                        worker_count)
+from hertzmap.scheduler.atlas_tasks import DEFAULT_ATLAS_TILE, AtlasStage
+from hertzmap.scheduler.curve_tasks import DEFAULT_TRACER, CurveStage
 from hertzmap.scheduler.dry_run import plan_for
 from hertzmap.scheduler.defaults import DEFAULT_TASK_SECONDS, DEFAULT_TASK_TIMEOUT, ERROR_SAMPLE
 from hertzmap.scheduler.error_estimate import estimate_error, record_error_estimate
-from hertzmap.scheduler.sample import Sampler
-from hertzmap.scheduler.errors import RunError
+from hertzmap.scheduler.errors import ClusterError, RunError
+from hertzmap.scheduler.grid_tasks import GridStage
 from hertzmap.scheduler.interrupt import DeferInterrupt
-from hertzmap.scheduler.plan import choose_chunks, make_plan
-from hertzmap.scheduler.progress import Progress
-from hertzmap.scheduler.report import (KIND_COUNTS, SUMMED_COUNTS, WORST_COUNTS, add_counts,
-                                       overhead, print_summary)
+from hertzmap.scheduler.plan import choose_chunks, is_small_study
+from hertzmap.scheduler.report import overhead, print_summary
 from hertzmap.scheduler.resources import check_resources
-from hertzmap.scheduler.store import (GRID_STAGE, Lock, Store, StoreError, check_writer,
-                                      commit_grid_block, open_or_create, remove_stage)
-from hertzmap.scheduler.worker import DEFAULT_SOLVER, Warmup, run_task
-from hertzmap.study.schema import code_fingerprint, stored_variables
+from hertzmap.scheduler.stage import SchedulerLost, Stage, TaskRunner, stage_costs_line
+from hertzmap.scheduler.store import Lock, Store, StoreError, check_writer, open_or_create
+from hertzmap.scheduler.threshold_tasks import ThresholdStage
+from hertzmap.scheduler.worker import DEFAULT_SOLVER, Warmup
+from hertzmap.study.schema import code_fingerprint
 from hertzmap.study.spec import Study
 
 
@@ -63,6 +63,28 @@ class RunOptions:
 
 def default_store_path(study: Study) -> Path:
     return Path("results") / f"{study.name}.zarr"
+
+
+def cluster_for(study: Study, *, scheduler: str | None = None, cluster: str | None = None,
+                workers: int | None = None,
+                options: dict[str, Any] | None = None) -> ClusterSpec:
+    """Where a run goes (``hertzmap run`` and hertzmap.run): an existing scheduler at
+    ``scheduler``; else a dask-jobqueue cluster of kind ``cluster`` (``options``: its class's
+    keywords) or the embedded local cluster of ``workers`` processes (default one per core);
+    nothing said of where (no cluster, no workers), a small study runs in this process.
+    Raises ClusterError on an option that cannot be met."""
+    if scheduler:
+        spec = ClusterSpec(kind="address", address=scheduler, workers=workers)
+    else:
+        spec = ClusterSpec(kind=cluster or "local", workers=workers, options=dict(options or {}))
+        if spec.kind == "local" and options:
+            raise ClusterError("--cluster-option is for dask-jobqueue clusters (--cluster slurm "
+                               "...)")
+    spec.check()
+    if spec.kind == "local" and spec.workers is None:
+        spec = (ClusterSpec(kind=INPROCESS) if cluster is None and is_small_study(study)
+                else ClusterSpec(kind="local", workers=default_workers()))
+    return spec
 
 
 def check_solver(solver: str) -> None:
@@ -148,16 +170,6 @@ def _store_complete(study: Study, store_path: Path, n_tasks: int, note: str) -> 
         return False
 
 
-def _scheduler_lost(client, exc: BaseException | None = None) -> bool:
-    """True when the client lost its scheduler (futures cancelled for that reason)."""
-    if exc is not None and "connection-lost" in str(getattr(exc, "reason", "") or exc):
-        return True
-    try:
-        return client.status not in ("running", "newly-created")
-    except Exception:
-        return True
-
-
 def _has_dashboard(client) -> bool:
     try:
         return importlib.util.find_spec("bokeh") is not None and bool(client.dashboard_link)
@@ -165,52 +177,37 @@ def _has_dashboard(client) -> bool:
         return False
 
 
-def task_specs(study: Study, tasks, kwargs: dict[str, Any], names, solver, time_budget, *,
-               store: Path, owner: dict[str, Any], sampler: Sampler) -> list[dict[str, Any]]:
-    """What the client hands to Dask for each task (scheduler.worker.run_task's argument):
-    the block's place and axes, the solver's options, the variables to store, where to write
-    them (the store's absolute path: workers may run elsewhere) and as whose (``owner``, the
-    client's lock record), and what the error sample needs of the block."""
-    om, sg, zt = study.axis("omega"), study.axis("sigma"), study.axis("zeta")
-    where = str(Path(store).resolve())
-    specs = []
-    for t in tasks:
-        so, ss, sz = t.slices
-        specs.append({"index": t.index, "slices": [(s.start, s.stop) for s in t.slices],
-                      "omega": om[so], "sigma": sg[ss], "zeta": zt[sz],
-                      "kwargs": kwargs, "names": names, "solver": solver,
-                      "time_budget": time_budget, "store": where, "owner": owner,
-                      "sample": sampler.task_spec(t)})
-    return specs
+#: The stages of a run, in order, declared once (scheduler.stage): each reads what the stages
+#: before it committed, and a rerun resumes the first one not committed. A new stage is one
+#: entry here plus its pure function (docs/architecture.md, "Where to add").
+STAGES: tuple[type[Stage], ...] = (GridStage, AtlasStage, CurveStage, ThresholdStage)
 
 
 class StudyRun:
-    """One run of a study into its (locked) store: repair, resume, compute, summarise."""
+    """One run of a study into its (locked) store: repair, resume, then every stage of
+    :data:`STAGES` that is pending, through one scheduler.stage.TaskRunner; summarise."""
 
     def __init__(self, study: Study, opts: RunOptions, store: Store, out: TextIO, err: TextIO,
-                 warming: Future | None = None, owner: dict[str, Any] | None = None):
+                 warming: Future | None = None, owner: dict[str, Any] | None = None,
+                 stages: tuple[type[Stage], ...] | None = None):
         self.study = study
         self.opts = opts
         self.store = store
         self.out = out
         self.err = err
-        self.plan = make_plan(study, store.chunks)
-        self.names = stored_variables(study)
         self.interrupt = DeferInterrupt()
-        self.futures: list = []
         #: the store's lock record of this client: its tasks' workers write only while it holds
         self.owner = owner
         #: the warm-up plugin's registration, started with the embedded cluster (start_warm_up)
         self.warming = warming
+        self.stages = [cls(study, store, out, err, self.interrupt, opts.command, owner, opts)
+                       for cls in (STAGES if stages is None else stages)]
+        self.grid = self.stages[0]
+        self.plan = self.grid.plan
+        self.names = self.grid.names
+        self.runner: TaskRunner | None = None
         self.summary: dict[str, Any] = {"store": str(store.path), "tasks_total": len(self.plan.tasks),
                                         "tasks_done_before": 0, "tasks_run": 0, "failed": []}
-        # the atlas, after the grid and before the curves
-        self.atlas = AtlasRun(study, store, out, err, self.interrupt, opts.command,
-                              enabled=opts.solver == DEFAULT_SOLVER and opts.atlas,
-                              tile=opts.atlas_tile, owner=owner)
-        # the traced curves of a study with the "curves" output, after its grid
-        self.curves = CurveRun(study, store, out, err, self.interrupt, opts.command,
-                               opts.curve_tracer)
 
     # -- before computing -----------------------------------------------------------------
     def repair(self) -> None:
@@ -253,8 +250,7 @@ class StudyRun:
             # a resize cut short by a kill made whole (every slot array as long as the longest)
             self.store.settle_slots(self.store.slot_extents())
             self.repair()
-        done = self.store.done_mask()
-        todo = [t for t in self.plan.tasks if not done[t.index]]
+        todo = self.grid.todo()
         n_done = len(self.plan.tasks) - len(todo)
         self.summary["tasks_done_before"] = n_done
         if resumed:
@@ -263,12 +259,11 @@ class StudyRun:
             print(f"{self.store.path}: all {len(self.plan.tasks)} tasks done, nothing to compute",
                   file=self.out)
             self.summary.update(complete=True, wall=0.0)
-            if self.atlas.pending() or self.curves.pending():
-                return self.stages_only(client, early)
-            self.settle_slots()
-            if early is not None:
-                close_quietly(*early)
-            return self.summary
+            if not any(s.pending() for s in self.stages[1:]):
+                self.settle_slots()
+                if early is not None:
+                    close_quietly(*early)
+                return self.summary
         own_client = client is None
         cluster = None
         if t_setup is None:
@@ -278,30 +273,28 @@ class StudyRun:
                 self.opts.cluster, report=_printer(self.out))
         try:
             with self.interrupt:
-                return self.compute(client, cluster, todo, n_done, t_setup, own_client)
+                return self.compute(client, cluster, todo, t_setup, own_client)
         except KeyboardInterrupt as exc:
-            self.report_interrupt(client)
+            self.report_interrupt()
             exc.reported = True
             raise
         finally:
             if own_client:
                 close_quietly(client, cluster)
 
-    def report_interrupt(self, client) -> None:
-        with contextlib.suppress(Exception):
-            client.cancel(self.futures)
+    def report_interrupt(self) -> None:
+        if self.runner is not None:
+            self.runner.cancel()
         n = int(self.store.done_mask().sum())
         total = len(self.plan.tasks)
+        if n < total:
+            what, note = f"{n}/{total} tasks are done and", f"with {n}/{total} tasks done"
+        else:
+            what, note = ("the grid and the stages committed so far are", "after the grid")
         with contextlib.suppress(Exception):
-            self.store.add_history(f"{self.opts.command}: interrupted with {n}/{total} tasks done")
-        print(f"\nhertzmap: interrupted: {n}/{total} tasks are done and kept in "
-              f"{self.store.path}; to resume, run again: {self.opts.command}", file=self.err,
-              flush=True)
-
-    def task_specs(self, todo, kwargs, sampler: Sampler) -> list[dict[str, Any]]:
-        return task_specs(self.study, todo, kwargs, self.names, self.opts.solver,
-                          self.opts.task_timeout, store=self.store.path, owner=self.owner,
-                          sampler=sampler)
+            self.store.add_history(f"{self.opts.command}: interrupted {note}")
+        print(f"\nhertzmap: interrupted: {what} kept in {self.store.path}; to resume, run "
+              f"again: {self.opts.command}", file=self.err, flush=True)
 
     def workers_without_the_store(self, client) -> list[str]:
         """The connected workers that cannot write this client's store (scheduler.store.
@@ -311,30 +304,34 @@ class StudyRun:
                              on_error="return")
         return [f"{w}: {r}" for w, r in sorted(replies.items()) if isinstance(r, Exception)]
 
-    def compute(self, client, cluster, todo, n_done, t_setup, own_client) -> dict[str, Any]:
-        from distributed import as_completed
+    def stop(self, what: str, why: str, msg: str) -> dict[str, Any]:
+        """The run stops before its tasks: ``msg`` printed with how to resume, ``why`` in the
+        store's history, ``what`` (what is missing) the summary's failure."""
+        msg = f"{msg}; fix that and rerun: the store ({self.store.path}) resumes"
+        with self.interrupt.critical():
+            self.store.add_history(f"{self.opts.command}: stopped, {why}")
+        print(f"hertzmap: error: {msg}", file=self.err, flush=True)
+        self.summary.update(complete=False, failed=[(what, msg)])
+        return self.summary
 
-        opts, store, summary = self.opts, self.store, self.summary
+    def wait_for_workers(self, client, cluster, own_client: bool) -> dict[str, Any] | None:
+        """Wait for the cluster's workers, warm them up, check that they can write the store;
+        returns the summary of a run that stops here, else None."""
+        opts = self.opts
         if opts.cluster.kind not in LOCAL_KINDS and own_client:
             print(f"waiting for workers ({opts.cluster.describe()}) ...", file=self.out, flush=True)
         if cluster is not None and opts.cluster.kind in JOBQUEUE:
             try:
                 wait_for_first_worker(client, cluster, opts.cluster, _printer(self.out))
             except WorkerJobsEnded as exc:
-                msg = f"{exc}; fix that and rerun: the store ({store.path}) resumes"
-                with self.interrupt.critical():
-                    store.add_history(f"{opts.command}: stopped, no worker job started")
-                print(f"hertzmap: error: {msg}", file=self.err, flush=True)
-                summary.update(complete=False, failed=[("worker jobs", msg)])
-                return summary
+                return self.stop("worker jobs", "no worker job started", str(exc))
         else:
             # an existing scheduler with --workers N: wait for N workers before starting
             client.wait_for_workers(opts.cluster.workers if opts.cluster.kind == "address"
                                     and opts.cluster.workers else 1)
-        kwargs = self.study.solver_kwargs()
         if self.warming is not None:
             self.warming.result()       # registered when the embedded cluster started
-        elif opts.cluster.kind != INPROCESS:
+        elif opts.cluster.kind != INPROCESS and self.grid.pending():
             client.register_plugin(warm_up_plugin(self.study, opts), name="hertzmap-warmup")
         # (in-process, the one worker thread loads the kernels its first task calls: a warm-up
         # there would load every entry point, the census's and the curves' too, in this
@@ -342,87 +339,48 @@ class StudyRun:
         if opts.cluster.kind not in LOCAL_KINDS:
             blind = self.workers_without_the_store(client)
             if blind:
-                msg = (f"{len(blind)} worker(s) cannot write the store: {blind[0]}"
-                       f"{' ...' if len(blind) > 1 else ''}; fix that and rerun: the store "
-                       f"({store.path}) resumes")
-                with self.interrupt.critical():
-                    store.add_history(f"{opts.command}: stopped, workers cannot write the store")
-                print(f"hertzmap: error: {msg}", file=self.err, flush=True)
-                summary.update(complete=False, failed=[("shared file system", msg)])
-                return summary
+                return self.stop("shared file system", "workers cannot write the store",
+                                 f"{len(blind)} worker(s) cannot write the store: {blind[0]}"
+                                 f"{' ...' if len(blind) > 1 else ''}")
+        return None
+
+    def compute(self, client, cluster, todo, t_setup, own_client) -> dict[str, Any]:
+        stopped = self.wait_for_workers(client, cluster, own_client)
+        if stopped is not None:
+            return stopped
         n_workers = worker_count(client)
-        setup = time.perf_counter() - t_setup
+        self.runner = TaskRunner(client, self.interrupt, self.err, n_workers)
+        try:
+            if todo:
+                self.compute_grid(client, n_workers, todo, time.perf_counter() - t_setup)
+            if self.summary.get("complete"):
+                self.after_grid()
+        except SchedulerLost:
+            return self.scheduler_lost()
+        finally:
+            self.summary["stages"] = {n: c.as_dict() for n, c in self.runner.costs.items()}
+        if self.runner.costs:
+            print(stage_costs_line(self.runner.costs), file=self.out, flush=True)
+        self.settle_slots()
+        return self.summary
+
+    def compute_grid(self, client, n_workers: int, todo, setup: float) -> None:
+        opts, store, summary = self.opts, self.store, self.summary
         summary["where"] = where_line(opts.cluster, n_workers)
         dash = (client.dashboard_link if _has_dashboard(client) else "unavailable (pip install bokeh)"
                 ) if opts.cluster.kind != INPROCESS else "none (in-process)"
         print(f"running {len(todo)} tasks ({sum(t.size for t in todo)} points) "
               f"{summary['where']}; setup {setup:.1f} s; dashboard: {dash}", file=self.out, flush=True)
-
-        by_index = {t.index: t for t in todo}
-        keys = [t.key(self.study.hash) for t in todo]
-        progress = Progress(self.err, len(self.plan.tasks), sum(t.size for t in todo), n_done)
-        sampler = Sampler(self.study, opts.error_sample)
-        tally = {"compute": 0.0, "write": 0.0, "points": 0, **{k: 0 for k in SUMMED_COUNTS},
-                 **{k: math.nan for k in WORST_COUNTS}}
-        pids: set[int] = set()
-        t0 = time.perf_counter()
-        self.futures.extend(client.map(run_task, self.task_specs(todo, kwargs, sampler), key=keys,
-                                       pure=False))
-        lost = None
-        for fut in as_completed(self.futures):
-            try:
-                res = fut.result()
-            except Exception as exc:  # a task failed for good (after Dask's retries)
-                if _scheduler_lost(client, exc):
-                    lost = exc
-                    break
-                summary["failed"].append((fut.key, f"{type(exc).__name__}: {exc}"))
-                fut.release()
-                continue
-            task = by_index[tuple(res["index"])]
-            # the worker wrote the block before its task returned (or staged it, when it
-            # holds more slots than the store's dims: written here, the dims grown): only now
-            # its flag
-            with self.interrupt.critical():
-                if res.get("staged"):
-                    commit_grid_block(store, task.slices, task.index, self.names)
-                else:
-                    store.note_slots_used(res["counts"].get("slots", {}))
-                store.mark_done(task.index)
-            fut.release()
-            tally["compute"] += res["seconds"]
-            tally["write"] += res["write_seconds"]
-            pids.add(res["pid"])
-            add_counts(tally, res["counts"])
-            tally["points"] += task.size
-            sampler.merge(res["samples"])
-            summary["tasks_run"] += 1
-            progress.update(task.size)
-        wall = time.perf_counter() - t0
-        progress.close()
-        if store.done_mask().all():
-            remove_stage(store.path, GRID_STAGE)
-
-        if lost is not None or (len(summary["failed"]) and _scheduler_lost(client)):
-            return self.scheduler_lost()
-        n_run = summary["tasks_run"]
-        n_conv, n_fail = tally["conv"], tally["fail"]
+        with self.runner.timed(self.grid.name):
+            grid = self.grid.run(self.runner)
+        wall = grid["wall"]
+        summary.update(grid)
         summary.update(
-            wall=wall, setup=setup, workers=n_workers, compute=tally["compute"],
-            block_writes=tally["write"],
-            overhead=overhead(tally["compute"], wall, n_workers, n_run),
-            per_task=tally["compute"] / max(1, n_run),
-            points=tally["points"],
-            points_per_second=tally["points"] / wall if wall > 0 else math.nan,
-            orbits=n_conv, failed_slots=n_fail, points_with_orbit=tally["with"],
-            time_limited=tally["cut"],
-            converged_fraction=n_conv / (n_conv + n_fail) if n_conv + n_fail else math.nan,
-            orbits_per_second=n_conv / wall if wall > 0 else math.nan,
-            worker_processes_seen=len(pids),
-            liouville_worst=tally["liouville"], lyapunov_sum_worst=tally["lyapunov_sum"],
-            attractors=tally["attractors"], stable=tally["stable"],
-            slots=tally.get("slots", {}), attractor_kinds={k: tally[k] for k in KIND_COUNTS},
-        )
+            setup=setup, workers=n_workers,
+            overhead=overhead(grid["compute"], wall, n_workers, grid["tasks_run"]),
+            per_task=grid["compute"] / max(1, grid["tasks_run"]),
+            points_per_second=grid["points"] / wall if wall > 0 else math.nan,
+            orbits_per_second=grid["orbits"] / wall if wall > 0 else math.nan)
         total = len(self.plan.tasks)
         with self.interrupt.critical():
             if summary["failed"]:
@@ -432,63 +390,33 @@ class StudyRun:
                 summary["complete"] = bool(store.done_mask().all())
                 store.add_history(f"{opts.command}: completed {total}/{total} tasks")
         try:
-            summary["error"] = estimate_error(client, self.study, sampler.samples,
-                                              solver=opts.solver)
+            summary["error"] = estimate_error(self.runner, self.study, self.grid.sampler.samples,
+                                              solver=self.grid.solver)
+        except SchedulerLost:
+            raise
         except Exception as exc:  # the estimate is a report, never a reason to fail the run
             summary["error"] = {"n": 0, "failed": f"{type(exc).__name__}: {exc}"}
         record_error_estimate(store, summary)
         print_summary(summary, self.out)
-        if summary["complete"]:
-            self.after_grid(client, n_workers)
-        return summary
 
-    def after_grid(self, client, n_workers: int) -> None:
-        """The stages that read the complete grid: the atlas, then the traced curves (whose
-        seeds see the atlas's orbits)."""
-        if self.atlas.pending():
-            self.summary["atlas"] = self.atlas.run(client, n_workers)
-            grid = self.summary.get("compute")
-            if grid:
-                print(f"atlas cost: {self.summary['atlas']['compute'] / grid:.0%} of the "
-                      "grid's compute", file=self.out, flush=True)
-        elif self.atlas.enabled and not self.atlas.applies():
-            print("atlas: not run (it matches orbits by min_q, max_q and ptp: add the "
-                  "\"measures\" output)", file=self.out, flush=True)
-        if self.curves.pending():
-            self.summary["curves"] = self.curves.run(client, n_workers)
-        self.settle_slots()
+    def after_grid(self) -> None:
+        """The stages that read the complete grid, in the order of :data:`STAGES`."""
+        for stage in self.stages[1:]:
+            if stage.pending():
+                with self.runner.timed(stage.name):
+                    self.summary[stage.name] = stage.run(self.runner)
+            else:
+                why = stage.not_run()
+                if why:
+                    print(why, file=self.out, flush=True)
 
     def settle_slots(self) -> None:
         """Once nothing is left to compute: the store's slot dims cut to the most any point
         holds (scheduler.store.Store.settle_slots; they grew by whole chunks during the run)."""
-        if self.atlas.pending() or self.curves.pending() or not self.store.done_mask().all():
+        if any(s.pending() for s in self.stages):
             return
         with self.interrupt.critical():
             self.store.settle_slots()
-
-    # -- the stages after the grid ---------------------------------------------------------
-    def stages_only(self, client, early) -> dict[str, Any]:
-        """The grid is complete but its atlas or curves are not: run (or resume) them."""
-        own_client = client is None
-        cluster = None
-        if own_client:
-            client, cluster = early if early is not None else make_client(self.opts.cluster)
-        try:
-            with self.interrupt:
-                client.wait_for_workers(1)
-                self.after_grid(client, worker_count(client))
-        except KeyboardInterrupt as exc:
-            with contextlib.suppress(Exception):
-                self.store.add_history(f"{self.opts.command}: interrupted after the grid")
-            print(f"\nhertzmap: interrupted: the atlas rounds and curves committed so far are kept in "
-                  f"{self.store.path}; to resume, run again: {self.opts.command}", file=self.err,
-                  flush=True)
-            exc.reported = True
-            raise
-        finally:
-            if own_client:
-                close_quietly(client, cluster)
-        return self.summary
 
     def scheduler_lost(self) -> dict[str, Any]:
         n = int(self.store.done_mask().sum())

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from hertzmap.scheduler.plan import Task
+from hertzmap.scheduler.plan import Block
 from hertzmap.study.spec import Study
 
 
@@ -42,7 +42,7 @@ class Sampler:
         self.seed = np.uint64(int(hashlib.sha256(study.hash.encode()).hexdigest()[:15], 16))
         self.items: list[tuple[int, tuple]] = []
 
-    def task_spec(self, task: Task) -> dict[str, Any]:
+    def task_spec(self, task: Block) -> dict[str, Any]:
         """What a task's worker needs to propose its block's candidates."""
         return {"origin": tuple(s.start for s in task.slices), "shape": tuple(self.study.shape),
                 "seed": int(self.seed), "n": self.n}

@@ -737,6 +737,28 @@ def write_products(store: str | Path, products: dict[str, xr.Dataset]) -> list[s
     return [write_product(store, name, prod) for name, prod in products.items()]
 
 
+def make_products(store: Path, which: list[str], *, write: bool = True,
+                  ds: xr.Dataset | None = None) -> dict[str, xr.Dataset]:
+    """The products of ``hertzmap plot STORE --which ...``: every product the registry
+    (study.products.catalog) says the store supports that the figures ``which`` need,
+    computed from the store's main group (``ds``: it, opened already) and the products the run
+    wrote; written into the store's products/ groups and read back from them unless ``write``
+    is False. Returns them with the run's products."""
+    from hertzmap.study import plots
+    from hertzmap.study import products as P
+
+    if not (Path(store) / "zarr.json").is_file():
+        raise StoreError(f"{store} is not a zarr store")
+    ds = P.open_store(store) if ds is None else ds
+    stored = list_products(store)
+    given = {name: read_product(store, name) for name in P.RUN_PRODUCTS if name in stored}
+    prods = P.compute_products(ds, wanted=plots.products_for(which), given=given)
+    if write:
+        write_products(store, prods)
+        prods = {name: read_product(store, name) for name in prods}
+    return {**given, **prods}
+
+
 def read_product(store: str | Path, name: str) -> xr.Dataset:
     """A stored product, in memory."""
     with _quiet():
@@ -824,9 +846,10 @@ def read_curve_parts(store: str | Path) -> dict[int, xr.Dataset]:
     return out
 
 
-def has_traced_curves(store: str | Path, study_hash: str) -> bool:
-    """True when the store holds the finished traced-curves product of this study."""
-    meta = Path(store) / PRODUCT_GROUP / TRACED_CURVES / "zarr.json"
+def has_run_product(store: str | Path, name: str, study_hash: str) -> bool:
+    """True when the store holds the product ``name`` that a stage of a run of this study
+    wrote whole (products/traced_curves, products/thresholds)."""
+    meta = Path(store) / PRODUCT_GROUP / name / "zarr.json"
     if not meta.is_file():
         return False
     try:

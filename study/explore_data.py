@@ -285,7 +285,7 @@ def map_curves(curves: xr.Dataset, mms: xr.Dataset | None, zeta: float, units: U
                         "ys": [units.amp(s[:, 1]).tolist() for s in segs]})
     if mms is not None:
         m = mms.sel(zeta=zeta, method="nearest")
-        w = m["omega"].values
+        w = m[P.MMS_OMEGA].values
         s2 = m["sigma2"].values
         keep = np.isfinite(s2)
         if omega_range is not None:

@@ -328,6 +328,8 @@ OUTPUT_VARIABLES: dict[str, tuple[str, ...]] = {
     # traced curves: a products group written by the run (study.products.traced_curves),
     # seeded by the crossings along the lines and the stored orbits' measures
     "curves": CROSSING_VARIABLES,
+    # the thresholds in zeta: a products group written by the run (products/thresholds)
+    "thresholds": (),
 }
 
 _COORD_ATTRS = {

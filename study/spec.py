@@ -47,8 +47,11 @@ AXES = ("omega", "sigma", "zeta")
 #: "curves" (traced fold, flip and grazing curves, products/traced_curves, written by the run)
 #: stores the sign changes of the test functions along each line (``crossing_*``, its seeds)
 #: and implies "measures" (the stored orbits' min q and max q match neighbouring grid points).
+#: "thresholds" (sigma*(zeta), sigma**(zeta) and the isola's join continued over the grid's zeta
+#: range, products/thresholds, written by the run) needs two or more zeta values and implies
+#: "curves" (sigma** starts from the traced isola).
 OUTPUTS = ("orbits", "measures", "force_harmonics", "diagnostics", "bifurcations",
-           "attractors", "curves")
+           "attractors", "curves", "thresholds")
 #: "orbits" is always stored (period, q0, v0, status, multipliers, stable).
 CORE_OUTPUT = "orbits"
 DEFAULT_OUTPUTS = ("orbits", "measures")
@@ -362,7 +365,55 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise StudyError("toml", f"not valid TOML: {exc}") from None
+    return _validated(doc, default_name, text)
 
+
+def study_from_dict(doc: dict, *, default_name: str | None = None) -> Study:
+    """Validate a study given as the dict its study file parses to (``{"grid": {"omega":
+    [...], ...}, "search": {...}}``: the tables of docs/study-file.md as dicts). Its
+    ``source_text`` (kept in the store's attrs) is the TOML text of ``doc``
+    (:func:`study_toml`). Raises :class:`StudyError` on any problem."""
+    if not isinstance(doc, dict):
+        raise StudyError("study", f"a study is a dict of tables (grid, search, ...), got "
+                         f"{type(doc).__name__}")
+    text = study_toml(doc)
+    return _validated(tomllib.loads(text), default_name, text)
+
+
+def _toml_value(v: Any, where: str) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, float, np.integer, np.floating)):
+        x = v.item() if isinstance(v, np.generic) else v
+        if isinstance(x, float) and not math.isfinite(x):
+            return "nan" if math.isnan(x) else ("inf" if x > 0 else "-inf")
+        return repr(x)
+    if isinstance(v, str):
+        return json.dumps(v)
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return "[" + ", ".join(_toml_value(x, where) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f"{k} = {_toml_value(x, f'{where}.{k}')}"
+                                for k, x in v.items()) + " }"
+    raise StudyError(where, f"a value of type {type(v).__name__} has no TOML form; give numbers, "
+                     "strings, booleans, lists or tables")
+
+
+def study_toml(doc: dict) -> str:
+    """The TOML text of a study given as a dict of tables (each a dict of keys)."""
+    out = []
+    for table, body in doc.items():
+        if not isinstance(body, dict):
+            raise StudyError(str(table), f"must be a table (a dict of keys), got "
+                             f"{type(body).__name__}")
+        out.append(f"[{table}]")
+        out += [f"{k} = {_toml_value(v, f'{table}.{k}')}" for k, v in body.items()]
+        out.append("")
+    return "\n".join(out)
+
+
+def _validated(doc: dict, default_name: str | None, text: str) -> Study:
+    """The Study of a parsed study file ``doc`` (``text``: its TOML text)."""
     _refuse_unknown(doc, "", ("study", "grid", "model", "solver", "search", "products", "rig"))
 
     # [study]
@@ -522,6 +573,16 @@ def parse_study(text: str, *, default_name: str | None = None) -> Study:
     if "attractors" in outputs and attractors == "never":
         raise StudyError("products.outputs", '"attractors" needs search.attractors other than '
                          '"never"')
+    # -- the thresholds in zeta: continued over the grid's zeta range, sigma** from the
+    #    traced isola
+    if "thresholds" in outputs:
+        if len(axes["zeta"]) < 2:
+            raise StudyError("products.outputs", "\"thresholds\" continues sigma* and sigma** "
+                             f"in zeta over the grid's zeta range; grid.zeta has "
+                             f"{len(axes['zeta'])} value (give it two or more, or drop "
+                             "\"thresholds\")")
+        if "curves" not in outputs:
+            outputs = list(outputs) + ["curves"]
     # -- traced curves: seeded by the grid's sign changes, in planes of two swept
     #    axes
     if "curves" in outputs:

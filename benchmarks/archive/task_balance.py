@@ -2,7 +2,7 @@
 
     .venv/bin/python benchmarks/archive/task_balance.py [N_OMEGA N_SIGMA]     (default 161 77, ~25 s)
 
-Plans the study of benchmarks/bench_grid.py (omega 0.5-2.5, sigma 0.05-1, zeta 0.01, 1T and 2T
+Plans the study of ``benchmarks/run_cost.py throughput`` (omega 0.5-2.5, sigma 0.05-1, zeta 0.01, 1T and 2T
 seeds) with the chunking `hertzmap run` would choose, solves every task's block in this process
 (``scheduler.worker.run_task``, one at a time, after one warm-up), prints each task's time, and
 the makespan of greedy list scheduling on 2 workers (each task to the first free worker, as
@@ -20,9 +20,8 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "benchmarks"))  # bench_grid
 
-from bench_grid import STUDY  # noqa: E402
+from benchmarks.run_cost import THROUGHPUT_STUDY as STUDY  # noqa: E402
 from hertzmap.scheduler.plan import choose_chunks, make_plan  # noqa: E402
 from hertzmap.scheduler.worker import run_task  # noqa: E402
 from hertzmap.study.spec import load_study  # noqa: E402

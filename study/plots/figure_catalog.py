@@ -274,9 +274,14 @@ def plot_results(ds, prods, out: str | Path = "results", which: Sequence[str] = 
     for only for studies of at most the figure's ``lines`` (sigma, zeta) lines and more than a
     few named frequencies, harmonics only for the latter. ``zeta``: the figures of that
     zeta value only (the store's nearest: :func:`chosen_zeta`); by default every figure drawn
-    per zeta is drawn for each of the store's zeta values.
+    per zeta is drawn for each of the store's zeta values. The products' axes omega, sigma,
+    zeta are sorted first (stored, they are in the store's order: a study may list an axis
+    downwards).
     """
+    from hertzmap.study.products.results import sorted_axes
+
     which = check_which(which)
+    prods = {name: sorted_axes(prod) for name, prod in prods.items()}
     zetas = np.asarray(ds["zeta"].values, float)
     sheet = Sheet(ds["omega"].values, ds["sigma"].values,
                    zetas if zeta is None else np.array([chosen_zeta(zetas, zeta)]), Path(out),

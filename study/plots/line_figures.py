@@ -8,6 +8,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 from hertzmap.study.plots.style import CLASS_STYLE, save, zeta_label
+from hertzmap.study.products.mms import MMS_OMEGA
 
 
 def plot_bifurcation_diagram(diag, path, *, title=None) -> Path:
@@ -66,8 +67,8 @@ def plot_frequency_response(fr, path, *, sigma=None, zeta=None, zoom=None, mms=N
         if mms is not None:
             mm = mms.sel(sigma=float(line["sigma"]), zeta=float(line["zeta"]), method="nearest")
             # MMS ptp of the 2T response is about 2 A plus the 1T part; show 2A for reference
-            ax.plot(mm["omega"], 2 * mm["A_upper"], color="k", lw=0.8, label="MMS 2A (upper)")
-            ax.plot(mm["omega"], 2 * mm["A_lower"], color="k", lw=0.8, ls="--",
+            ax.plot(mm[MMS_OMEGA], 2 * mm["A_upper"], color="k", lw=0.8, label="MMS 2A (upper)")
+            ax.plot(mm[MMS_OMEGA], 2 * mm["A_lower"], color="k", lw=0.8, ls="--",
                     label="MMS 2A (lower)")
         ax.set_xlabel("omega")
         ax.set_ylabel("peak-to-peak q")

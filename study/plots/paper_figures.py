@@ -59,8 +59,8 @@ def paper_fig04(path, sigma=0.5, zeta=0.01) -> Path:
     """Fig. 4: MMS subharmonic amplitude A(omega), softening (sigma = 0.5, zeta = 0.01)."""
     r = P.mms_response(np.linspace(1.5, 2.3, 1601), sigma, zeta)
     fig, ax = plt.subplots(figsize=(5.5, 4), layout="constrained")
-    ax.plot(r["omega"], r["A_upper"], "k", lw=1.8, label="stable (+ root)")
-    ax.plot(r["omega"], r["A_lower"], "k", lw=0.8, ls="--", label="unstable (- root)")
+    ax.plot(r[P.MMS_OMEGA], r["A_upper"], "k", lw=1.8, label="stable (+ root)")
+    ax.plot(r[P.MMS_OMEGA], r["A_lower"], "k", lw=0.8, ls="--", label="unstable (- root)")
     ax.plot([1.5, 2.3], [0, 0], color="0.5", lw=0.8, label="trivial (A = 0)")
     ax.set_xlabel("omega")
     ax.set_ylabel("A")
@@ -74,8 +74,8 @@ def paper_fig05(path, sigma=0.5, zeta=0.01, fr=None) -> Path:
     level (kernels.model.TAYLOR_CONTACT_LOSS, Eq. 12); optionally the numerical stable 2T orbits of a store (``fr``)."""
     r = P.mms_response(np.linspace(1.5, 2.3, 1601), sigma, zeta)
     fig, ax = plt.subplots(figsize=(5.5, 4), layout="constrained")
-    ax.plot(r["omega"], r["min_q_upper"], "k", lw=1.8, label="MMS, stable branch")
-    ax.plot(r["omega"], r["min_q_lower"], "k", lw=0.8, ls="--", label="MMS, unstable branch")
+    ax.plot(r[P.MMS_OMEGA], r["min_q_upper"], "k", lw=1.8, label="MMS, stable branch")
+    ax.plot(r[P.MMS_OMEGA], r["min_q_lower"], "k", lw=0.8, ls="--", label="MMS, unstable branch")
     ax.axhline(TAYLOR_CONTACT_LOSS, color="tab:blue", lw=0.8, ls=":",
                label=f"Taylor contact loss {TAYLOR_CONTACT_LOSS:.4f} (Eq. 12)")
     ax.axhline(-1.5, color="tab:red", lw=0.8, ls=":", label="Hertz contact loss -1.5")

@@ -139,9 +139,9 @@ def draw_mms(ax, mms, zeta, sigma1=True):
     if mms is None:
         return
     m = mms.sel(zeta=zeta, method="nearest")
-    ax.plot(m["omega"], m["sigma2"], color="tab:blue", lw=1.0, label="MMS sigma2 (flip)")
+    ax.plot(m[P.MMS_OMEGA], m["sigma2"], color="tab:blue", lw=1.0, label="MMS sigma2 (flip)")
     if sigma1:
-        ax.plot(m["omega"], m["sigma1"], color="tab:blue", lw=1.0, ls=":", label="MMS sigma1")
+        ax.plot(m[P.MMS_OMEGA], m["sigma1"], color="tab:blue", lw=1.0, ls=":", label="MMS sigma1")
 
 
 #: Style of each traced curve (kind, period).

@@ -41,8 +41,8 @@ from hertzmap.study.products.classes import orbit_classes, valid_orbits
 from hertzmap.study.products.bifurcation_curves import (CURVES, LOCATED_KINDS, bifurcation_curves, contour_lines,
                                    curve_segments, located_curves)
 from hertzmap.study.products.maps import MAP_CLASSES, STABLE_SET_FLAGS, isola_mask, loss_of_contact_map
-from hertzmap.study.products.mms import (MMS_HALF_WIDTH, mms_curves, mms_curves_over,
-                                                     mms_response, mms_response_over)
+from hertzmap.study.products.mms import (MMS_HALF_WIDTH, MMS_OMEGA, mms_curves,
+                                         mms_curves_over, mms_response, mms_response_over)
 from hertzmap.study.products.paper_numbers import branch_end, flip_minimum
 from hertzmap.study.products.response import force_harmonics, frequency_response, time_histories
 from hertzmap.study.products.damping import (MEASURED_STAR_RATIO, MEASURED_ZETA,
@@ -53,7 +53,7 @@ from hertzmap.study.products.results import (completed, contact_threshold, expon
                                     rig_of, source_attrs)
 
 __all__ = [
-    "STABLE_SET_FLAGS", "CURVES", "LOCATED_KINDS", "MMS_HALF_WIDTH",
+    "STABLE_SET_FLAGS", "CURVES", "LOCATED_KINDS", "MMS_HALF_WIDTH", "MMS_OMEGA",
     "open_store", "completed", "exponent_of", "contact_threshold", "rig_of",
     "valid_orbits", "orbit_classes", "loss_of_contact_map", "isola_mask",
     "contour_lines", "bifurcation_curves", "located_curves", "curve_segments",

@@ -19,6 +19,10 @@ from hertzmap.study.schema import VARIABLES
 
 #: the group name's prefix (products/basin_map_omega<w>_sigma<s>_zeta<z>)
 BASIN_MAP_PREFIX = "basin_map"
+#: the dim (and coordinate) of the map's own attractors, those its transients end on: not the
+#: main group's ``attractor`` slots of the census (a store's product groups share the names of
+#: its dims only where they share their values, so that the store opens as one xarray DataTree)
+BASIN_ATTRACTOR = "basin_attractor"
 
 
 def basin_map_name(omega: float, sigma: float, zeta: float) -> str:
@@ -50,26 +54,26 @@ def basin_map_dataset(bm, source: dict[str, Any]) -> xr.Dataset:
         {
             "basin_label": (("v", "q"), bm.labels.astype(np.int16), _attrs(
                 "attractor of the initial state",
-                "index along the attractor dim of the attractor the transient from the cell's "
-                "initial state (q, v) at tau = 0 ends on (-1: not computed)")),
-            "attractor_kind": ("attractor", np.array([ATTRACTOR_KINDS[a["kind"]]
-                                                      for a in bm.attractors], np.int8),
+                f"index along the {BASIN_ATTRACTOR} dim of the attractor the transient from "
+                "the cell's initial state (q, v) at tau = 0 ends on (-1: not computed)")),
+            "attractor_kind": (BASIN_ATTRACTOR, np.array([ATTRACTOR_KINDS[a["kind"]]
+                                                          for a in bm.attractors], np.int8),
                                kind.attrs()),
-            "attractor_period": ("attractor", col["period"].astype(np.int8),
+            "attractor_period": (BASIN_ATTRACTOR, col["period"].astype(np.int8),
                                  VARIABLES["attractor_period"].attrs()),
-            "attractor_q0": ("attractor", col["q0"].astype(float), _attrs(
+            "attractor_q0": (BASIN_ATTRACTOR, col["q0"].astype(float), _attrs(
                 "displacement at tau = 0 of a periodic attractor",
                 "start point q(0) of the stable orbit (refined by shooting); NaN otherwise")),
-            "attractor_v0": ("attractor", col["v0"].astype(float), _attrs(
+            "attractor_v0": (BASIN_ATTRACTOR, col["v0"].astype(float), _attrs(
                 "velocity at tau = 0 of a periodic attractor",
                 "start point dq/dtau(0) of the stable orbit; NaN otherwise")),
-            "attractor_cells": ("attractor", col["count"].astype(np.int64), _attrs(
+            "attractor_cells": (BASIN_ATTRACTOR, col["count"].astype(np.int64), _attrs(
                 "cells of the basin", "initial states of the grid ending on the attractor")),
-            "basin_fraction": ("attractor", col["count"] / total, _attrs(
+            "basin_fraction": (BASIN_ATTRACTOR, col["count"] / total, _attrs(
                 "basin fraction", "share of the grid's initial states ending on the attractor "
                 "(a measure of its basin over the box q x v)")),
-            "strobe_q": (("attractor", "strobe"), strobe_q, VARIABLES["strobe_q"].attrs()),
-            "strobe_v": (("attractor", "strobe"), strobe_v, VARIABLES["strobe_v"].attrs()),
+            "strobe_q": ((BASIN_ATTRACTOR, "strobe"), strobe_q, VARIABLES["strobe_q"].attrs()),
+            "strobe_v": ((BASIN_ATTRACTOR, "strobe"), strobe_v, VARIABLES["strobe_v"].attrs()),
             "basin_entropy": ((), e.basin_entropy, _attrs(
                 "basin entropy", "S_b (Daza et al., Sci. Rep. 6, 31416, 2016): the mean over "
                 f"boxes of {bm.box} x {bm.box} cells of -sum_i p_i log p_i, p_i the share of the "
@@ -87,7 +91,7 @@ def basin_map_dataset(bm, source: dict[str, Any]) -> xr.Dataset:
                                     "initial state (cell centre)")),
             "v": ("v", bm.v, _attrs("initial velocity", "dq/dtau at tau = 0 of the cell's "
                                     "initial state (cell centre)")),
-            "attractor": ("attractor", np.arange(k, dtype=np.int16), _attrs(
+            BASIN_ATTRACTOR: (BASIN_ATTRACTOR, np.arange(k, dtype=np.int16), _attrs(
                 "attractor index", "periodic attractors by basin size, then the transients "
                 "that did not settle, then the failures")),
             "strobe": ("strobe", np.arange(STROBE_POINTS, dtype=np.int16), _attrs(

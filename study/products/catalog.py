@@ -30,8 +30,9 @@ from hertzmap.study.products.maps import loss_of_contact_map
 from hertzmap.study.products.mms import (MMS_HALF_WIDTH, mms_curves_over,
                                                      mms_response_over, mms_window)
 from hertzmap.study.products.response import force_harmonics, frequency_response, time_histories
-from hertzmap.study.products.results import open_store, rig_of, source_attrs
-from hertzmap.study.products.damping import impact_onset, thresholds
+from hertzmap.study.products.results import (in_stored_order, open_store, rig_of, sorted_axes,
+                                             source_attrs, stored_axes)
+from hertzmap.study.products.damping import impact_onset
 from hertzmap.study.products.traced_curves import isola_boundary
 
 __all__ = ["Product", "Context", "PRODUCTS", "RUN_PRODUCTS", "MAX_LINES",
@@ -61,8 +62,10 @@ class Product:
     optional: tuple[str, ...] = ()
 
 
-#: Products that ``hertzmap run`` writes itself (the ``curves`` output) and the others may take.
-RUN_PRODUCTS = ("traced_curves",)
+#: Products that ``hertzmap run`` writes itself (its stages for the ``curves`` and
+#: ``thresholds`` outputs: scheduler.curve_tasks, scheduler.threshold_tasks) and the others may
+#: take.
+RUN_PRODUCTS = ("traced_curves", "thresholds")
 
 #: frequency_response and mms_response: studies of at most this many (sigma, zeta) lines.
 MAX_LINES = 16
@@ -146,12 +149,10 @@ PRODUCTS: tuple[Product, ...] = (
             _histories_wanted, lambda ds: time_histories(ds, rig=rig_of(ds))),
     Product("isola_boundary", "sigma** of the isola and where it joins the flip curve, read off "
             "the traced curves",
-            _at_hand("traced_curves"), lambda ds, traced: isola_boundary(traced),
-            inputs=("traced_curves",)),
-    Product("thresholds", "sigma*, sigma** and the isola's join at each zeta, by continuation, "
-            "and sigma*(zeta), sigma**(zeta) continued in zeta (studies of two or more zeta "
-            "values)",
-            _zeta_swept, thresholds, optional=("traced_curves", "isola_boundary")),
+            _at_hand("traced_curves"),
+            lambda ds, traced, thresholds=None: isola_boundary(traced, thresholds,
+                                                               ds["zeta"].values),
+            inputs=("traced_curves",), optional=("thresholds",)),
     Product("impact_onset", "where vibro-impacts start: the lowest sigma at which a stable "
             "response loses contact, over (omega, zeta), in the rig's units with a [rig] "
             "(maps of two or more zeta values)",
@@ -173,14 +174,20 @@ def compute_products(results: str | Path | xr.Dataset, *, wanted: Sequence[str] 
     nothing is written). ``wanted``: the products asked for (study.plots.products_for of the
     figures asked for; it decides ``time_histories``), None for every one;
     ``given``: products at hand (those of :data:`RUN_PRODUCTS` the store holds), taken by
-    the products that need them and not returned."""
+    the products that need them and not returned.
+
+    Computed on the results' sorted axes (open_store), each product is returned with its
+    dims omega, sigma, zeta in the store's order (results.in_stored_order): written as a
+    group ``products/<name>``, it aligns with the main group, and the store opens as one
+    xarray DataTree (a product on a grid of its own names its own dims: ``mms_omega``)."""
     ds = open_store(results)
-    at_hand = dict(given or {})
+    axes = stored_axes(ds)
+    at_hand = {name: sorted_axes(prod) for name, prod in (given or {}).items()}
     out: dict[str, xr.Dataset] = {}
     context = Context(None if wanted is None else tuple(wanted), at_hand)
     for p in PRODUCTS:
         if p.needs(ds, context):
-            out[p.name] = at_hand[p.name] = p.compute(
-                ds, *(at_hand[n] for n in p.inputs),
-                **{n: at_hand[n] for n in p.optional if n in at_hand})
+            at_hand[p.name] = p.compute(ds, *(at_hand[n] for n in p.inputs),
+                                        **{n: at_hand[n] for n in p.optional if n in at_hand})
+            out[p.name] = in_stored_order(at_hand[p.name], axes)
     return out

@@ -22,7 +22,9 @@ import xarray as xr
 
 from hertzmap.kernels.continuation import VERTEX_EXTREMUM
 from hertzmap.study.analytic import multiple_scales as mms
-from hertzmap.study.products.results import exponent_of, source_attrs, var_attrs
+from hertzmap.study.products.results import (exponent_of, in_stored_order, source_attrs,
+                                             stored_axes, var_attrs)
+from hertzmap.study.products.traced_curves import isola_boundary
 from hertzmap.study.solve import thresholds as th
 
 #: The measured ratio sigma*/zeta on the paper's rig at zeta = 0.005 (paper section 4: "about
@@ -115,47 +117,40 @@ def _at(curve: th.ZetaCurve | None, zetas: np.ndarray) -> list:
     return out
 
 
-def thresholds(ds: xr.Dataset, traced_curves: xr.Dataset | None = None,
-               isola_boundary: xr.Dataset | None = None) -> xr.Dataset:
+def thresholds(ds: xr.Dataset, traced_curves: xr.Dataset | None = None) -> xr.Dataset:
     """sigma*, sigma** and the join at each zeta of the study, and sigma*(zeta), sigma**(zeta)
-    continued over the study's zeta range (module docstring). ``traced_curves``,
-    ``isola_boundary``: those products, when at hand (sigma** starts from them)."""
+    continued over the study's zeta range (module docstring), computed in this process: what
+    the run's thresholds stage (scheduler.threshold_tasks, the ``thresholds`` output) computes
+    on its workers and stores as products/thresholds. ``traced_curves``: that product, when
+    at hand (sigma** starts from it)."""
     zetas = np.sort(np.asarray(ds["zeta"].values, float))
     kw = dict(exponent=exponent_of(ds), model=ds.attrs.get("model", "hertz"),
               rtol=float(ds.attrs.get("rtol", 1e-10)))
-    zrange = (float(zetas[0]), float(zetas[-1]))
-    notes = {}
-    # sigma*: from the multiple-scales estimate at the middle zeta, continued both ways
-    z_mid = float(zetas[len(zetas) // 2])
-    star_curve = None
-    start = th.flip_start(z_mid, **kw)
-    lowest = th.curve_minimum("flip", 1, z_mid, start, half_width=th.star_half_width(z_mid),
-                              **kw) if start is not None else None
-    if lowest is not None:
-        star_curve = th.continue_minimum("flip", 1, lowest, zrange, land_on=zetas, **kw)
-        notes["hertzmap_star_ends"] = " ".join(star_curve.status)
-    else:
-        notes["hertzmap_star_ends"] = "no 1T flip minimum near omega = 2 at zeta = %g" % z_mid
-    # sigma**: from the traced isola's lowest vertex, continued both ways
-    double_curve = None
-    seed = isola_start(traced_curves, isola_boundary)
-    if seed is None:
-        notes["hertzmap_double_star_ends"] = ("no traced isola fold curve (the study needs the "
-                                              "curves output)")
-    else:
-        z0, u0 = seed
-        low2 = th.curve_minimum("fold", 2, z0, u0, half_width=th.DOUBLE_STAR_HALF_WIDTH, **kw)
-        if low2 is None:
-            notes["hertzmap_double_star_ends"] = ("the traced isola's lowest vertex at zeta = "
-                                                  f"{z0:g} did not refine")
-        else:
-            double_curve = th.continue_minimum("fold", 2, low2, zrange, land_on=zetas, **kw)
-            notes["hertzmap_double_star_ends"] = " ".join(double_curve.status)
+    star = th.star_threshold(zetas, **kw)
+    double = th.double_star_threshold(zetas, isola_start_of(traced_curves), **kw)
+    return thresholds_dataset(ds, star, double)
+
+
+def isola_start_of(traced_curves: xr.Dataset | None):
+    """Where sigma** starts: the refined lowest vertex of the isola's fold curve among the
+    traced curves (:func:`isola_start` on their isola boundary), or None."""
+    if traced_curves is None:
+        return None
+    return isola_start(traced_curves, isola_boundary(traced_curves))
+
+
+def thresholds_dataset(ds: xr.Dataset, star: tuple, double: tuple) -> xr.Dataset:
+    """The ``thresholds`` product from what study.solve.thresholds computed: ``star``
+    (star_threshold's curve and note), ``double`` (double_star_threshold's curve, joins and
+    note); ``ds``: the results (the study's zeta values, the source attrs). Its dim zeta is
+    in the store's order (results.in_stored_order: the group aligns with the main group)."""
+    zetas = np.sort(np.asarray(ds["zeta"].values, float))
+    star_curve, star_note = star
+    double_curve, join_path, double_note = double
+    notes = {"hertzmap_star_ends": star_note, "hertzmap_double_star_ends": double_note}
     star_at, double_at = _at(star_curve, zetas), _at(double_curve, zetas)
     # the join from every vertex of sigma**(zeta): a curve in zeta like sigma* and sigma**
     # (the study's zeta values are vertices: their joins are read from it)
-    join_path = [(p.zeta, th.isola_join(p, **kw))
-                 for p in (double_curve.vertices if double_curve is not None else [])]
     joins = [next((j for z, j in join_path if p is not None and z == p.zeta), None)
              for p in double_at]
     join_curve = [j for _, j in join_path if j is not None]
@@ -205,7 +200,7 @@ def thresholds(ds: xr.Dataset, traced_curves: xr.Dataset | None = None,
                              + (double_curve.maps if double_curve else 0)
                              + sum(j.maps for j in join_curve)),
                  **notes}
-    return out
+    return in_stored_order(out, stored_axes(ds))
 
 
 def impact_onset(lcm: xr.Dataset, rig=None) -> xr.Dataset:

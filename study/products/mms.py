@@ -17,12 +17,21 @@ from hertzmap.study.products.results import var_attrs
 MMS_HALF_WIDTH = 0.25
 #: omega values of the MMS products of a study, across its window
 MMS_POINTS = 801
+#: the dim (and coordinate) of the MMS products' own omega grid: not the study's omega axis (a
+#: store's product groups share the names of its dims only where they share their values, so
+#: that the store opens as one xarray DataTree)
+MMS_OMEGA = "mms_omega"
+
+
+def _omega_attrs() -> dict:
+    return var_attrs("excitation frequency", "1", "dimensionless excitation frequency: the "
+                     "multiple-scales grid's own values (not the study's omega axis)")
 
 
 def mms_curves(omega: Iterable[float], zeta: Iterable[float]) -> xr.Dataset:
     """MMS thresholds on an omega grid: sigma1 (Eq. 25a), sigma2 (Eq. 25b, implicit, derived
     gamma), region boundaries of paper Fig. 3; and sigma* per zeta (Eq. 26, and the minimum of
-    sigma2). Dims (omega, zeta)."""
+    sigma2). Dims (mms_omega, zeta): ``omega``'s values along :data:`MMS_OMEGA`."""
     om = np.asarray(list(omega), float)
     zt = np.atleast_1d(np.asarray(list(zeta) if not np.isscalar(zeta) else [zeta], float))
     W, Z = np.meshgrid(om, zt, indexing="ij")
@@ -36,11 +45,11 @@ def mms_curves(omega: Iterable[float], zeta: Iterable[float]) -> xr.Dataset:
         star = np.asarray(mms.sigma_star(zt, "paper"), float)
         smin = np.asarray(mms.sigma_star(zt, "min"), float)
     out = xr.Dataset(
-        {"sigma1": (("omega", "zeta"), s1, var_attrs(
+        {"sigma1": ((MMS_OMEGA, "zeta"), s1, var_attrs(
             "MMS saddle-node threshold sigma1", "1",
             "Eq. 25a, 2 zeta / |beta|: lower bound of region II (drawn on the softening side, "
             "left of the minimum of sigma2)")),
-         "sigma2": (("omega", "zeta"), s2, var_attrs(
+         "sigma2": ((MMS_OMEGA, "zeta"), s2, var_attrs(
              "MMS flip threshold sigma2", "1",
              "Eq. 25b solved exactly as an implicit equation, with the re-derived gamma (Eq. 22, "
              "see docs/analytic.md)")),
@@ -48,8 +57,7 @@ def mms_curves(omega: Iterable[float], zeta: Iterable[float]) -> xr.Dataset:
              "MMS threshold sigma*", "1", "Eq. 26 as printed: 36 zeta / (1 + 16 zeta^2 / 9)")),
          "sigma_star_min": (("zeta",), np.broadcast_to(smin, zt.shape).copy(), var_attrs(
              "minimum of the MMS flip curve", "1", "min over omega of sigma2 (derived gamma)"))},
-        coords={"omega": ("omega", om, var_attrs("excitation frequency", "1",
-                                              "dimensionless excitation frequency")),
+        coords={MMS_OMEGA: (MMS_OMEGA, om, _omega_attrs()),
                 "zeta": ("zeta", zt, var_attrs("damping ratio", "1", "damping ratio"))})
     out.attrs = {"title": "multiple-scales thresholds (paper Eq. 25-27, Fig. 3, 7, 9)"}
     return out
@@ -57,24 +65,24 @@ def mms_curves(omega: Iterable[float], zeta: Iterable[float]) -> xr.Dataset:
 
 def mms_response(omega: Iterable[float], sigma: float, zeta: float) -> xr.Dataset:
     """MMS frequency response at one (sigma, zeta): A (Eq. 23) and min q (Fig. 5) of the upper
-    (stable) and lower (unstable) branches, and the region (Fig. 3). Dim omega."""
+    (stable) and lower (unstable) branches, and the region (Fig. 3). Dim mms_omega
+    (:data:`MMS_OMEGA`: ``omega``'s values)."""
     om = np.asarray(list(omega), float)
     with np.errstate(all="ignore"):
         data = {}
         for br in ("upper", "lower"):
-            data[f"A_{br}"] = (("omega",), np.asarray(mms.amplitude(om, sigma, zeta, br), float),
+            data[f"A_{br}"] = ((MMS_OMEGA,), np.asarray(mms.amplitude(om, sigma, zeta, br), float),
                                var_attrs(f"MMS subharmonic amplitude, {br} branch", "1",
                                       f"A of Eq. 23, {br} (" + ("stable" if br == "upper" else
                                                                 "unstable") + ") root"))
-            data[f"min_q_{br}"] = (("omega",), np.asarray(mms.min_response(om, sigma, zeta, br),
+            data[f"min_q_{br}"] = ((MMS_OMEGA,), np.asarray(mms.min_response(om, sigma, zeta, br),
                                                           float),
                                    var_attrs(f"MMS minimum of q, {br} branch", "1",
                                           "minimum over 2T of the response Eq. 19 (Fig. 5)"))
-        data["region"] = (("omega",), np.asarray(mms.region(om, sigma, zeta), np.int8), var_attrs(
+        data["region"] = ((MMS_OMEGA,), np.asarray(mms.region(om, sigma, zeta), np.int8), var_attrs(
             "MMS region", "1", "region of paper Fig. 3 (1: I, 2: II, 3: III)",
             flag_values=np.array([1, 2, 3], np.int8), flag_meanings="I II III"))
-    out = xr.Dataset(data, coords={"omega": ("omega", om, var_attrs(
-        "excitation frequency", "1", "dimensionless excitation frequency"))})
+    out = xr.Dataset(data, coords={MMS_OMEGA: (MMS_OMEGA, om, _omega_attrs())})
     out.attrs = {"title": "multiple-scales frequency response (paper Fig. 4, 5)",
                  "sigma": float(sigma), "zeta": float(zeta),
                  "taylor_contact_loss": TAYLOR_CONTACT_LOSS}
@@ -98,7 +106,8 @@ def mms_curves_over(ds: xr.Dataset) -> xr.Dataset:
 
 def mms_response_over(ds: xr.Dataset) -> xr.Dataset:
     """:func:`mms_response` on each (sigma, zeta) line of the study, over its omega window
-    (:func:`mms_window`, which must not be None). Dims (sigma, zeta, omega)."""
+    (:func:`mms_window`, which must not be None). Dims (sigma, zeta, mms_omega): the study's
+    sigma and zeta, the window's own omega grid."""
     a, b = mms_window(ds["omega"].values)
     fine = np.linspace(a, b, MMS_POINTS)
     resp = [mms_response(fine, float(s), float(z)).expand_dims(sigma=[float(s)], zeta=[float(z)])

@@ -15,7 +15,7 @@ import xarray as xr
 
 from hertzmap.kernels.model import contact_loss_level
 from hertzmap.study.analytic.rig import Rig
-from hertzmap.study.schema import check_format, study_from_attrs
+from hertzmap.study.schema import POINT_DIMS, check_format, study_from_attrs
 from hertzmap.study.spec import StudyError
 
 @contextlib.contextmanager
@@ -23,6 +23,8 @@ def quiet():
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=".*[Cc]onsolidated metadata.*")
         warnings.filterwarnings("ignore", message=".*not part in the Zarr format 3.*")
+        # a run's staging folders (scheduler.store: .npz files, no zarr metadata)
+        warnings.filterwarnings("ignore", message=".*not recognized as a component of a Zarr.*")
         warnings.filterwarnings("ignore", category=RuntimeWarning, message=".*All-NaN.*")
         yield
 
@@ -78,6 +80,39 @@ def open_store(store: str | Path | xr.Dataset, *, load: bool = True) -> xr.Datas
             ds["bifurcation_count"] = (ds["bifurcation_count"].where(bd, -1).astype("int16")
                                        .assign_attrs(ds["bifurcation_count"].attrs))
     return ds.sortby(["omega", "sigma", "zeta"])
+
+
+def stored_axes(ds: xr.Dataset) -> dict[str, np.ndarray]:
+    """The axes omega, sigma, zeta in the order the store's main group holds them (the
+    study's order, which :func:`open_store` sorts), read from the study in the attrs ({} when
+    they hold none)."""
+    try:
+        study = study_from_attrs(ds.attrs)
+    except StudyError:
+        return {}
+    return {d: study.axis(d) for d in POINT_DIMS}
+
+
+def in_stored_order(product: xr.Dataset, axes: dict[str, np.ndarray]) -> xr.Dataset:
+    """``product`` with each of its dims omega, sigma, zeta that holds the values of the
+    store's axis (``axes``: :func:`stored_axes`) in the store's order: a product group's dims
+    align with the main group's (the store opens as one xarray DataTree)."""
+    order = {}
+    for d, values in axes.items():
+        if d in product.indexes:
+            have = np.asarray(product.indexes[d])
+            if (not np.array_equal(have, values)
+                    and np.array_equal(np.sort(have), np.sort(values))):
+                order[d] = values
+    return product.sel(order) if order else product
+
+
+def sorted_axes(product: xr.Dataset) -> xr.Dataset:
+    """``product`` with its dims omega, sigma, zeta sorted (as :func:`open_store` gives the
+    results: what the products are computed from and the figures drawn from)."""
+    dims = [d for d in POINT_DIMS if d in product.indexes
+            and not product.indexes[d].is_monotonic_increasing]
+    return product.sortby(dims) if dims else product
 
 
 def exponent_of(ds: xr.Dataset) -> float:

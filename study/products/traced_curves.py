@@ -340,15 +340,27 @@ def failed_traces(traced: xr.Dataset | None, zeta: float | None = None) -> list[
     return out
 
 
-def isola_boundary(traced: xr.Dataset) -> xr.Dataset:
+def isola_boundary(traced: xr.Dataset, thresholds: xr.Dataset | None = None,
+                   zeta: np.ndarray | None = None) -> xr.Dataset:
     """The isola boundary read off the traced curves, per zeta: the 2T fold curve in the
     (omega, sigma) plane that ends on the 1T orbit (a fold_flip point: where the isola joins
     the flip-born branch) with the lowest interior minimum of sigma (sigma**, paper Fig. 8-9:
     below it no isola). Dims ``zeta``: ``sigma_isola`` (sigma**; NaN when it lies below the
     window), ``omega_isola`` (omega there), ``sigma_join``, ``omega_join`` (the fold_flip
-    point), ``curve`` (its id; -1 and NaN where no such curve was traced)."""
-    zs = np.unique(traced["zeta"].values[traced["plane"].values == 1]) \
-        if traced.sizes.get("vertex", 0) else np.zeros(0)
+    point), ``curve`` (its id; -1 and NaN where no such curve was traced).
+
+    ``zeta``: the study's zeta values, the dim's values (the product ``isola_boundary``: a
+    product group on the study's axis has all of its values, so that the store opens as one
+    xarray DataTree); None: the zeta values of the curves traced in the (omega, sigma) plane.
+
+    ``thresholds``: the run's products/thresholds, when the study has it: sigma** is computed
+    once, there (Brent on the curve, with its accuracy), and read from it at the zeta values
+    where it holds one (the attrs' ``sigma_isola_source`` says which)."""
+    if zeta is not None:
+        zs = np.asarray(zeta, float)
+    else:
+        zs = np.unique(traced["zeta"].values[traced["plane"].values == 1]) \
+            if traced.sizes.get("vertex", 0) else np.zeros(0)
     rows = []
     for z in zs:
         best = None
@@ -390,7 +402,19 @@ def isola_boundary(traced: xr.Dataset) -> xr.Dataset:
             "curve id", "1", "the isola's fold curve in products/traced_curves (-1: none)")),
     }, coords={"zeta": ("zeta", np.asarray(zs, float), var_attrs("damping ratio", "1", ""))})
     out.attrs = {"title": "isola boundary from the traced 2T fold curves",
-                 "source": "products/traced_curves"}
+                 "source": "products/traced_curves",
+                 "sigma_isola_source": "the traced curve's refined extremum vertex"}
+    if thresholds is not None and zs.size:
+        at = thresholds["sigma_double_star"].reindex(zeta=out["zeta"].values, method="nearest",
+                                                     tolerance=1e-12)
+        w = thresholds["omega_double_star"].reindex(zeta=out["zeta"].values, method="nearest",
+                                                    tolerance=1e-12)
+        have = np.isfinite(at.values)
+        out["sigma_isola"].values[have] = at.values[have]
+        out["omega_isola"].values[have] = w.values[have]
+        out.attrs["sigma_isola_source"] = (
+            f"products/thresholds (sigma_double_star) at {int(have.sum())} of {zs.size} zeta "
+            "values, the traced curve's refined extremum vertex elsewhere")
     return out
 
 

@@ -57,7 +57,7 @@ MAX_ITER = 10
 #: fast or creeps: where the orbit ends between the two points, the residual settles on a
 #: floor (a minimum of |P(x) - x| that is not a zero), and Newton crept there for all its
 #: iterations, with line searches: most of the atlas's shooting work. Over the whole atlas
-#: (benchmarks/atlas_rules.py stall) the default scene's counts are identical and the
+#: (benchmarks/archive/atlas_rules.py stall) the default scene's counts are identical and the
 #: vibro-impact scene loses no stable orbit at any point.
 STALL_RATIO = 0.9
 #: A shot that failed from an orbit whose fold function (study.orbit_rules.fold_function) is at least
@@ -67,7 +67,7 @@ STALL_RATIO = 0.9
 #: orbit most often ends between the points, and a shorter step only costs. Measured: on the
 #: default scene's first round, 887 shots of 3,940 failed, most near a fold (median |fold
 #: function| 0.17); half steps recovered 8 (all with a fold function above 1); over the whole
-#: atlas (benchmarks/atlas_rules.py half_steps), the vibro-impact scene gains 39 orbits (15,009 ->
+#: atlas (benchmarks/archive/atlas_rules.py half_steps), the vibro-impact scene gains 39 orbits (15,009 ->
 #: 15,048; 9 more points with a stable 12T orbit) for 9.6 % more shots, the default scene none
 #: (its 8 arrive by later rounds) for 8 % more.
 FAR_FROM_FOLD = 0.5

@@ -40,7 +40,7 @@ from hertzmap.study.solve.seeds import mms_seeds
 #: multiple-scales 2T response (most of the sweeps' cost: far from omega = 2 its Newton runs
 #: often fail) every MMS_SEED_STRIDE-th. A branch they reach is continued both ways, and its
 #: ends are traced through their folds. Measured on the default study's grid
-#: (benchmarks/census_comparison.py): the linear seed at every 8th point loses nothing; the
+#: (benchmarks/archive/census_comparison.py): the linear seed at every 8th point loses nothing; the
 #: 2T seeds at every 2nd point lost an unstable 2T pair (10 orbits at sigma 0.9625, omega
 #: 0.50-0.55, ending in a fold at 0.5514) that only the seed at an odd point reaches, and cost
 #: 0.27x of the sweeps less; at every 4th point they lost short 2T segments (28 of 7832). What

@@ -305,3 +305,43 @@ def isola_join(lowest: CurveMinimum, *, exponent: float = 1.5, model: str = "her
     p = joins[0]
     return Join(float(p.zeta), float(p.omega), float(p.sigma), float(p.accuracy),
                 int(curve.maps))
+
+
+def star_threshold(zetas, *, exponent: float = 1.5, model: str = "hertz",
+                   rtol: float = 1e-10) -> tuple[ZetaCurve | None, str]:
+    """sigma*(zeta) over the range of ``zetas`` (landing on each): the lowest point of the 1T
+    flip curve found at the middle zeta from the multiple-scales estimate (:func:`flip_start`),
+    continued both ways (:func:`continue_minimum`). Returns the curve (None when the minimum
+    was not found) and how its ends stopped, or why there is none."""
+    zetas = np.sort(np.asarray(zetas, float))
+    kw = dict(exponent=exponent, model=model, rtol=rtol)
+    z_mid = float(zetas[len(zetas) // 2])
+    start = flip_start(z_mid, **kw)
+    lowest = curve_minimum("flip", 1, z_mid, start, half_width=star_half_width(z_mid),
+                           **kw) if start is not None else None
+    if lowest is None:
+        return None, "no 1T flip minimum near omega = 2 at zeta = %g" % z_mid
+    curve = continue_minimum("flip", 1, lowest, (zetas[0], zetas[-1]), land_on=zetas, **kw)
+    return curve, " ".join(curve.status)
+
+
+def double_star_threshold(zetas, start, *, exponent: float = 1.5, model: str = "hertz",
+                          rtol: float = 1e-10) -> tuple[ZetaCurve | None, list, str]:
+    """sigma**(zeta) over the range of ``zetas`` (landing on each) and the isola's join traced
+    from each of its vertices (:func:`isola_join`). ``start``: (zeta, (q0, v0, omega, sigma)),
+    a point near the isola's lowest point (the traced isola's refined lowest vertex:
+    study.products.damping.isola_start), or None. Returns the curve (None when there is
+    none), the joins [(zeta, Join or None)] and how the curve's ends stopped, or why there is
+    no curve."""
+    zetas = np.sort(np.asarray(zetas, float))
+    kw = dict(exponent=exponent, model=model, rtol=rtol)
+    if start is None:
+        return None, [], ("no traced isola fold curve (the curves output traces it where the grid "
+                          "holds the isola's lowest point)")
+    z0, u0 = start
+    low2 = curve_minimum("fold", 2, z0, u0, half_width=DOUBLE_STAR_HALF_WIDTH, **kw)
+    if low2 is None:
+        return None, [], f"the traced isola's lowest vertex at zeta = {z0:g} did not refine"
+    curve = continue_minimum("fold", 2, low2, (zetas[0], zetas[-1]), land_on=zetas, **kw)
+    joins = [(p.zeta, isola_join(p, **kw)) for p in curve.vertices]
+    return curve, joins, " ".join(curve.status)

@@ -1,11 +1,11 @@
-"""benchmarks.run_summary reads back what scheduler.report and scheduler.curve_tasks print: a
-summary written by their own printers from known figures (and the cluster's start line) is
-parsed into those figures."""
+"""benchmarks.run_cost.run_summary reads back what scheduler.report and scheduler.curve_tasks
+print: a summary written by their own printers from known figures (and the cluster's start
+line) is parsed into those figures."""
 from __future__ import annotations
 
 import io
 
-from benchmarks.run_summary import run_summary
+from benchmarks.run_cost import run_summary
 from hertzmap.scheduler.curve_tasks import print_curve_summary
 from hertzmap.scheduler.report import print_summary
 

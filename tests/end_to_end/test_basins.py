@@ -69,6 +69,13 @@ def test_the_command_stores_and_draws_the_map(store, tmp_path):
     assert float(ds["basin_entropy"]) == pytest.approx(ref.entropy.basin_entropy, abs=0)
     assert np.allclose(ds["q"].values, ref.q) and np.allclose(ds["v"].values, ref.v)
     assert "S_b = " in out and name in out
+    # the store with its basin map opens as one DataTree; the map's own attractors are its
+    # dim basin_attractor (not the main group's attractor slots)
+    tree = xr.open_datatree(store, engine="zarr")
+    assert f"/products/{name}" in tree.groups
+    group = tree[f"products/{name}"].to_dataset(inherit=False)
+    assert group.sizes["basin_attractor"] == len(ref.attractors) == 2
+    assert "attractor" not in group.dims
 
 
 @pytest.mark.parametrize("args, needle", [

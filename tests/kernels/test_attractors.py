@@ -3,7 +3,7 @@ shooting with the variational equations, its finite-difference monodromy, its de
 trajectories (tests/oracle.py: shares no code with kernels/), and synthetic stroboscopic
 sequences whose period is known by construction.
 
-The examples (paper Eq. 7, n = 1.5, zeta = 0.01) come from benchmarks/attractor_scan.py:
+The examples (paper Eq. 7, n = 1.5, zeta = 0.01) come from benchmarks/archive/attractor_scan.py:
 * (omega, sigma) = (0.5, 2.5): a chaotic attractor (q down to -268, 90 % of the time in flight);
   8 initial states over 70,000 periods each never settle, exponents 0.0439-0.0447 per unit tau
   (``attractor_scan.py chaos 0.5 2.5 --states 8 --transient 50000 --budgets 20000``).

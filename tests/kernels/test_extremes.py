@@ -5,7 +5,7 @@ A converged orbit must (1) map onto itself under kernels.simulate at rtol 1e-12 
 integration path, no variational equations, no Newton), (2) pass Liouville (det M =
 exp(-2 zeta P)), (3) agree with a reference re-solved at rtol 1e-13 from it. The cases of
 ROUTES must converge from the end of their continuation.
-The table is printed by ``benchmarks/extremes.py`` (markdown, for RELIABILITY.md)."""
+The table is printed by ``benchmarks/extreme_cases.py`` (markdown, for RELIABILITY.md)."""
 from __future__ import annotations
 
 import numpy as np

@@ -80,6 +80,16 @@ def test_plot_writes_the_supported_products_and_draws_the_stored_groups(every_ou
     for name in ("real_map.png", "real_bifurcation.png", "real_strobe_sigma0.3.png",
                  "real_histories.png"):
         assert (out / name).is_file(), name
+    # the store, main group and every product group, opens as one DataTree: the products on
+    # a grid of their own name its dims (the multiple-scales omega grid: mms_omega)
+    import xarray as xr
+    from hertzmap.study.products.mms import MMS_POINTS
+
+    tree = xr.open_datatree(store, engine="zarr")
+    assert set(tree.groups) == ({"/", "/products"}
+                                | {f"/products/{n}" for n in EVERY_PRODUCT | {"traced_curves"}})
+    mms = tree["products/mms_curves"].to_dataset(inherit=False)
+    assert mms.sizes["mms_omega"] == MMS_POINTS and "omega" not in mms.dims
 
 
 def test_plot_without_products_writes_nothing(every_output_store, tmp_path):

@@ -24,7 +24,11 @@ def test_error_estimate_finds_orbits_that_only_continuation_reaches(client):
     # The error estimate re-solves each sampled orbit alone at a tight tolerance. Orbits that
     # the block solver reaches only by continuation along omega are missed by a point's own
     # automatic seeds; seeded with the stored start point, every sample is found again.
-    from hertzmap.scheduler.run import estimate_error
+    import io
+
+    from hertzmap.scheduler.error_estimate import estimate_error
+    from hertzmap.scheduler.interrupt import DeferInterrupt
+    from hertzmap.scheduler.stage import TaskRunner
     from hertzmap.study.solve.block import solve_block
 
     s = placeholder_study('[study]\nname = "err"\n[grid]\nomega = {start = 0.5, stop = 2.5, num = 41}\n'
@@ -43,6 +47,8 @@ def test_error_estimate_finds_orbits_that_only_continuation_reaches(client):
                 (float(w), 0.5, 0.01, int(p), float(q0), float(v0)))
     assert len(alone_only) >= 2, "the line should have orbits that only continuation reaches"
     samples = alone_only[:4] + found_alone[:4]
-    e = estimate_error(client, s, samples)
+    runner = TaskRunner(client, DeferInterrupt(), io.StringIO())
+    e = estimate_error(runner, s, samples)
+    assert runner.costs["error sample"].tasks == 1
     assert e["n"] == len(samples) and e["matched"] == len(samples)
     assert 0.0 < e["max_deviation"] < 1e-8

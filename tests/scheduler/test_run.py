@@ -177,6 +177,9 @@ def test_worker_killed_mid_study(study_path, reference, tmp_path):
         assert not th.is_alive()
     assert killed_at < 8, "the study finished before the worker was killed"
     assert result["complete"] and not result["failed"]
+    # the summary says what the kill cost: the lost worker and its task(s), run again
+    grid = result["stages"]["grid"]
+    assert grid["workers_lost"] == 1 and grid["reruns"] >= 1
     assert_same_store(store, reference)
 
 

@@ -485,8 +485,8 @@ def test_products_round_trip_and_leave_the_main_group_alone(hand, tmp_path):
     assert main.attrs == attrs_before
     assert "products" not in main.variables
     # rewriting replaces the group
-    write_product(store, "mms_curves", prods["mms_curves"].isel(omega=slice(0, 5)))
-    assert read_product(store, "mms_curves").sizes["omega"] == 5
+    write_product(store, "mms_curves", prods["mms_curves"].isel(mms_omega=slice(0, 5)))
+    assert read_product(store, "mms_curves").sizes["mms_omega"] == 5
     # refused while a live run holds the lock (this process's pid: alive)
     with Lock(store):
         with pytest.raises(StoreError, match="locked"):

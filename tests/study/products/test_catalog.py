@@ -1,33 +1,47 @@
 """study.products.catalog: the registry of products. Every entry computes a described Dataset
 on a small real store; when the results support each product (the thresholds of
-docs/products.md); the stroboscopic diagram's lines; the order of the entries."""
+docs/products.md); the stroboscopic diagram's lines; the order of the entries; a store with
+every product group (and a basin map) opens as one xarray DataTree."""
 from __future__ import annotations
+
+import shutil
 
 import numpy as np
 import pytest
 import xarray as xr
 
+from hertzmap.scheduler.store import read_product, write_product, write_products
 from hertzmap.study import products as P
 from hertzmap.study.products import catalog
+from hertzmap.study.products.basin_map import BASIN_ATTRACTOR, basin_map_dataset, basin_map_name
+from hertzmap.study.products.damping import thresholds_dataset
+from hertzmap.study.products.mms import MMS_POINTS
+from hertzmap.study.solve.basin_grid import basin_map
 from tests.helpers import (EVERY_OUTPUT_STUDY, blank_results, fake_traced_curves, set_orbit,
-                           solved_results)
+                           solved_results, write_results)
 
-#: every product of docs/products.md that hertzmap plot computes (traced_curves: the run's)
+#: every product of docs/products.md that hertzmap plot computes (traced_curves and thresholds:
+#: the run's)
 EVERY_PRODUCT = {"orbit_classes", "loss_of_contact_map", "bifurcation_curves",
                  "located_bifurcations", "mms_curves", "frequency_response", "mms_response",
                  "force_harmonics", "stroboscopic_diagram", "attractor_ids", "time_histories",
-                 "isola_boundary", "thresholds", "impact_onset"}
+                 "isola_boundary", "impact_onset"}
 #: computed only for studies that sweep zeta (the real store has one zeta value: the products are
 #: checked on stores of two in tests/study/products/test_damping.py)
-ZETA_SWEPT = {"thresholds", "impact_onset"}
+ZETA_SWEPT = {"impact_onset"}
 
 
 @pytest.fixture(scope="module")
-def real(tmp_path_factory):
-    """The small real store of every output (tests.helpers.EVERY_OUTPUT_STUDY), opened, and
-    made-up traced curves standing for the run's."""
-    store = solved_results(EVERY_OUTPUT_STUDY, tmp_path_factory.mktemp("real") / "r.zarr")
-    return P.open_store(store), fake_traced_curves()
+def real_store(tmp_path_factory):
+    """The small real store of every output (tests.helpers.EVERY_OUTPUT_STUDY), on disk."""
+    return solved_results(EVERY_OUTPUT_STUDY, tmp_path_factory.mktemp("real") / "r.zarr")
+
+
+@pytest.fixture(scope="module")
+def real(real_store):
+    """The small real store of every output, opened, and made-up traced curves standing for
+    the run's."""
+    return P.open_store(real_store), fake_traced_curves()
 
 
 def test_every_entry_computes_a_described_dataset_on_a_real_store(real):
@@ -128,3 +142,95 @@ def test_entries_come_after_what_they_take():
         seen.add(p.name)
     with pytest.raises(KeyError):
         catalog.product("strobe")
+
+
+# -- the store as one DataTree: a product group's dims align with the main group's -------------
+
+def _tree_and_groups(store) -> tuple[xr.DataTree, dict[str, xr.Dataset]]:
+    """The store opened as one DataTree (refused unless every group aligns with its parents),
+    and each group as stored (a tree's group does not repeat the coordinates it inherits)."""
+    return (xr.open_datatree(store, engine="zarr"),
+            {path: ds.load() for path, ds in xr.open_groups(store, engine="zarr").items()})
+
+
+def _assert_aligned(groups: dict[str, xr.Dataset]) -> None:
+    """Every dim of every group that is named as a dim of the main group holds the main group's
+    values, in its order (what DataTree checks, said per dim)."""
+    root = groups["/"]
+    for path, own in groups.items():
+        for d in set(own.dims) & set(root.dims):
+            assert own.sizes[d] == root.sizes[d], (path, d)
+            if d in own.indexes:
+                np.testing.assert_array_equal(own[d].values, root[d].values, err_msg=f"{path} {d}")
+
+
+def _plot_products(store, given_names=P.RUN_PRODUCTS) -> dict[str, xr.Dataset]:
+    """What hertzmap plot writes (scheduler.cli cmd_plot): the products computed from the
+    store and the run's groups it holds, each written as products/<name>."""
+    given = {name: read_product(store, name) for name in given_names}
+    prods = P.compute_products(P.open_store(store), given=given)
+    write_products(store, prods)
+    return prods
+
+
+def test_a_store_with_every_product_and_a_basin_map_opens_as_one_datatree(real_store,
+                                                                          tmp_path):
+    """The real store with the run's traced curves, every product hertzmap plot writes and a
+    basin map written as hertzmap basins writes it (scheduler.basin_tasks.run_basins): one
+    DataTree. The multiple-scales products' own omega grid (801 values, the study has 2) is
+    ``mms_omega``; the basin map's own attractors (1 here, the census's slots 4) are
+    ``basin_attractor``: named ``omega`` and ``attractor`` they do not align."""
+    store = shutil.copytree(real_store, tmp_path / "plotted.zarr")
+    write_product(store, "traced_curves", fake_traced_curves())     # as hertzmap run does
+    prods = _plot_products(store, ("traced_curves",))
+    assert set(prods) == EVERY_PRODUCT - ZETA_SWEPT
+    # hertzmap basins at (2.05, 0.5, 0.01), with the study's transients (a small grid)
+    omega, sigma, zeta = 2.05, 0.5, 0.01
+    bm = basin_map(omega, sigma, zeta, grid=(4, 3), transient_periods=200, record_periods=32)
+    name = basin_map_name(omega, sigma, zeta)
+    write_product(store, name, basin_map_dataset(bm, {"hertzmap_product_source":
+                                                      "hertzmap basins"}))
+
+    tree, groups = _tree_and_groups(store)
+    assert set(tree.groups) == set(groups) == (
+        {"/", "/products", "/products/traced_curves", f"/products/{name}"}
+        | {f"/products/{n}" for n in prods})
+    _assert_aligned(groups)
+    root = groups["/"]
+    for group, dims in (("mms_curves", {"mms_omega", "zeta"}),
+                        ("mms_response", {"sigma", "zeta", "mms_omega"})):
+        own = groups[f"/products/{group}"]
+        assert set(own.dims) == dims, group
+        assert own.sizes["mms_omega"] == MMS_POINTS != root.sizes["omega"]
+        assert own["mms_omega"].attrs["long_name"] and own["mms_omega"].attrs["units"] == "1"
+    basins = groups[f"/products/{name}"]
+    assert "attractor" not in basins.dims
+    assert basins.sizes[BASIN_ATTRACTOR] == len(bm.attractors) != root.sizes["attractor"]
+    assert basins.sizes["strobe"] == root.sizes["strobe"]
+    assert list(basins["attractor_period"].values) == [a["period"] for a in bm.attractors]
+    assert tree[f"products/{name}"]["basin_label"].shape == (3, 4)
+
+
+def test_products_of_axes_listed_out_of_order_align_with_the_main_group(tmp_path):
+    """A study may list its axes in any order (omega downwards, zeta unsorted): the products,
+    computed on sorted axes, are stored in the main group's order (the run's thresholds too),
+    the isola boundary at every zeta of the study (the traced curves have one), and the store
+    opens as one DataTree."""
+    store = write_results(blank_results(
+        "[grid]\nomega = [2.05, 1.9, 2.0]\nsigma = [0.5, 0.3]\nzeta = [0.02, 0.01, 0.03]\n",
+        "unsorted"), tmp_path / "unsorted.zarr")
+    ds = P.open_store(store)
+    write_product(store, "traced_curves", fake_traced_curves(0.01))
+    write_product(store, "thresholds", thresholds_dataset(ds, (None, "none"), (None, [], "none")))
+    prods = _plot_products(store)
+    assert {"loss_of_contact_map", "impact_onset", "mms_response", "isola_boundary"} <= set(prods)
+    tree, groups = _tree_and_groups(store)
+    assert set(tree.groups) == set(groups)
+    _assert_aligned(groups)
+    np.testing.assert_array_equal(groups["/products/loss_of_contact_map"]["omega"],
+                                  [2.05, 1.9, 2.0])
+    for group in ("thresholds", "isola_boundary", "impact_onset", "mms_curves"):
+        np.testing.assert_array_equal(groups[f"/products/{group}"]["zeta"], [0.02, 0.01, 0.03])
+    iso = groups["/products/isola_boundary"]
+    np.testing.assert_array_equal(iso["sigma_isola"], [np.nan, 0.17, np.nan])
+    np.testing.assert_array_equal(iso["curve"], [-1, 0, -1])

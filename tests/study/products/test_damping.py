@@ -1,6 +1,7 @@
-"""study.products.damping: the products thresholds (dim zeta and the vertices continued in
-zeta) on a study of two zeta values, with and without the traced isola it starts sigma**
-from; the registry computes it only for studies that sweep zeta. The numbers themselves are
+"""study.products.damping: the thresholds (dim zeta and the vertices continued in zeta; a run
+product, written by the run's thresholds stage) on a study of two zeta values, with and without
+the traced isola it starts sigma** from; the registry computes impact_onset only for studies that
+sweep zeta. The numbers themselves are
 checked against the scipy oracle in tests/study/solve/test_thresholds.py."""
 from __future__ import annotations
 
@@ -30,8 +31,7 @@ def two_zeta():
 
 def test_the_thresholds_at_each_zeta_and_continued_between(two_zeta):
     ds, traced = two_zeta
-    prods = P.compute_products(ds, given={"traced_curves": traced})
-    th = prods["thresholds"]
+    th = P.thresholds(ds, traced)
     assert th.attrs["title"] and th.attrs["hertzmap_star_ends"] == "range range"
     assert th.attrs["hertzmap_double_star_ends"] == "range range"
     for v in list(th.data_vars) + list(th.coords):
@@ -75,7 +75,8 @@ def test_without_traced_curves_sigma_star_only_and_why():
 
 def test_only_studies_that_sweep_zeta_get_it():
     one = P.open_store(blank_results(GRID.replace("[0.008, 0.01]", "0.01")))
-    assert "thresholds" not in P.compute_products(one)
+    assert "impact_onset" not in P.compute_products(one)
+    assert "thresholds" not in P.compute_products(one)   # a run product: never computed here
 
 
 def test_impact_onset_is_the_lowest_sigma_where_a_stable_response_loses_contact():

@@ -144,7 +144,9 @@ def test_mms_products():
     z = 0.005
     omega = np.linspace(1.9, 2.1, 201)
     c = P.mms_curves(omega, [z])
-    assert c["sigma2"].dims == ("omega", "zeta")
+    # the multiple-scales grid is its own (not a study's omega axis): its dim is mms_omega
+    assert c["sigma2"].dims == ("mms_omega", "zeta") == (P.MMS_OMEGA, "zeta")
+    np.testing.assert_array_equal(c["mms_omega"].values, omega)
     # the product holds the multiple-scales module's curves (tested against the oracle's flips
     # of Eq. 11 in tests/study/analytic/test_multiple_scales.py)
     np.testing.assert_array_equal(c["sigma2"].values[:, 0], ms.sigma2(omega, z))
@@ -159,6 +161,7 @@ def test_mms_products():
     r = P.mms_response(np.linspace(1.8, 2.1, 61), 0.5, 0.01)
     assert {"A_upper", "A_lower", "min_q_upper", "min_q_lower", "region"} <= set(r.data_vars)
     assert np.nanmax(r["A_upper"].values) > 1.0
+    assert r["A_upper"].dims == ("mms_omega",) and r.sizes["mms_omega"] == 61
 
 
 def test_real_orbits_line_histories_harmonics_and_rig(tmp_path):

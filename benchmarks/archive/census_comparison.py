@@ -1,11 +1,12 @@
+# Answered (BENCHMARKS.md, Targets, issue 21, and section 9): the 1T/2T search costs 1.12x the sweeps' CPU and loses no orbit to discovery.
 """The default search against the one before fold turning and against discovery, on one grid:
 the periodic orbits found per class, the orbits one finds and another misses, and the cost.
 
-    .venv/bin/python benchmarks/census_comparison.py                    # the default study's grid
-    .venv/bin/python benchmarks/census_comparison.py --sigma 0.2 0.5 0.8 --omega 0.25 2.5 181
+    .venv/bin/python benchmarks/archive/census_comparison.py                    # the default study's grid
+    .venv/bin/python benchmarks/archive/census_comparison.py --sigma 0.2 0.5 0.8 --omega 0.25 2.5 181
 
 Four searches of the periodic orbits (the census's transients are timed on their own by
-benchmarks/vibro_impact_cost.py):
+``benchmarks/run_cost.py census``):
 
 * ``before``: the seeded sweeps alone (the default search before fold turning);
 * ``no-census``: the sweeps and fold turning (study.solve.line): the default's search of the
@@ -17,40 +18,31 @@ benchmarks/vibro_impact_cost.py):
   branch across the line: ``[search] discover = true``).
 
 Every omega line is one block, solved by the four in turn (A B C D, then D C B A on the next line,
-so that a drift of the machine's speed falls on all four alike). Orbits are counted from the
-solver's own lists (16 slots: none dropped), per class (study.orbit_rules), and compared orbit by
+so that a drift of the machine's speed falls on all four alike: one round of benchmarks/abba.py). Orbits are counted from the
+solver's own lists (every orbit: none dropped), per class (study.orbit_rules), and compared orbit by
 orbit with the identity rule.
 """
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
-from hertzmap.study.orbit_rules import CLASS_NAMES, class_codes, same_orbit
-from hertzmap.study.solve.block import solve_block
-from hertzmap.study.spec import load_study
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+from benchmarks.abba import abba  # noqa: E402
+from benchmarks.search_ab import orbits_of  # noqa: E402
+from hertzmap.study.orbit_rules import CLASS_NAMES, class_codes, same_orbit  # noqa: E402
+from hertzmap.study.solve.block import solve_block  # noqa: E402
+from hertzmap.study.spec import load_study  # noqa: E402
 
 SEARCHES = {"before": dict(turn_folds=False, seed_strides=(1, 1)),
             "no-census": dict(turn_folds=True, attractors="never"),
             "default": dict(turn_folds=True, attractors="where-none-stable"),
             "discover": dict(turn_folds=False, discover=True, seed_strides=(1, 1))}
-SLOTS = 16
-
-
-def orbits_of(r) -> list[list[dict]]:
-    """Per omega point: each orbit's period, stable, min_q, max_q, ptp and trace (what the
-    identity rule study.orbit_rules.same_orbit reads)."""
-    ok = r["status"][:, 0, 0, :] == 0
-    out = []
-    for i in range(ok.shape[0]):
-        out.append([dict(period=int(r["period"][i, 0, 0, s]), stable=bool(r["stable"][i, 0, 0, s]),
-                         min_q=float(r["min_q"][i, 0, 0, s]), max_q=float(r["max_q"][i, 0, 0, s]),
-                         ptp=float(r["ptp"][i, 0, 0, s]),
-                         trace=float(r["multipliers"][i, 0, 0, s].sum().real))
-                    for s in np.nonzero(ok[i])[0]])
-    return out
 
 
 def main(argv=None) -> int:
@@ -68,27 +60,41 @@ def main(argv=None) -> int:
         sigmas = sigmas[::a.lines]
     zeta = a.zeta if a.zeta is not None else float(s.axis("zeta")[0])
     kw = dict(periods=s.periods, exponent=s.exponent or 1.5, model=s.model, rtol=s.rtol,
-              max_solutions=SLOTS, harmonics=False)
+              harmonics=False)
     names = list(SEARCHES)
     solve_block(omega[:3], sigmas[:1], [zeta], **kw)          # compile / warm the cache
     seconds = {n: 0.0 for n in names}
     counts = {n: np.zeros(len(CLASS_NAMES), int) for n in names}
     missing = {n: [] for n in names}
-    for li, sg in enumerate(sigmas):
-        found = {}
-        for n in (names if li % 2 == 0 else names[::-1]):
+    found = {}
+
+    def search(n):
+        def solve(li):
             t0 = time.process_time()
-            r = solve_block(omega, [sg], [zeta], **kw, **SEARCHES[n])
-            seconds[n] += time.process_time() - t0
+            r = solve_block(omega, [sigmas[li]], [zeta], **kw, **SEARCHES[n])
+            dt = time.process_time() - t0
             found[n] = orbits_of(r)
             ok = r["status"] == 0
             c = class_codes(ok, r["period"], r["stable"], r["loses_contact"])
             counts[n] += np.bincount(c[ok].ravel(), minlength=len(CLASS_NAMES))
+            return {"CPU": dt}
+        return solve
+
+    def missed(run):
+        """After a line's last search: the orbits discovery found that each search lacks."""
+        if len(found) < len(names):
+            return
         for n in names:
             for i, w in enumerate(omega):
                 for orb in found["discover"][i]:
                     if not any(same_orbit(orb, o) for o in found[n][i]):
-                        missing[n].append((float(w), float(sg), orb["period"], orb["stable"]))
+                        missing[n].append((float(w), float(sigmas[run.round]), orb["period"],
+                                           orb["stable"]))
+        found.clear()
+
+    res = abba({n: search(n) for n in names}, len(sigmas), each=missed)
+    for n in names:
+        seconds[n] = sum(res.of(n, "CPU"))
     print(f"grid: {omega.size} omega ({omega.min():g}..{omega.max():g}) x {sigmas.size} sigma "
           f"({sigmas.min():g}..{sigmas.max():g}), zeta {zeta:g}, periods {list(s.periods)}")
     print(f"{'class':60s} " + " ".join(f"{n:>9s}" for n in names))
@@ -101,6 +107,8 @@ def main(argv=None) -> int:
           f"{seconds['no-census'] / seconds['before']:.2f}x; with the census (default): "
           f"{seconds['default'] / seconds['before']:.2f}x;"
           f" discovery / sweeps: {seconds['discover'] / seconds['before']:.2f}x")
+    for n in ("no-census", "default", "discover"):
+        print(res.report(n, "before", "CPU", f"  {n} / before, line by line"))
     for n in ("before", "no-census", "default"):
         print(f"orbits discovery finds that {n} misses: {len(missing[n])}"
               + ("" if not missing[n] else "; first: " + ", ".join(

@@ -1,9 +1,10 @@
+# Answered: it found the attractor examples now pinned by tests/kernels/test_attractors.py (docs/kernels.md).
 """Find the attractor examples of tests/kernels/test_attractors.py on paper Eq. 7 (n = 1.5).
 
-    .venv/bin/python benchmarks/attractor_scan.py grid    [--zeta 0.01] [--states 4]
-    .venv/bin/python benchmarks/attractor_scan.py chaos   OMEGA SIGMA [--zeta 0.01]
-    .venv/bin/python benchmarks/attractor_scan.py flip    OMEGA_LO OMEGA_HI SIGMA [--zeta 0.01]
-    .venv/bin/python benchmarks/attractor_scan.py orbit   OMEGA SIGMA M [--zeta 0.01]
+    .venv/bin/python benchmarks/archive/attractor_scan.py grid    [--zeta 0.01] [--states 4]
+    .venv/bin/python benchmarks/archive/attractor_scan.py chaos   OMEGA SIGMA [--zeta 0.01]
+    .venv/bin/python benchmarks/archive/attractor_scan.py flip    OMEGA_LO OMEGA_HI SIGMA [--zeta 0.01]
+    .venv/bin/python benchmarks/archive/attractor_scan.py orbit   OMEGA SIGMA M [--zeta 0.01]
 
 ``grid``: kernels.attractor_batch over omega 0.3..3.5 (step 0.05) x sigma 1..3 from (0, 0)
 and a few fixed initial states; prints per point the outcomes (period m of a confirmed

@@ -1,10 +1,11 @@
+# Answered (study/solve/atlas.py, STALL_RATIO and FAR_FROM_FOLD; BENCHMARKS.md section 10): the rules lose no orbit; both kept.
 """One rule of the atlas's shots off and on over the same grid (study.solve.atlas):
 
 * ``half_steps``: a shot that fails from an orbit far from its fold is tried again in two half
   steps (FAR_FROM_FOLD);
 * ``stall``: a continuation's Newton gives up once its residual creeps (STALL_RATIO).
 
-    .venv/bin/python benchmarks/atlas_rules.py RULE scenes/default.toml [--workers 2] [--keep DIR]
+    .venv/bin/python benchmarks/archive/atlas_rules.py RULE scenes/default.toml [--workers 2] [--keep DIR]
 
 The scene's grid once (``hertzmap run --skip-atlas``), copied twice; then the rest of the run
 (the atlas, its census rounds, the curves) on each copy, one after the other: "off" through
@@ -22,7 +23,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks.map_completeness import counts, print_table, run_scene  # noqa: E402
@@ -76,7 +77,7 @@ def main(argv: list[str]) -> int:
             shutil.rmtree(stores[name], ignore_errors=True)
             shutil.copytree(grid, stores[name])
         off = run_scene(scene, stores["off"],
-                        ["--atlas-tile", f"benchmarks.atlas_rules:tile_without_{rule}"],
+                        ["--atlas-tile", f"benchmarks.archive.atlas_rules:tile_without_{rule}"],
                         workers, env)
         on = run_scene(scene, stores["on"], [], workers, env)
         print(f"{scene}: the same grid; the atlas without (off) and with (on) the rule {rule}")

@@ -1,0 +1,109 @@
+"""The grid as a stage of a run (scheduler.stage): one task per block of the store (a chunk
+of omega x sigma x zeta points), solved on a worker by the block solver (scheduler.worker.
+run_task -> study.solve.block.solve_block), which writes the block into the store itself (or
+stages it when it holds more slots than the store's slot dims) and returns a summary of a few
+hundred bytes. The commit rule: the client writes a staged block (growing the dims), notes the
+slots used, then sets the task's ``task_done`` flag; a rerun ships only the blocks not flagged.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+from hertzmap.scheduler.plan import make_plan
+from hertzmap.scheduler.report import KIND_COUNTS, SUMMED_COUNTS, WORST_COUNTS, add_counts
+from hertzmap.scheduler.sample import Sampler
+from hertzmap.scheduler.stage import Stage, Task, TaskRunner
+from hertzmap.scheduler.store import GRID_STAGE, commit_grid_block, remove_stage
+from hertzmap.scheduler.worker import DEFAULT_SOLVER, run_task
+from hertzmap.study.schema import stored_variables
+from hertzmap.study.spec import Study
+
+
+def task_specs(study: Study, tasks, kwargs: dict[str, Any], names, solver, time_budget, *,
+               store: Path, owner: dict[str, Any], sampler: Sampler) -> list[dict[str, Any]]:
+    """What the client hands to Dask for each task (scheduler.worker.run_task's argument):
+    the block's place and axes, the solver's options, the variables to store, where to write
+    them (the store's absolute path: workers may run elsewhere) and as whose (``owner``, the
+    client's lock record), and what the error sample needs of the block."""
+    om, sg, zt = study.axis("omega"), study.axis("sigma"), study.axis("zeta")
+    where = str(Path(store).resolve())
+    specs = []
+    for t in tasks:
+        so, ss, sz = t.slices
+        specs.append({"index": t.index, "slices": [(s.start, s.stop) for s in t.slices],
+                      "omega": om[so], "sigma": sg[ss], "zeta": zt[sz],
+                      "kwargs": kwargs, "names": names, "solver": solver,
+                      "time_budget": time_budget, "store": where, "owner": owner,
+                      "sample": sampler.task_spec(t)})
+    return specs
+
+
+class GridStage(Stage):
+    """The grid stage of one run of a study into its (locked) store."""
+
+    name = "grid"
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.plan = make_plan(self.study, self.store.chunks)
+        self.names = stored_variables(self.study)
+        solver = getattr(self.opts, "solver", DEFAULT_SOLVER)
+        self.solver = solver
+        #: the error estimate's sample of converged orbits (scheduler.sample), filled as the
+        #: blocks come back
+        self.sampler = Sampler(self.study, int(getattr(self.opts, "error_sample", 0)))
+
+    def todo(self) -> list:
+        done = self.store.done_mask()
+        return [t for t in self.plan.tasks if not done[t.index]]
+
+    def pending(self) -> bool:
+        return not bool(self.store.done_mask().all())
+
+    def run(self, runner: TaskRunner) -> dict[str, Any]:
+        """Solve the blocks not flagged done; returns the grid's counts (the run summary's)."""
+        todo = self.todo()
+        n_done = len(self.plan.tasks) - len(todo)
+        specs = task_specs(self.study, todo, self.study.solver_kwargs(), self.names,
+                           self.solver, getattr(self.opts, "task_timeout", None),
+                           store=self.store.path, owner=self.owner, sampler=self.sampler)
+        tasks = [Task(self.key(*t.index), spec, t.size) for t, spec in zip(todo, specs)]
+        by_key = {task.key: t for task, t in zip(tasks, todo)}
+        tally = {"compute": 0.0, "write": 0.0, "points": 0, "pids": set(),
+                 **{k: 0 for k in SUMMED_COUNTS}, **{k: math.nan for k in WORST_COUNTS}}
+
+        def commit(task: Task, res: dict) -> None:
+            block = by_key[task.key]
+            # the worker wrote the block before its task returned (or staged it, when it
+            # holds more slots than the store's dims: written here, the dims grown): only now
+            # its flag
+            if res.get("staged"):
+                commit_grid_block(self.store, block.slices, block.index, self.names)
+            else:
+                self.store.note_slots_used(res["counts"].get("slots", {}))
+            self.store.mark_done(block.index)
+            tally["write"] += res["write_seconds"]
+            tally["pids"].add(res["pid"])
+            add_counts(tally, res["counts"])
+            tally["points"] += block.size
+            self.sampler.merge(res["samples"])
+
+        try:
+            cost = runner.map(self.name, run_task, tasks, commit, label="grid",
+                              total=len(self.plan.tasks), done_before=n_done)
+        finally:
+            if self.store.done_mask().all():
+                remove_stage(self.store.path, GRID_STAGE)
+        n_conv, n_fail = tally["conv"], tally["fail"]
+        return dict(
+            wall=cost.wall, compute=cost.compute, tasks_run=cost.tasks, failed=cost.failed,
+            block_writes=tally["write"], points=tally["points"],
+            orbits=n_conv, failed_slots=n_fail, points_with_orbit=tally["with"],
+            time_limited=tally["cut"],
+            converged_fraction=n_conv / (n_conv + n_fail) if n_conv + n_fail else math.nan,
+            worker_processes_seen=len(tally["pids"]),
+            liouville_worst=tally["liouville"], lyapunov_sum_worst=tally["lyapunov_sum"],
+            attractors=tally["attractors"], stable=tally["stable"],
+            slots=tally.get("slots", {}), attractor_kinds={k: tally[k] for k in KIND_COUNTS})
