@@ -1,10 +1,10 @@
 """Run a study: plan, open (or create) and lock the store, then run each pending stage of
 :data:`STAGES` in order through one scheduler.stage.TaskRunner: the grid (each block written by
 its worker, flagged ``task_done`` by the client once the task has returned), the error sample,
-the atlas rounds and census rounds, the traced curves, the thresholds in zeta. Durability comes
-from the store, not from Dask: rerunning the same command computes only what no stage has
-committed. The run summary ends with each stage's cost and the tasks that ran again after a
-lost worker.
+the atlas rounds and census rounds, the traced curves, the thresholds in zeta, the stepped
+sweeps. Durability comes from the store, not from Dask: rerunning the same command computes
+only what no stage has committed. The run summary ends with each stage's cost and the tasks
+that ran again after a lost worker.
 """
 
 from __future__ import annotations
@@ -36,6 +36,7 @@ from hertzmap.scheduler.report import overhead, print_summary
 from hertzmap.scheduler.resources import check_resources
 from hertzmap.scheduler.stage import SchedulerLost, Stage, TaskRunner, stage_costs_line
 from hertzmap.scheduler.store import Lock, Store, StoreError, check_writer, open_or_create
+from hertzmap.scheduler.sweep_tasks import SweepStage
 from hertzmap.scheduler.threshold_tasks import ThresholdStage
 from hertzmap.scheduler.worker import DEFAULT_SOLVER, Warmup
 from hertzmap.study.schema import code_fingerprint
@@ -180,7 +181,8 @@ def _has_dashboard(client) -> bool:
 #: The stages of a run, in order, declared once (scheduler.stage): each reads what the stages
 #: before it committed, and a rerun resumes the first one not committed. A new stage is one
 #: entry here plus its pure function (docs/architecture.md, "Where to add").
-STAGES: tuple[type[Stage], ...] = (GridStage, AtlasStage, CurveStage, ThresholdStage)
+STAGES: tuple[type[Stage], ...] = (GridStage, AtlasStage, CurveStage, ThresholdStage,
+                                   SweepStage)
 
 
 class StudyRun:

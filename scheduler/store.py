@@ -62,7 +62,8 @@ def _quiet():
     # so that xr.open_zarr(path) opens the store quickly and silently.
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=".*[Cc]onsolidated metadata.*")
-        # the traced curves' parts folder (CURVE_PARTS) is not a zarr node of the store
+        # the traced curves' parts folder (CURVE_PARTS) and the stages' staging folders
+        # (ATLAS_STAGE, SWEEP_STAGE) are not zarr nodes of the store
         warnings.filterwarnings("ignore", message=".*not recognized as a component of a Zarr")
         yield
 
@@ -160,7 +161,8 @@ class Store:
             advice = FORMAT_ADVICE.get(found, "written by another version of hertzmap")
             raise StoreError(f"{self.path}: store format {found}, this hertzmap writes format "
                              f"{STORE_FORMAT}: {advice}")
-        members = set(self._group.array_keys())
+        with _quiet():          # a stage's staging folder (atlas, sweeps) is no zarr node
+            members = set(self._group.array_keys())
         missing = [n for n in stored_variables(study) if n not in members]
         if missing:
             raise StoreError(f"{self.path} is incomplete (missing {', '.join(missing)})")
@@ -975,3 +977,39 @@ def remove_stage(store: str | Path, folder: str) -> None:
 def remove_atlas_stage(store: str | Path) -> None:
     """Remove every staged round (after its commit)."""
     shutil.rmtree(Path(store) / ATLAS_STAGE, ignore_errors=True)
+
+
+# -- the stepped sweeps' stage (scheduler.sweep_tasks) ----------------------------------------
+#
+# Each finished sweep is staged as one .npz file (stage_file: whole or not at all) under
+# SWEEP_STAGE, named after its line and direction; once every sweep is staged the client
+# writes the product products/sweeps from them and removes the folder: a run killed at any
+# point resumes the sweeps not staged and ends with the same product.
+
+#: folder of the staged sweeps, at the store's root
+SWEEP_STAGE = "sweeps_stage"
+
+
+def sweep_name(line: int, direction: str) -> str:
+    """The staged file's name of a sweep: ``<line>-<direction>``."""
+    return f"{int(line):06d}-{direction}"
+
+
+def stage_sweep(store: str | Path, line: int, direction: str,
+                arrays: dict[str, np.ndarray]) -> Path:
+    """Stage one finished sweep's arrays (the client, holding the store's lock, commits it)."""
+    return stage_file(store, SWEEP_STAGE, sweep_name(line, direction), arrays)
+
+
+def staged_sweeps(store: str | Path) -> dict[tuple[int, str], dict[str, np.ndarray]]:
+    """The sweeps staged so far, by (line, direction)."""
+    root = Path(store) / SWEEP_STAGE
+    if not root.is_dir():
+        return {}
+    out = {}
+    for p in sorted(root.iterdir()):
+        if p.suffix != ".npz" or p.name.startswith("."):
+            continue
+        line, _, direction = p.stem.partition("-")
+        out[(int(line), direction)] = read_stage_file(store, SWEEP_STAGE, p.stem)
+    return out

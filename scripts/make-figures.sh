@@ -32,8 +32,9 @@ declare -A FIGURES=(
     [fig15]="histories"
     [vibro_impact]="map lyapunov strobe"
     [damping]="thresholds zeta_maps impact_onset"
+    [sweeps]="sweeps"
 )
-ORDER="default fig03 fig06 fig07 fig08 fig09 fig10 fig12 fig13 fig14 fig15 vibro_impact damping"
+ORDER="default fig03 fig06 fig07 fig08 fig09 fig10 fig12 fig13 fig14 fig15 vibro_impact damping sweeps"
 SCENES="${*:-$ORDER paper explore basins}"
 
 ms() { date +%s%3N; }

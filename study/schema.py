@@ -330,6 +330,9 @@ OUTPUT_VARIABLES: dict[str, tuple[str, ...]] = {
     "curves": CROSSING_VARIABLES,
     # the thresholds in zeta: a products group written by the run (products/thresholds)
     "thresholds": (),
+    # stepped-sine sweeps along the lines: a products group written by the run
+    # (products/sweeps, study.products.stepped_sweeps)
+    "sweeps": (),
 }
 
 _COORD_ATTRS = {

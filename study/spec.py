@@ -33,6 +33,8 @@ __all__ = [
     "DEFAULT_OUTPUTS",
     "MAX_GRID_POINTS",
     "SPEC_VERSION",
+    "SWEEP_AXES",
+    "DEFAULT_SWEEP",
 ]
 
 SPEC_VERSION = 2
@@ -50,8 +52,11 @@ AXES = ("omega", "sigma", "zeta")
 #: "thresholds" (sigma*(zeta), sigma**(zeta) and the isola's join continued over the grid's zeta
 #: range, products/thresholds, written by the run) needs two or more zeta values and implies
 #: "curves" (sigma** starts from the traced isola).
+#: "sweeps" (stepped-sine sweeps up and down each line of the grid along the [sweep] axis, the
+#: grid's values as the steps, with their jumps, products/sweeps, written by the run) needs two or
+#: more values on that axis and implies "measures" (the stored branches drawn behind the sweeps).
 OUTPUTS = ("orbits", "measures", "force_harmonics", "diagnostics", "bifurcations",
-           "attractors", "curves", "thresholds")
+           "attractors", "curves", "thresholds", "sweeps")
 #: "orbits" is always stored (period, q0, v0, status, multipliers, stable).
 CORE_OUTPUT = "orbits"
 DEFAULT_OUTPUTS = ("orbits", "measures")
@@ -81,6 +86,18 @@ DEFAULT_POINT_STEPS = 2_000_000
 #: search.lyapunov_error: the largest Lyapunov exponent's target standard error (per unit tau)
 LYAPUNOV_ERROR_RANGE = (1e-6, 1.0)
 CONTACTS = ("double", "single")
+#: [sweep] (the "sweeps" output, study.solve.sweep.stepped_sweep): the axis stepped (the two
+#: others fixed at each line of the grid), the width each jump is bracketed to, and each step's
+#: budget of forcing periods (transient, then record window)
+SWEEP_AXES = ("omega", "sigma")
+SWEEP_JUMP_TOL_RANGE = (1e-10, 1e-1)
+SWEEP_SETTLE_PERIODS_RANGE = (10, 1_000_000)
+SWEEP_RECORD_PERIODS_RANGE = (32, 10_000)
+#: the defaults: near a flip the followed orbit's multiplier is ~ -1 + c d at a distance d, and
+#: a step 2.4e-3 past the flip at sigma 0.5, zeta 0.01 (omega 1.98) needs ~2000 periods to
+#: leave the 1T orbit for the 2T one (1000 do not: the step is then recorded unsettled)
+DEFAULT_SWEEP = {"axis": "omega", "jump_tol": 1e-6, "settle_periods": 4000,
+                 "record_periods": 200}
 
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$")
 
@@ -138,6 +155,9 @@ class Study:
     lyapunov_error: float | None = None
     outputs: tuple[str, ...] = DEFAULT_OUTPUTS
     rig: tuple[tuple[str, Any], ...] | None = None
+    #: the [sweep] table, fully defaulted, as sorted (key, value) pairs (None: no "sweeps"
+    #: output)
+    sweep: tuple[tuple[str, Any], ...] | None = None
     source_text: str = field(default="", compare=False, repr=False)
 
     # -- derived ---------------------------------------------------------------------------
@@ -160,6 +180,22 @@ class Study:
     @property
     def rig_dict(self) -> dict[str, Any] | None:
         return None if self.rig is None else dict(self.rig)
+
+    @property
+    def sweep_dict(self) -> dict[str, Any] | None:
+        """The [sweep] settings (axis, jump_tol, settle_periods, record_periods), defaults
+        filled in; None for a study without the "sweeps" output."""
+        return None if self.sweep is None else dict(self.sweep)
+
+    def sweep_lines(self) -> list[dict[str, float]]:
+        """The lines the "sweeps" output sweeps: the fixed parameters of each (the two axes
+        other than [sweep] axis), every combination of the grid's values, in the grid's
+        order (the first of the two axes varying slowest)."""
+        if self.sweep is None:
+            return []
+        axis = self.sweep_dict["axis"]
+        a, b = [ax for ax in AXES if ax != axis]
+        return [{a: float(x), b: float(y)} for x in getattr(self, a) for y in getattr(self, b)]
 
     def solver_kwargs(self) -> dict[str, Any]:
         """Keyword arguments for ``study.block.solve_block`` (everything but the coordinates)."""
@@ -201,7 +237,7 @@ class Study:
             # the study file's table and key ([products] outputs): the hash reads them
             "products": {"outputs": list(self.outputs)},
             "rig": self.rig_dict,
-        }
+        } | ({"sweep": self.sweep_dict} if self.sweep is not None else {})
 
     def _search_dict(self) -> dict[str, Any]:
         """The [search] table with the keys that apply (a key a study file may not give in this
@@ -414,7 +450,8 @@ def study_toml(doc: dict) -> str:
 
 def _validated(doc: dict, default_name: str | None, text: str) -> Study:
     """The Study of a parsed study file ``doc`` (``text``: its TOML text)."""
-    _refuse_unknown(doc, "", ("study", "grid", "model", "solver", "search", "products", "rig"))
+    _refuse_unknown(doc, "", ("study", "grid", "model", "solver", "search", "products", "rig",
+                              "sweep"))
 
     # [study]
     st = _table(doc, "study")
@@ -594,6 +631,9 @@ def _validated(doc: dict, default_name: str | None, text: str) -> Study:
                              "grid.omega, grid.sigma, grid.zeta two or more values, or drop "
                              "\"curves\")")
         outputs = list(outputs) + ["measures"]
+    sweep = _parse_sweep(doc, outputs, axes)
+    if "sweeps" in outputs:
+        outputs = list(outputs) + ["measures"]
     # the census's results are stored whenever it runs
     outputs = tuple(p for p in OUTPUTS if p in outputs or p == CORE_OUTPUT
                     or (p == "attractors" and attractors != "never"))
@@ -635,8 +675,48 @@ def _validated(doc: dict, default_name: str | None, text: str) -> Study:
         **census,
         outputs=outputs,
         rig=rig,
+        sweep=sweep,
         source_text=text,
     )
+
+
+def _parse_sweep(doc: Mapping[str, Any], outputs, axes: dict[str, tuple[float, ...]]
+                 ) -> tuple[tuple[str, Any], ...] | None:
+    """The [sweep] table (the "sweeps" output's settings), defaults filled in, as sorted pairs;
+    None without the "sweeps" output (a [sweep] table is then refused)."""
+    if "sweeps" not in outputs:
+        if "sweep" in doc:
+            raise StudyError("sweep", 'the [sweep] table is only meaningful with "sweeps" in '
+                             "products.outputs")
+        return None
+    sw = _table(doc, "sweep")
+    _refuse_unknown(sw, "sweep", tuple(DEFAULT_SWEEP))
+    axis = sw.get("axis", DEFAULT_SWEEP["axis"])
+    if axis not in SWEEP_AXES:
+        raise StudyError("sweep.axis", f"must be one of {', '.join(map(repr, SWEEP_AXES))} (the "
+                         f"parameter stepped), got {_r(axis)}")
+    if len(axes[axis]) < 2:
+        raise StudyError("products.outputs", f"\"sweeps\" steps along grid.{axis} (sweep.axis), "
+                         f"which has {len(axes[axis])} value; give it two or more values (the "
+                         "steps), or drop \"sweeps\"")
+    lo, hi = SWEEP_JUMP_TOL_RANGE
+    allowed = f"{lo:g} <= jump_tol <= {hi:g} (the width in the swept parameter each jump is " \
+              "bracketed to)"
+    jump_tol = _number(sw.get("jump_tol", DEFAULT_SWEEP["jump_tol"]), "sweep.jump_tol", allowed)
+    if not lo <= jump_tol <= hi:
+        raise StudyError("sweep.jump_tol", f"must satisfy {allowed}, got {_r(jump_tol)}")
+    out: dict[str, Any] = {"axis": axis, "jump_tol": jump_tol}
+    for key, (lo, hi), what in (
+            ("settle_periods", SWEEP_SETTLE_PERIODS_RANGE,
+             "forcing periods a step's transient may run to settle"),
+            ("record_periods", SWEEP_RECORD_PERIODS_RANGE,
+             "forcing periods of the window a step that does not settle is measured over")):
+        value = sw.get(key, DEFAULT_SWEEP[key])
+        if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+            raise StudyError(f"sweep.{key}", f"expected an integer {lo}..{hi} ({what}), got "
+                             f"{_r(value)}")
+        out[key] = int(value)
+    return tuple(sorted(out.items()))
 
 
 def load_study(path: str | Path) -> Study:

@@ -5,7 +5,8 @@
   :func:`plot_results`, the loop over them. ``hertzmap plot STORE [--out DIR] [--which ...]``
   computes the products the figures need, stores them and calls it with the stored groups.
 * ``plane_figures`` (the (omega, sigma) plane: maps, measures, Lyapunov, bifurcation set),
-  ``line_figures`` (along a line: response, harmonics, stroboscopic diagram, histories),
+  ``line_figures`` (along a line: response, harmonics, stroboscopic diagram, histories,
+  stepped sweeps),
   ``damping_figures`` (over zeta), ``basin_figures`` (a point's basin map),
   ``paper_figures`` (the paper's analytic figures: ``hertzmap plot --paper fig02 ...``), and
   ``style`` (colours, labels, curve styles, saving), each figure a function of products and a
@@ -33,7 +34,8 @@ _LAZY = {
     "plot_basin_map": "basin_figures", "plot_impact_onset": "damping_figures",
     "plot_thresholds": "damping_figures", "plot_bifurcation_diagram": "line_figures",
     "plot_force_harmonics": "line_figures", "plot_frequency_response": "line_figures",
-    "plot_time_histories": "line_figures", "PAPER_FIGURES": "paper_figures",
+    "plot_time_histories": "line_figures", "plot_sweeps": "line_figures",
+    "PAPER_FIGURES": "paper_figures",
     "plot_paper": "paper_figures", "plot_bifurcation_set": "plane_figures",
     "plot_loss_of_contact_map": "plane_figures", "plot_lyapunov_map": "plane_figures",
     "plot_map_measures": "plane_figures", "plot_zeta_maps": "plane_figures",

@@ -174,6 +174,23 @@ def _histories_figure(sheet, prods, asked, figure) -> list[Path]:
     return [plot_time_histories(th, sheet.path("histories"))] if th.sizes["case"] else []
 
 
+def _sweeps_figure(sheet, prods, asked, figure) -> list[Path]:
+    from hertzmap.study.plots.line_figures import plot_sweeps
+    from hertzmap.study.products.stepped_sweeps import sweep_line
+
+    sweeps = prods["sweeps"]
+    n = sweeps.sizes["line"]
+    paths = []
+    for i in range(n if asked else min(n, figure.lines)):
+        line = sweep_line(sweeps, i)
+        if sheet.zeta.size == 1 and not np.isclose(sheet.zeta, line.attrs["zeta"]).any():
+            continue
+        tag = "".join(f"_{k}{line.attrs[k]:g}" for k in ("omega", "sigma") if k in line.attrs)
+        tag += sheet.zeta_tag(line.attrs["zeta"])
+        paths.append(plot_sweeps(line, sheet.path("sweeps", tag if n > 1 else "")))
+    return paths
+
+
 @dataclass(frozen=True)
 class Figure:
     """One figure of a store: ``which``, its name for ``hertzmap plot --which`` and in its
@@ -221,6 +238,9 @@ FIGURES: tuple[Figure, ...] = (
            _thresholds_figure),
     Figure("impact_onset", "where vibro-impacts start over (omega, zeta)", ("impact_onset",),
            _impact_onset_figure),
+    Figure("sweeps", "stepped-sine sweeps up and down each line: H1, H2, H1/2 and the "
+           "amplitude with their jumps, the stored branches behind", ("sweeps",),
+           _sweeps_figure, lines=8),
 )
 #: Every figure's --which name, in the catalog's order.
 WHICH = tuple(f.which for f in FIGURES)

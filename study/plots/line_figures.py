@@ -161,3 +161,107 @@ def zoom_for(fr, sigma, zeta):
     if not (line["period"].values[near] == 2).any():
         return None
     return (1.85, min(float(om.max()), 2.1))
+
+
+#: the sweeps' colours and markers, by direction (study.solve.sweep.DIRECTIONS order)
+SWEEP_STYLE = {0: ("tab:red", "^", "up sweep"), 1: ("tab:blue", "v", "down sweep")}
+
+
+def plot_sweeps(line, path, *, title=None) -> Path:
+    """Stepped-sine sweeps of one line (study.products.sweep_line of the ``sweeps`` product):
+    H1, H2, H1/2 of the contact force and the amplitude (peak-to-peak q) against the swept
+    parameter (frequency in Hz, forces in N, amplitude in um with a rig), the up and down
+    paths, an arrow at each jump from the level it left to the level it landed on (its kind
+    beside it), and the store's orbits along the line in grey behind (linked into branches:
+    stable solid, unstable dashed)."""
+    from matplotlib.lines import Line2D
+
+    axis = line.attrs.get("sweep_axis", "omega")
+    rig = "rig_N" in line.attrs
+    f0 = float(line.attrs.get("rig_f0_hz", np.nan))
+    n_rig = float(line.attrs.get("rig_N", np.nan))
+    if rig and axis == "omega":
+        xscale, xlabel = f0, "excitation frequency [Hz]"
+    elif rig:
+        xscale, xlabel = n_rig, "excitation force amplitude [N]"
+    else:
+        xscale, xlabel = 1.0, axis
+    x = line["value"].values * xscale
+    unit = "N" if rig else "F/N"
+    panels = (("H1", "branch_H1", f"H1 (excitation frequency) [{unit}]", n_rig if rig else 1.0),
+              ("H2", "branch_H2", f"H2 (twice the excitation frequency) [{unit}]",
+               n_rig if rig else 1.0),
+              ("H1_2", "branch_H1_2", f"H1/2 (subharmonic) [{unit}]", n_rig if rig else 1.0),
+              ("ptp", "branch_ptp", "amplitude, peak-to-peak " + ("[um]" if rig else "q"),
+               # q = n (z - z_s) / z_s (paper Eq. 5): ptp z_s / n in m, in um
+              1e6 * float(line.attrs.get("rig_z_s", np.nan)) / _exponent(line) if rig else 1.0))
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7.2), layout="constrained", sharex=True)
+    kinds = {int(v): k for v, k in zip(line["jump_kind"].attrs.get("flag_values", []),
+                                        line["jump_kind"].attrs.get("flag_meanings", "").split())}
+    bx = line["branch_value"].values * xscale
+    bid = line["branch_id"].values
+    bst = line["branch_stable"].values.astype(bool)
+    for ax, (name, bname, ylabel, scale) in zip(axes.flat, panels):
+        # the stored orbits, grey, linked into branches: a segment is solid when both its ends
+        # are stable
+        by = line[bname].values * scale
+        for b in np.unique(bid):
+            k = np.flatnonzero(bid == b)
+            k = k[np.argsort(bx[k])]
+            if k.size == 1:
+                ax.plot(bx[k], by[k], ".", color="0.6" if bst[k[0]] else "0.75", ms=2, zorder=1)
+                continue
+            # runs of segments of one kind drawn as one line (a dash pattern across them)
+            solid = bst[k[:-1]] & bst[k[1:]]
+            edges = np.flatnonzero(np.diff(solid.astype(int))) + 1
+            for run in np.split(np.arange(solid.size), edges):
+                pts = k[run[0]:run[-1] + 2]
+                ax.plot(bx[pts], by[pts], color="0.6" if solid[run[0]] else "0.75",
+                        ls="-" if solid[run[0]] else "--", lw=1.0 if solid[run[0]] else 0.8,
+                        zorder=1)
+        for d, (color, marker, _) in SWEEP_STYLE.items():
+            y = line[name].isel(direction=d).values * scale
+            # the path is broken at each jump (the arrow stands for it)
+            cut = np.zeros(x.size, bool)
+            for j in np.flatnonzero(line["jump_direction"].values == d):
+                a, c = int(line["jump_from_step"].values[j]), int(line["jump_to_step"].values[j])
+                if a >= 0:
+                    cut[max(a, c)] = True
+            at = np.flatnonzero(cut)
+            ax.plot(np.insert(x, at, np.nan), np.insert(y, at, np.nan), color=color,
+                    marker=marker, ms=3, lw=0.9, alpha=0.85, zorder=3)
+        for j in range(line.sizes["jump"]):
+            d = int(line["jump_direction"].values[j])
+            a, c = int(line["jump_from_step"].values[j]), int(line["jump_to_step"].values[j])
+            y = line[name].isel(direction=d).values * scale
+            if a < 0 or not (np.isfinite(y[a]) and np.isfinite(y[c])):
+                continue
+            xj = float(line["jump_value"].values[j]) * xscale
+            color = SWEEP_STYLE[d][0]
+            ax.annotate("", xy=(xj, y[c]), xytext=(xj, y[a]), zorder=4,
+                        arrowprops=dict(arrowstyle="->", color=color, lw=1.2, ls="--"))
+            ax.text(xj, 0.5 * (y[a] + y[c]), " " + kinds.get(int(line["jump_kind"].values[j]),
+                                                             "?"),
+                    color=color, fontsize=7, va="center", ha="left" if d == 0 else "right",
+                    zorder=5)
+        ax.set_ylabel(ylabel, fontsize=8)
+    for ax in axes[1]:
+        ax.set_xlabel(xlabel)
+    handles = [Line2D([], [], color=c, marker=m, ms=4, lw=0.9, label=lab)
+               for c, m, lab in SWEEP_STYLE.values()]
+    handles += [Line2D([], [], color="k", lw=1.2, ls="--", label="jump (fold, flip, loss)"),
+                Line2D([], [], color="0.6", lw=1.0, label="stored orbits, stable"),
+                Line2D([], [], color="0.75", lw=0.8, ls="--", label="stored orbits, unstable")]
+    fig.legend(handles=handles, loc="outside lower center", ncols=5, fontsize=8)
+    fixed = ", ".join(f"{k} = {line.attrs[k]:g}" for k in ("omega", "sigma", "zeta")
+                      if k in line.attrs and k != axis)
+    fig.suptitle(title or f"Stepped-sine sweeps along {axis}, {fixed}", fontsize=10)
+    return save(fig, path)
+
+
+def _exponent(ds) -> float:
+    """The contact exponent n of a product (its attrs; 1.5 when not a number)."""
+    try:
+        return float(ds.attrs.get("exponent", 1.5))
+    except (TypeError, ValueError):
+        return 1.5

@@ -28,6 +28,10 @@ One module per topic (docs/products.md has the reference):
 * ``damping``: :func:`thresholds` (sigma*, sigma** and the isola's join at each zeta, and
   continued in zeta: study.solve.thresholds), :func:`impact_onset` (where vibro-impacts
   start, over (omega, zeta));
+* ``stepped_sweeps``: the ``sweeps`` product (stepped-sine sweeps up and down each line with
+  their jumps, written by ``hertzmap run`` for studies with the ``sweeps`` output):
+  :func:`sweeps_dataset`, :func:`stepped_sweeps` (the same in one process), :func:`sweep_line`,
+  :func:`jumps_of`;
 * ``catalog``: the registry (:class:`Product`, :data:`PRODUCTS`), :func:`compute_products`.
 
 numpy / xarray / contourpy / scipy.ndimage only: no Dask, no scheduler, no writes.
@@ -51,6 +55,8 @@ from hertzmap.study.products.traced_curves import (TRACED_VARIABLES, failed_trac
                                           traced_segments)
 from hertzmap.study.products.results import (completed, contact_threshold, exponent_of, open_store,
                                     rig_of, source_attrs)
+from hertzmap.study.products.stepped_sweeps import (jumps_of, stepped_sweeps, sweep_line,
+                                                    sweeps_dataset)
 
 __all__ = [
     "STABLE_SET_FLAGS", "CURVES", "LOCATED_KINDS", "MMS_HALF_WIDTH", "MMS_OMEGA",
@@ -63,4 +69,5 @@ __all__ = [
     "stroboscopic_diagrams", "diagram_line", "mms_curves_over", "mms_response_over",
     "thresholds", "impact_onset", "THRESHOLD_VARIABLES", "MEASURED_STAR_RATIO", "MEASURED_ZETA",
     "PRODUCTS", "RUN_PRODUCTS", "Context", "Product",
+    "stepped_sweeps", "sweeps_dataset", "sweep_line", "jumps_of",
 ]

@@ -62,10 +62,11 @@ class Product:
     optional: tuple[str, ...] = ()
 
 
-#: Products that ``hertzmap run`` writes itself (its stages for the ``curves`` and
-#: ``thresholds`` outputs: scheduler.curve_tasks, scheduler.threshold_tasks) and the others may
-#: take.
-RUN_PRODUCTS = ("traced_curves", "thresholds")
+#: Products that ``hertzmap run`` writes itself (its stages for the ``curves``, ``thresholds``
+#: and ``sweeps`` outputs: scheduler.curve_tasks, scheduler.threshold_tasks,
+#: scheduler.sweep_tasks; the last built by study.products.stepped_sweeps.sweeps_dataset) and
+#: the others may take.
+RUN_PRODUCTS = ("traced_curves", "thresholds", "sweeps")
 
 #: frequency_response and mms_response: studies of at most this many (sigma, zeta) lines.
 MAX_LINES = 16

@@ -24,7 +24,9 @@ does the same on the stroboscopic map (kernels.api.attractor):
   is, by the identity rule (study.orbit_rules.same_orbit, compared at the same parameter
   point), the orbit that step k's orbit continues into there: Newton shooting of step k's
   period from step k's orbit (in ``FOLLOW_SUBSTEPS`` substeps when a direct shot does not give
-  it). Near a fold or a flip the followed orbit's multiplier nearest the unit circle makes the
+  it), each shot checked by its round trip (shooting back at the value it came from must give
+  the orbit it started from: past a fold, Newton from the branch's last orbit can land on a
+  coexisting orbit of the same period, which the transient may reach too). Near a fold or a flip the followed orbit's multiplier nearest the unit circle makes the
   transient settle in ~1 / (1 - |mu|) periods, beyond any budget at 1e-6 from the bifurcation
   (critical slowing down): a transient that has not settled on anything within the budget is
   still on the branch when the branch's orbit there is stable and the transient ended no
@@ -37,13 +39,27 @@ does the same on the stroboscopic map (kernels.api.attractor):
   from the followed orbit at the bracket's attracting end (the state the sweep arrived with,
   carried along the branch as a slow sweep would: the quasi-static limit of the rig's sweep),
   judged by the same rule. The jump is where the followed branch ceases to attract: a fold (a
-  real Floquet multiplier of the followed orbit -> +1, the orbit disappears), a flip (-> -1,
+  real Floquet multiplier of the followed orbit -> +1, the orbit disappears; also when the
+  multipliers at the bracket's attracting end are near neither but the followed orbit no
+  longer exists at its far end, as past a grazing, where they run to +1 within 1e-6), a flip (-> -1,
   the orbit loses stability to a period-doubled response) or, when the multipliers at the
   bracket's attracting end are near neither, a "loss" (e.g. a complex pair crossing the unit
   circle; or, with ``before`` at the step after the jump itself, the step's own jump crossed
   a basin boundary: the state the rig arrived with lies outside the basin of the branch's orbit
   there, which a slower sweep would have kept). A jump after a step without an orbit is not located
   (there is no branch to follow): kind "unlocated", bracket = the two steps.
+
+**Swept sine at a finite rate** (:func:`swept_sine`): the rig's other way to sweep, the
+parameter moved continuously at ``rate`` per unit dimensionless time tau while the forcing runs,
+never waiting for the response to settle. The forcing's phase is integrated with the rate: the
+parameter is updated at the end of every forcing cycle (by rate x the cycle's length, as a
+digital sweep generator does), so the phase omega tau runs on continuously through each cycle,
+and the motion is never restarted. Its jumps come later than the stepped sweep's, the later the
+faster it sweeps (the response lags the branch, and near a fold or a flip the branch attracts
+ever more slowly), and tend to them as the rate falls (past the 2T fold at sigma 0.5, zeta
+0.01, sweeping down: 3.7e-3, 8.6e-4, 1.9e-4 in omega at rates 1e-5, 1e-6, 1e-7, about
+8.6 rate^(2/3), the slow passage through a fold). :func:`swept_jump` reads where a swept response leaves
+the branch a stepped sweep's jump left.
 
 Pure: numpy and the kernels' Python API; dataclasses out. No I/O, no Dask, no xarray.
 """
@@ -62,7 +78,7 @@ from hertzmap.kernels.api import Attractor, Orbit
 from hertzmap.study.orbit_rules import class_code, same_orbit
 
 __all__ = ["AXES", "DIRECTIONS", "FOLLOW_SUBSTEPS", "JUMP_KINDS", "Jump", "Step", "Sweep",
-           "jump_kind", "stepped_sweep"]
+           "SweptSine", "jump_kind", "stepped_sweep", "swept_sine", "swept_jump"]
 
 #: The parameters a sweep can step (the other two are held fixed).
 AXES = ("omega", "sigma", "zeta")
@@ -160,8 +176,10 @@ class Jump:
     branch still attracted (a probe started on it settled back on it, or was approaching it,
     stable, when its budget ran out); after: the first where it no longer did. located: False
     for a jump after a step without an orbit (bracket = the two steps, not halved).
-    kind: "fold" (a real multiplier of the followed orbit at ``before`` within kind_tol of +1),
-    "flip" (within kind_tol of -1), "loss" (neither), "unlocated".
+    kind: "fold" (a real multiplier of the followed orbit at ``before`` within kind_tol of +1,
+    or neither near +1 nor -1 and the followed orbit gone at ``after``), "flip" (within
+    kind_tol of -1), "loss" (neither, and the followed orbit still there at ``after``),
+    "unlocated".
     from_period / to_period: the period m of the attractor left / landed on (0: not periodic).
     from_orbit: the followed orbit at ``before`` (refined by shooting); multipliers: its
     Floquet multipliers; margin: the distance to +1 (fold) or -1 (flip) of the multiplier
@@ -292,17 +310,27 @@ class _Sweeper:
 
     def follow(self, orbit: Orbit, v_from: float, v_to: float, substeps: int) -> Orbit | None:
         """The orbit ``orbit`` (at v_from) continues into at v_to: Newton shooting of its period
-        from it, in ``substeps`` equal steps; None when a substep fails or lands on an orbit of
-        a shorter period."""
-        x = orbit.x0
+        from it, in ``substeps`` equal steps; None when a substep fails, lands on an orbit of a
+        shorter period, or lands on another branch: each substep's orbit must shoot back onto
+        the orbit it started from (the round trip, :meth:`returns`)."""
+        prev, v_prev = orbit, v_from
         o = None
         for j in range(1, substeps + 1):
             v = v_to if j == substeps else v_from + (v_to - v_from) * j / substeps
-            o = self.shoot(v, orbit.period, x)
-            if not _is_orbit_of_period(o):
+            o = self.shoot(v, orbit.period, prev.x0)
+            if not _is_orbit_of_period(o) or not self.returns(o, prev, v_prev):
                 return None
-            x = o.x0
+            prev, v_prev = o, v
         return o
+
+    def returns(self, o: Orbit, prev: Orbit, v_prev: float) -> bool:
+        """The round trip of a continuation step: Newton shooting at v_prev from ``o`` gives
+        ``prev`` back (study.orbit_rules.same_orbit). Past a fold, Newton from the branch's
+        last orbit can converge to another stable orbit of the same period (a coexisting
+        branch); that orbit exists at v_prev too, and shooting back lands on it, not on
+        ``prev``: the step left the branch."""
+        back = self.shoot(v_prev, prev.period, o.x0)
+        return _is_orbit_of_period(back) and same_orbit(back, prev)
 
     def continues(self, orbit: Orbit, v_from: float, v_to: float,
                   att: Attractor) -> tuple[bool, Orbit | None]:
@@ -419,6 +447,11 @@ class _Sweeper:
                 after = mid
         self.probes += len(log)
         kind, margin = jump_kind(orbit.multipliers, self.kind_tol)
+        if kind == "loss" and self.follow(orbit, before, after, FOLLOW_SUBSTEPS) is None:
+            # the followed orbit no longer exists at ``after``: it disappeared in the bracket,
+            # a fold whose multiplier runs to +1 faster than kind_tol sees (past a grazing:
+            # 0.92 +- 0.04i at 3e-7 before the fold of the 1T branch at sigma 0.5, omega 0.7535)
+            kind, margin = "fold", float(np.min(np.abs(np.asarray(orbit.multipliers) - 1.0)))
         return Jump(value=0.5 * (before + after), accuracy=abs(after - before), before=before,
                     after=after, located=True, kind=kind, from_period=prev.period,
                     to_period=nxt.period, from_orbit=orbit, multipliers=orbit.multipliers,
@@ -531,3 +564,135 @@ def stepped_sweep(axis: str, values, fixed: dict[str, float], direction: str = "
     return Sweep(axis=axis, direction=direction, fixed=fixed, values=values,
                  steps=tuple(steps), jumps=tuple(jumps), probes=sw.probes,
                  seconds=time.perf_counter() - t0, settings=settings)
+
+
+# ---- swept sine at a finite rate ---------------------------------------------------------------
+
+#: swept_sine's integration tolerance (a swept response is a transient: the attractors' default)
+SWEPT_RTOL = api.DEFAULT_ATTRACTOR_RTOL
+#: swept_sine refuses a run longer than this many forcing cycles (about 40 us each)
+MAX_SWEPT_CYCLES = 10_000_000
+
+
+@dataclass(frozen=True)
+class SweptSine:
+    """A swept-sine run (module docstring): one row per forcing cycle, in the order run.
+
+    axis: the swept parameter ("omega" or "sigma"); rate: its rate of change per unit tau
+    (signed: negative sweeps down); fixed: the other two parameters. values: the parameter
+    during each cycle; tau: the time each cycle starts at; start: (cycles, 2) the state (q, q')
+    at each cycle's start (forcing phase 0 mod 2 pi); min_q, max_q: over each cycle, on
+    ``samples_per_cycle`` samples and its ends. status: the kernels.status of the last cycle
+    (0: every cycle integrated). seconds: wall time; settings: the options it ran with.
+    """
+
+    axis: str
+    rate: float
+    fixed: dict[str, float]
+    values: np.ndarray
+    tau: np.ndarray
+    start: np.ndarray
+    min_q: np.ndarray
+    max_q: np.ndarray
+    status: int
+    seconds: float
+    settings: dict[str, Any] = field(default_factory=dict, repr=False)
+
+    @property
+    def direction(self) -> str:
+        return "up" if self.rate > 0 else "down"
+
+    def ptp(self, window: int = 1) -> np.ndarray:
+        """Peak-to-peak q over the last ``window`` cycles at each cycle (a response of period m
+        forcing cycles spans m of them); NaN for the first window - 1 cycles."""
+        w = int(window)
+        out = np.full(self.values.size, np.nan)
+        for k in range(w - 1, self.values.size):
+            out[k] = (np.max(self.max_q[k - w + 1:k + 1]) - np.min(self.min_q[k - w + 1:k + 1]))
+        return out
+
+
+def swept_sine(axis: str, start: float, stop: float, rate: float, fixed: dict[str, float],
+               x0=(0.0, 0.0), *, exponent: float = 1.5, model: str = "hertz",
+               rtol: float = SWEPT_RTOL, samples_per_cycle: int = 32,
+               max_cycles: int = MAX_SWEPT_CYCLES) -> SweptSine:
+    """A swept sine of paper Eq. 7: ``axis`` ("omega" or "sigma") moved from ``start`` to
+    ``stop`` at ``rate`` (> 0, per unit dimensionless time tau; the sign of stop - start says
+    up or down) with the other two parameters in ``fixed``, from x0 = (q, q') at tau = 0. The
+    parameter is updated at the end of each forcing cycle T = 2 pi / omega by rate T (phase
+    continuous; module docstring); the run ends with the first cycle that reaches ``stop``.
+    rtol: the integrator's; samples_per_cycle: where each cycle's min q and max q are read.
+    On the paper's rig (f0 = 271 Hz) a rate r in omega is r 2 pi f0^2 Hz/s: 1e-6 is 0.46 Hz/s.
+    Returns a :class:`SweptSine`."""
+    t0 = time.perf_counter()
+    if axis not in ("omega", "sigma"):
+        raise ValueError(f"axis must be 'omega' or 'sigma', got {axis!r}")
+    others = [a for a in AXES if a != axis]
+    fixed = {k: float(v) for k, v in dict(fixed).items()}
+    if set(fixed) != set(others):
+        raise ValueError(f"fixed must give exactly {others} (the parameters not swept), got "
+                         f"{sorted(fixed)}")
+    start, stop, rate = float(start), float(stop), float(rate)
+    if not (np.isfinite(start) and np.isfinite(stop) and start != stop):
+        raise ValueError(f"start and stop must be two different finite numbers, got {start!r}, "
+                         f"{stop!r}")
+    if not (np.isfinite(rate) and rate > 0.0):
+        raise ValueError(f"rate must be a number > 0 (the direction is that of stop - start), "
+                         f"got {rate!r}")
+    x = np.asarray(x0, float)
+    if x.shape != (2,) or not np.all(np.isfinite(x)):
+        raise ValueError(f"x0 must be two finite numbers (q, q'), got {x0!r}")
+    sign = 1.0 if stop > start else -1.0
+    lowest_omega = min(start, stop) if axis == "omega" else fixed["omega"]
+    if lowest_omega <= 0.0:
+        raise ValueError("omega must stay > 0 over the sweep")
+    longest = 2.0 * math.pi / lowest_omega
+    if abs(stop - start) / (rate * longest) > max_cycles:
+        raise ValueError(f"the sweep would run more than max_cycles = {max_cycles} forcing "
+                         "cycles; sweep faster or a shorter range")
+    p = dict(fixed)
+    values, taus, starts, lows, highs = [], [], [], [], []
+    tau, value, status = 0.0, start, 0
+    while (stop - value) * sign > 0.0:
+        p[axis] = value
+        T = 2.0 * math.pi / p["omega"]
+        r = api.simulate(p["omega"], p["sigma"], p["zeta"], x, periods=1.0,
+                         samples_per_period=int(samples_per_cycle), exponent=exponent,
+                         model=model, rtol=rtol)
+        values.append(value)
+        taus.append(tau)
+        starts.append(x)
+        lows.append(float(np.nanmin(r["q"])))
+        highs.append(float(np.nanmax(r["q"])))
+        status = int(r["status"])
+        if status != st.CONVERGED or not np.all(np.isfinite(r["final"])):
+            break
+        x = np.asarray(r["final"], float)
+        tau += T
+        value += sign * rate * T
+    return SweptSine(axis=axis, rate=sign * rate, fixed=fixed, values=np.array(values),
+                     tau=np.array(taus), start=np.array(starts).reshape(-1, 2),
+                     min_q=np.array(lows), max_q=np.array(highs), status=status,
+                     seconds=time.perf_counter() - t0,
+                     settings=dict(exponent=float(exponent), model=model, rtol=float(rtol),
+                                   samples_per_cycle=int(samples_per_cycle),
+                                   x0=(float(x0[0]), float(x0[1]))))
+
+
+def swept_jump(swept: SweptSine, jump: Jump) -> tuple[float, float]:
+    """(value, delay): where the swept response leaves the branch that a stepped sweep's
+    located ``jump`` (same line, same direction) left: the first cycle at which its ptp over
+    max(from_period, to_period) cycles crosses the middle between the followed orbit's ptp at
+    jump.before and the ptp of the step it landed on; delay: how far past jump.value that is,
+    in the sweep's direction (> 0: later; NaN, NaN when it never crosses)."""
+    if not jump.located or jump.from_orbit is None or jump.to_step.orbit is None:
+        raise ValueError("swept_jump needs a located jump between two periodic responses")
+    level = 0.5 * (jump.from_orbit.ptp + jump.to_step.ptp)
+    falling = jump.to_step.ptp < jump.from_orbit.ptp
+    ptp = swept.ptp(max(jump.from_period, jump.to_period, 1))
+    with np.errstate(invalid="ignore"):
+        hit = np.flatnonzero(ptp < level if falling else ptp > level)
+    if hit.size == 0:
+        return math.nan, math.nan
+    value = float(swept.values[hit[0]])
+    return value, (value - jump.value) * (1.0 if swept.rate > 0 else -1.0)

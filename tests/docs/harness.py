@@ -71,6 +71,10 @@ SMALL: dict[str, dict] = {
                 "outputs": ["orbits", "measures", "thresholds"]},
     # a chaotic point (0.5, 2.5) and its neighbours: the census query of dataset.md
     "vibro_impact": {"omega": slice(7, 9), "sigma": slice(48, 50)},
+    # the whole line (167 omega values, about 10 s): the down sweep must start above the 1T
+    # flip to follow the 2T response down to its fold at 0.4721, the up sweep cross the flip at
+    # 1.9776 (the jumps of dataset.md's worked query and of VALIDATION.md)
+    "sweeps": {},
 }
 
 #: what replaces a scene name in text (the figures' own folder is the repository's)

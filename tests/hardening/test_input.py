@@ -19,7 +19,7 @@ from hypothesis import HealthCheck, given, settings, strategies as hs
 import pytest
 
 from hertzmap.scheduler.cli import main
-from hertzmap.study.spec import MAX_GRID_POINTS
+from hertzmap.study.spec import MAX_GRID_POINTS, OUTPUTS
 from tests.helpers import PLACEHOLDER, hertzmap_cmd, subprocess_env
 
 
@@ -213,7 +213,7 @@ def leaf_bad(draw):
         doc["products"]["outputs"] = draw(hs.one_of(
             hs.just("orbits"), hs.just(["orbits", "orbits"]), hs.just([1]),
             hs.lists(hs.text(max_size=6).filter(
-                lambda s: s not in ("orbits", "measures", "force_harmonics", "diagnostics")),
+                lambda s: s not in OUTPUTS),
                 min_size=1, max_size=3)))
         return doc, {"products.outputs"}
     if which == "contact":

@@ -42,11 +42,13 @@ def test_plots_write_pngs(tmp_path):
 @pytest.fixture(scope="module")
 def real(tmp_path_factory):
     """The products of a small real store of every output (tests.helpers), made-up traced
-    curves standing for the run's."""
+    curves standing for the run's, and the stepped sweeps of its two lines (the run's sweeps
+    stage computes the same)."""
     store = solved_results(EVERY_OUTPUT_STUDY, tmp_path_factory.mktemp("real") / "r.zarr")
     ds = P.open_store(store)
     traced = fake_traced_curves()
-    return ds, {"traced_curves": traced, **P.compute_products(ds, given={"traced_curves": traced})}
+    return ds, {"traced_curves": traced, "sweeps": P.stepped_sweeps(ds),
+                **P.compute_products(ds, given={"traced_curves": traced})}
 
 
 def test_every_figure_of_the_registry_is_drawn_from_its_product_alone(real, tmp_path,
@@ -63,7 +65,8 @@ def test_every_figure_of_the_registry_is_drawn_from_its_product_alone(real, tmp_
     for name in ("compute_products", "orbit_classes", "loss_of_contact_map", "bifurcation_curves",
                  "located_curves", "mms_curves", "mms_response", "mms_curves_over",
                  "mms_response_over", "frequency_response", "force_harmonics", "time_histories",
-                 "stroboscopic_diagram", "stroboscopic_diagrams", "isola_boundary"):
+                 "stroboscopic_diagram", "stroboscopic_diagrams", "isola_boundary",
+                 "stepped_sweeps", "sweeps_dataset"):
         monkeypatch.setattr(P, name, computed)
     monkeypatch.setattr(P, "PRODUCTS", tuple(dataclasses.replace(p, compute=computed)
                                              for p in P.PRODUCTS))
@@ -72,7 +75,8 @@ def test_every_figure_of_the_registry_is_drawn_from_its_product_alone(real, tmp_
         ["real_map.png", "real_measures.png", "real_lyapunov.png", "real_bifurcation.png",
          "real_response_sigma0.3.png", "real_response_sigma0.5.png",
          "real_harmonics_sigma0.3.png", "real_harmonics_sigma0.5.png",
-         "real_strobe_sigma0.3.png", "real_strobe_sigma0.5.png", "real_histories.png"])
+         "real_strobe_sigma0.3.png", "real_strobe_sigma0.5.png", "real_histories.png",
+         "real_sweeps_sigma0.3.png", "real_sweeps_sigma0.5.png"])
     for p in paths:
         assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # a scene of named frequencies (2 omega): by default its histories, not its responses;
@@ -82,7 +86,7 @@ def test_every_figure_of_the_registry_is_drawn_from_its_product_alone(real, tmp_
     assert "strobe_q" in ds
     assert sorted(p.name for p in auto) == sorted(
         ["real_map.png", "real_measures.png", "real_lyapunov.png", "real_bifurcation.png",
-         "real_histories.png"])
+         "real_histories.png", "real_sweeps_sigma0.3.png", "real_sweeps_sigma0.5.png"])
     with pytest.raises(ValueError, match="unknown figure"):
         plots.plot_results(ds, prods, tmp_path, which=["maps"])
 

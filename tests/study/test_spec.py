@@ -100,6 +100,21 @@ BAD = [
     (with_grid(extra='[rig]\nE = 2e11\nnu = 0.3\nR = 0.01\nm = 1.0\nN = 10\ncontact = "triple"\n'),
      "rig.contact", "'double', 'single'"),
     (with_grid(extra="[cluster]\nworkers = 4\n"), "cluster", "unknown key"),
+    # the sweeps output and its [sweep] table
+    (with_grid(extra='[products]\noutputs = ["sweeps"]\n'), "products.outputs",
+     "grid.omega (sweep.axis), which has 1 value"),
+    (with_grid(omega="[1.0, 1.1]", extra='[products]\noutputs = ["sweeps"]\n[sweep]\n'
+               'axis = "sigma"\n'), "products.outputs", "grid.sigma (sweep.axis)"),
+    (with_grid(omega="[1.0, 1.1]", extra='[sweep]\naxis = "omega"\n'), "sweep",
+     '"sweeps" in products.outputs'),
+    (with_grid(omega="[1.0, 1.1]", extra='[products]\noutputs = ["sweeps"]\n[sweep]\naxis = "zeta"\n'), "sweep.axis", "'omega', 'sigma'"),
+    (with_grid(omega="[1.0, 1.1]", extra='[products]\noutputs = ["sweeps"]\n[sweep]\njump_tol = 0.0\n'), "sweep.jump_tol", "1e-10 <= jump_tol <= 0.1"),
+    (with_grid(omega="[1.0, 1.1]", extra='[products]\noutputs = ["sweeps"]\n[sweep]\njump_tol = 0.5\n'), "sweep.jump_tol", "1e-10 <= jump_tol <= 0.1"),
+    (with_grid(omega="[1.0, 1.1]", extra='[products]\noutputs = ["sweeps"]\n[sweep]\njump_tol = "fine"\n'), "sweep.jump_tol", "1e-10 <= jump_tol <= 0.1"),
+    (with_grid(omega="[1.0, 1.1]", extra='[products]\noutputs = ["sweeps"]\n[sweep]\nsettle_periods = 5\n'), "sweep.settle_periods", "10..1000000"),
+    (with_grid(omega="[1.0, 1.1]", extra='[products]\noutputs = ["sweeps"]\n[sweep]\nsettle_periods = 100.5\n'), "sweep.settle_periods", "10..1000000"),
+    (with_grid(omega="[1.0, 1.1]", extra='[products]\noutputs = ["sweeps"]\n[sweep]\nrecord_periods = 20000\n'), "sweep.record_periods", "32..10000"),
+    (with_grid(omega="[1.0, 1.1]", extra='[products]\noutputs = ["sweeps"]\n[sweep]\nsteps = 10\n'), "sweep.steps", "unknown key"),
     ("[grid\nomega = 1", "toml", "not valid TOML"),
 ]
 
@@ -315,3 +330,28 @@ def _toml_of(d) -> str:
             if v is not None:
                 lines.append(f"{k} = {value(v)}")
     return "\n".join(lines) + "\n"
+
+
+def test_the_sweeps_output_and_its_sweep_table():
+    """products.outputs "sweeps": the [sweep] table's defaults (axis omega, jump_tol 1e-6, 4000 +
+    200 periods a step), implied measures, the lines it sweeps, the canonical form (a study
+    without it hashes as before: the key is not in its canonical form)."""
+    base = '[grid]\nomega = [1.0, 1.1, 1.2]\nsigma = [0.2, 0.3]\nzeta = [0.01]\n'
+    plain = parse_study(base, default_name="s")
+    assert plain.sweep is None and plain.sweep_lines() == [] and "sweep" not in plain.to_dict()
+    s = parse_study(base + '[products]\noutputs = ["sweeps"]\n', default_name="s")
+    assert s.sweep_dict == {"axis": "omega", "jump_tol": 1e-6, "settle_periods": 4000,
+                            "record_periods": 200}
+    assert s.outputs[:2] == ("orbits", "measures") and "sweeps" in s.outputs
+    assert s.sweep_lines() == [{"sigma": 0.2, "zeta": 0.01}, {"sigma": 0.3, "zeta": 0.01}]
+    assert parse_study(_toml_of(s.to_dict()), default_name="s").hash == s.hash
+    written = parse_study(base + '[products]\noutputs = ["sweeps"]\n[sweep]\naxis = "omega"\n'
+                          "jump_tol = 1e-6\n", default_name="s")
+    assert written.hash == s.hash                   # defaults written out: the same study
+    along = parse_study(base + '[products]\noutputs = ["sweeps"]\n[sweep]\naxis = "sigma"\n'
+                        "jump_tol = 1e-5\nsettle_periods = 100\nrecord_periods = 64\n",
+                        default_name="s")
+    assert along.hash != s.hash
+    assert along.sweep_dict == {"axis": "sigma", "jump_tol": 1e-5, "settle_periods": 100,
+                                "record_periods": 64}
+    assert along.sweep_lines() == [{"omega": w, "zeta": 0.01} for w in (1.0, 1.1, 1.2)]

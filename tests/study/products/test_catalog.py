@@ -190,10 +190,12 @@ def test_a_store_with_every_product_and_a_basin_map_opens_as_one_datatree(real_s
     name = basin_map_name(omega, sigma, zeta)
     write_product(store, name, basin_map_dataset(bm, {"hertzmap_product_source":
                                                       "hertzmap basins"}))
+    # the stepped sweeps of its two lines, as hertzmap run's sweeps stage writes them
+    write_product(store, "sweeps", P.stepped_sweeps(P.open_store(store)))
 
     tree, groups = _tree_and_groups(store)
     assert set(tree.groups) == set(groups) == (
-        {"/", "/products", "/products/traced_curves", f"/products/{name}"}
+        {"/", "/products", "/products/traced_curves", "/products/sweeps", f"/products/{name}"}
         | {f"/products/{n}" for n in prods})
     _assert_aligned(groups)
     root = groups["/"]
@@ -209,6 +211,9 @@ def test_a_store_with_every_product_and_a_basin_map_opens_as_one_datatree(real_s
     assert basins.sizes["strobe"] == root.sizes["strobe"]
     assert list(basins["attractor_period"].values) == [a["period"] for a in bm.attractors]
     assert tree[f"products/{name}"]["basin_label"].shape == (3, 4)
+    sweeps = groups["/products/sweeps"]
+    assert sweeps.sizes["line"] == 2 and sweeps.sizes["step"] == root.sizes["omega"]
+    assert "omega" not in sweeps.dims and sweeps.sizes["multiplier"] == root.sizes["multiplier"]
 
 
 def test_products_of_axes_listed_out_of_order_align_with_the_main_group(tmp_path):
@@ -222,6 +227,7 @@ def test_products_of_axes_listed_out_of_order_align_with_the_main_group(tmp_path
     ds = P.open_store(store)
     write_product(store, "traced_curves", fake_traced_curves(0.01))
     write_product(store, "thresholds", thresholds_dataset(ds, (None, "none"), (None, [], "none")))
+    write_product(store, "sweeps", P.stepped_sweeps(ds))
     prods = _plot_products(store)
     assert {"loss_of_contact_map", "impact_onset", "mms_response", "isola_boundary"} <= set(prods)
     tree, groups = _tree_and_groups(store)
@@ -231,6 +237,10 @@ def test_products_of_axes_listed_out_of_order_align_with_the_main_group(tmp_path
                                   [2.05, 1.9, 2.0])
     for group in ("thresholds", "isola_boundary", "impact_onset", "mms_curves"):
         np.testing.assert_array_equal(groups[f"/products/{group}"]["zeta"], [0.02, 0.01, 0.03])
+    sweeps = groups["/products/sweeps"]          # its lines in the study's order, steps sorted
+    np.testing.assert_array_equal(sweeps["line_sigma"], [0.5] * 3 + [0.3] * 3)
+    np.testing.assert_array_equal(sweeps["line_zeta"], [0.02, 0.01, 0.03] * 2)
+    np.testing.assert_array_equal(sweeps["value"], [1.9, 2.0, 2.05])
     iso = groups["/products/isola_boundary"]
     np.testing.assert_array_equal(iso["sigma_isola"], [np.nan, 0.17, np.nan])
     np.testing.assert_array_equal(iso["curve"], [-1, 0, -1])

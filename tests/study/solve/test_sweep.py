@@ -9,7 +9,7 @@ import pytest
 
 from benchmarks import oracle
 from hertzmap.kernels import shoot, status
-from hertzmap.study.solve.sweep import jump_kind, stepped_sweep
+from hertzmap.study.solve.sweep import jump_kind, stepped_sweep, swept_jump, swept_sine
 
 Z, S = 0.01, 0.5
 #: paper Fig. 6 (sigma 0.5, zeta 0.01): the fold where the 2T branch born at the 1T flip ends
@@ -152,3 +152,80 @@ def test_bad_arguments_raise(kwargs, message):
     args.update(kwargs)
     with pytest.raises(ValueError, match=message):
         stepped_sweep(**args)
+
+
+@pytest.mark.parametrize("start, stop, guess, fold", [(0.44, 0.48, (0.0, 0.0), 0.466517),
+                                                      (0.74, 0.77, (1.3, 0.05), 0.753526)])
+def test_up_sweep_leaves_the_1t_branch_at_its_fold_onto_the_other_1t_branch(start, stop, guess,
+                                                                            fold):
+    """Up in omega at sigma 0.5 over the 2:1 superharmonic and the primary resonance's bends
+    (the sweeps scene's up sweep): the 1T branch the sweep follows ends at a fold where a larger
+    1T orbit with contact loss coexists. Newton from the branch's last orbit past the fold lands
+    on that orbit, which the transient reaches too: the round trip (shooting back must give the
+    orbit it started from) keeps the sweep from calling it the same branch. At omega 0.7535 the
+    followed orbit has grazed (min q < -n) and its multipliers are a complex pair 0.92 +- 0.04i
+    at 6e-7 before the fold: the branch gone at the bracket's far end names it a fold. The
+    oracle's fold (period 1, scipy hybr) within the bracket."""
+    first = shoot(start, S, Z, 1, guess=guess)          # the 1T orbit in contact
+    assert first.converged and first.stable and not first.loses_contact
+    values = np.round(np.arange(start, stop + 1e-9, 0.01), 10)
+    sw = stepped_sweep("omega", values, {"sigma": S, "zeta": Z}, "up", first.x0,
+                       settle_periods=4000)
+    (jump,) = sw.jumps
+    assert jump.located and jump.kind == "fold" and (jump.from_period, jump.to_period) == (1, 1)
+    assert 0.0 < jump.accuracy <= 1e-6 and abs(jump.value - fold) < 1e-5, jump.value
+    before, after = sw.steps[jump.step_index - 1], jump.to_step
+    assert after.loses_contact and after.ptp > 1.5 * before.ptp     # onto the larger orbit
+    x_o, w_o, (fixed_res, fold_res) = oracle.fold_point(
+        jump.from_orbit.x0 + 1e-3, jump.before - 1e-5, S, Z, 1, rtol=1e-11)
+    assert fixed_res < 1e-8 * (1.0 + np.abs(x_o).max()) and fold_res < 1e-8
+    assert abs(jump.value - w_o) <= jump.accuracy + MARGIN, (jump.value, w_o)
+
+
+
+def test_a_swept_sine_jumps_later_the_faster_it_sweeps_and_tends_to_the_stepped_jump(
+        down_from_2t):
+    """Swept down in omega at a finite rate from the stable 2T orbit at omega 0.48 (the stepped
+    sweep's step there), the forcing's phase run on continuously: the response leaves the 2T
+    branch after the stepped sweep's fold (0.4720908), the later the faster the sweep, the
+    delay shrinking like rate^(2/3) (the slow passage through a fold: 3.7e-3, 8.6e-4, 1.9e-4
+    at rates 1e-5, 1e-6, 1e-7, about 8.6 rate^(2/3)) towards the stepped jump as the rate
+    falls. 1e-7 per unit tau is 0.046 Hz/s on the paper's rig."""
+    (jump,) = down_from_2t.jumps
+    step = next(s for s in down_from_2t.steps if s.value == pytest.approx(0.48))
+    assert step.period == 2 and step.stable
+    delays = []
+    for rate in (1e-5, 1e-6, 1e-7):
+        sw = swept_sine("omega", 0.48, 0.462, rate, {"sigma": S, "zeta": Z}, step.orbit.x0)
+        assert sw.status == status.CONVERGED and sw.direction == "down"
+        assert np.all(np.diff(sw.values) < 0) and sw.values[-1] > 0.462 - rate * 14
+        # the forcing cycles' lengths: each cycle's omega moved by rate T
+        np.testing.assert_allclose(-np.diff(sw.values), rate * 2 * np.pi / sw.values[:-1],
+                                   rtol=1e-9)
+        value, delay = swept_jump(sw, jump)
+        assert value < jump.value and delay == pytest.approx(jump.value - value)
+        delays.append(delay)
+        # before the jump it is on the 2T branch: its ptp over two cycles near the orbit's
+        on = sw.values > jump.value + 5e-3
+        assert np.allclose(sw.ptp(2)[on][1:], 81.0, rtol=0.05)
+    assert delays[0] > delays[1] > delays[2] > 0.0, delays
+    for faster, slower in zip(delays, delays[1:]):
+        assert 0.1 < slower / faster < 0.4, delays        # 10^(-2/3) = 0.215
+    assert delays[2] < 5e-4, delays
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(axis="zeta"), "axis"),
+    (dict(rate=0.0), "rate"),
+    (dict(rate=-1e-5), "rate"),
+    (dict(stop=0.5), "start and stop"),
+    (dict(rate=1e-12), "max_cycles"),
+    (dict(fixed={"sigma": S}), "fixed"),
+])
+def test_bad_swept_sine_arguments_raise(kwargs, message):
+    args = dict(axis="omega", start=0.5, stop=0.6, rate=1e-5, fixed={"sigma": S, "zeta": Z})
+    args.update(kwargs)
+    if args["axis"] == "zeta":
+        args["fixed"] = {"omega": 0.5, "sigma": S}
+    with pytest.raises(ValueError, match=message):
+        swept_sine(**args)
