@@ -22,8 +22,8 @@ from hertzmap.scheduler.cluster import ClusterSpec, close_quietly, make_client
 from hertzmap.scheduler.errors import RefusedError, StoreError
 from hertzmap.scheduler.interrupt import DeferInterrupt
 from hertzmap.scheduler.stage import Task, TaskRunner
-from hertzmap.scheduler.store import Lock, read_attrs, write_product
-from hertzmap.study.schema import StoreFormatError, check_format, study_from_attrs
+from hertzmap.scheduler.store import Lock, store_attrs, write_product
+from hertzmap.study.schema import study_from_attrs
 from hertzmap.study.spec import StudyError
 from hertzmap.study.solve.basin_grid import basin_block, grid_axes, merge_blocks, row_blocks
 from hertzmap.study.solve.seeds import TRANSIENT_BOX
@@ -86,13 +86,7 @@ def check_request(store: str | Path, omega: float, sigma: float, zeta: float | N
     """The request, checked against the store (nothing is written): RefusedError naming the
     option and what is allowed."""
     store = Path(store)
-    attrs = read_attrs(store)
-    if attrs is None:
-        raise StoreError(f"{store} is not a zarr store")
-    try:
-        check_format(attrs, str(store))
-    except StoreFormatError as exc:
-        raise StoreError(str(exc)) from None
+    attrs = store_attrs(store)
     try:
         study = study_from_attrs(attrs)
     except StudyError as exc:

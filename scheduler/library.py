@@ -64,21 +64,26 @@ def open(store: str | Path) -> xr.DataTree:
     """The store as one xarray DataTree, lazily (dask arrays): the root holds the grid's
     variables (one dimension per swept parameter), each product a group ``products/<name>``
     (docs/dataset.md). A store of another layout than this version writes is refused
-    (:class:`StoreError`, naming its format and what to do)."""
-    from hertzmap.scheduler.store import read_attrs
+    (:class:`StoreError`, naming its format and what to do), and so is a product group an
+    earlier version wrote on dims that no longer align with the root (it names the group and
+    the command that writes it again)."""
+    from hertzmap.scheduler.store import store_attrs
     from hertzmap.study.products.results import quiet
-    from hertzmap.study.schema import StoreFormatError, check_format
 
     path = Path(store)
-    attrs = read_attrs(path)
-    if attrs is None:
-        raise StoreError(f"{path} is not a zarr store")
-    try:
-        check_format(attrs, str(path))
-    except StoreFormatError as exc:
-        raise StoreError(str(exc)) from None
+    store_attrs(path)
     with quiet():
-        return xr.open_datatree(str(path), engine="zarr", chunks={})
+        try:
+            return xr.open_datatree(str(path), engine="zarr", chunks={})
+        except ValueError as exc:
+            if "not aligned" not in str(exc):
+                raise
+            group = str(exc).split("'")[1] if "'" in str(exc) else "a product group"
+            raise StoreError(
+                f"{path}: {group} does not align with the store's grid (written by an earlier "
+                f"version of hertzmap plot or basins): run `hertzmap plot {path}` (or the "
+                f"basins command again) to rewrite it; the main group reads with "
+                f"xr.open_zarr({str(path)!r})") from None
 
 
 def run(study: str | Path | Mapping | Study, store: str | Path | None = None, *,

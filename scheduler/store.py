@@ -82,6 +82,19 @@ def read_attrs(path: str | Path) -> dict[str, Any] | None:
     return doc.get("attributes", {})
 
 
+def store_attrs(path: str | Path) -> dict[str, Any]:
+    """Root attrs of a store this version reads: StoreError when ``path`` is not a zarr store
+    or holds another layout (study.schema.check_format's message: its format, what to do)."""
+    attrs = read_attrs(path)
+    if attrs is None:
+        raise StoreError(f"{path} is not a zarr store")
+    try:
+        check_format(attrs, str(path))
+    except StoreFormatError as exc:
+        raise StoreError(str(exc)) from None
+    return attrs
+
+
 def read_done_flags(path: str | Path) -> np.ndarray:
     """The task_done flags of a store, read only (cheap: for a page or a client polling a store
     that another process writes)."""

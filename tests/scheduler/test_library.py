@@ -15,7 +15,7 @@ import xarray as xr
 
 import hertzmap
 from hertzmap.scheduler.cli import main
-from tests.helpers import done_count, subprocess_env, wait_until
+from tests.helpers import blank_results, done_count, subprocess_env, wait_until, write_results
 
 STUDY = """
 [study]
@@ -111,3 +111,20 @@ def test_a_run_on_my_client_is_the_cli_run_and_resumes_after_an_interrupt(tmp_pa
     t0 = time.perf_counter()
     again = hertzmap.run(path, store, quiet=True)
     assert time.perf_counter() - t0 < 30 and set(again.children) == set(tree.children)
+
+
+def test_a_product_of_an_earlier_layout_is_refused_by_name(tmp_path):
+    """A store whose product group an earlier version wrote on its own omega grid under the
+    name ``omega`` (mms_curves before it had mms_omega): open says which group and how to
+    rewrite it, instead of xarray's alignment error."""
+    import numpy as np
+
+    from hertzmap.scheduler.store import write_product
+
+    store = write_results(blank_results("[grid]\nomega = [1.9, 2.0]\nsigma = 0.3\nzeta = 0.01\n"),
+                          tmp_path / "old.zarr")
+    assert set(hertzmap.open(store).children) == set()
+    old = xr.Dataset({"sigma1": ("omega", np.zeros(5))}, coords={"omega": np.linspace(1.75, 2.25, 5)})
+    write_product(store, "mms_curves", old)
+    with pytest.raises(hertzmap.RefusedError, match="products/mms_curves.*hertzmap plot"):
+        hertzmap.open(store)
