@@ -14,6 +14,8 @@ found (study.solve.recognition) / every transient runs its whole budget.
 the point knows (study.solve.certificate) / only on the points of what earlier ones found.
 ``--compare rtol``: the transients' integrator tolerance (census.TRANSIENT_RTOL and the
 certificates' RTOL) 1e-6 / 1e-8.
+``--compare iterations``: certified neighbourhoods of the J-fold iterated orbit map
+(certificate.ITERATIONS) J = 2 / J = 1; ``iterations4``: J = 4 / J = 1.
 
 Each chosen sigma line is searched twice (sweeps and fold turning, then the census at the
 points the study asks it at: study.solve.line), once per mode: one ABBA round of
@@ -21,7 +23,8 @@ benchmarks/abba.py per line, the modes' order alternating from line to line so t
 of the machine's speed falls on both; only the census's CPU (time.process_time of this
 process) is counted, in all and line by line (the ratios' median and spread). Printed per mode: census CPU, census points,
 points per kind of attractor set, points holding a stable orbit (per period, and in all),
-points named (a periodic or non-periodic attractor), attractors no own state reached (basin
+points named (a periodic or non-periodic attractor), the transients' periods (summed over
+every census kernel call: what the transients cost), attractors no own state reached (basin
 fraction 0: found from a neighbour), and for the points both call chaotic how many exponents
 differ by more than three combined standard errors.
 """
@@ -34,22 +37,31 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import hertzmap.study.solve.census as census_module  # noqa: E402
+import hertzmap.study.solve.certificate as certificate_module  # noqa: E402
 import hertzmap.study.solve.line as line_module  # noqa: E402
 from benchmarks.abba import abba  # noqa: E402
 from hertzmap.study.solve.line import LineSearch  # noqa: E402
 from hertzmap.study.spec import load_study  # noqa: E402
 
-#: per comparison: the census module's setting, its values in the two modes, and the modes'
-#: names (the first: the shortcut on)
-COMPARISONS = {"recognition": ("RECOGNITION", (True, False), ("recognition", "full transients")),
-               "neighbours": ("NEIGHBOUR_STARTS", (True, False),
-                              ("neighbour starts", "own states only")),
-               "certified": ("CERTIFIED", (True, False),
-                             ("certified orbits", "attractors' points only")),
-               "rtol": ("TRANSIENT_RTOL", (1e-6, 1e-8), ("rtol 1e-6", "rtol 1e-8"))}
+#: per comparison: the module settings it switches, their values in the two modes, and the
+#: modes' names (the first: the shortcut on; the second: as shipped)
+COMPARISONS = {
+    "recognition": (((census_module, "RECOGNITION"),), (True, False),
+                    ("recognition", "full transients")),
+    "neighbours": (((census_module, "NEIGHBOUR_STARTS"),), (True, False),
+                   ("neighbour starts", "own states only")),
+    "certified": (((census_module, "CERTIFIED"),), (True, False),
+                  ("certified orbits", "attractors' points only")),
+    "rtol": (((census_module, "TRANSIENT_RTOL"), (certificate_module, "RTOL")), (1e-6, 1e-8),
+             ("rtol 1e-6", "rtol 1e-8")),
+    "iterations": (((certificate_module, "ITERATIONS"),), (2, 1), ("J = 2", "J = 1")),
+    "iterations4": (((certificate_module, "ITERATIONS"),), (4, 1), ("J = 4", "J = 1")),
+}
 
 
 def main(argv=None) -> int:
@@ -59,9 +71,9 @@ def main(argv=None) -> int:
     ap.add_argument("--offset", type=int, default=0, help="the first line's index")
     ap.add_argument("--compare", choices=sorted(COMPARISONS), default="recognition")
     a = ap.parse_args(argv)
-    switch, values, modes = COMPARISONS[a.compare]
+    settings, values, modes = COMPARISONS[a.compare]
     value = dict(zip(modes, values))
-    from hertzmap.study.solve import certificate as certificate_module
+    shipped = {setting: getattr(*setting) for setting in settings}
     s = load_study(a.study)
     kw = s.solver_kwargs()
     omega, zeta = s.axis("omega"), float(s.axis("zeta")[0])
@@ -69,6 +81,13 @@ def main(argv=None) -> int:
                    seeds=())
     census = census_module.census
     spent = collections.Counter()
+    periods_run = collections.Counter()
+    run_transients = census_module.run_transients
+
+    def counted(*args, **kwargs):
+        run_transients(*args, **kwargs)
+        periods_run[mode_now[0]] += float(np.nansum(
+            args[8][:, census_module.A["periods_run"]]))
     mode_now = [modes[0]]
 
     def timed(*args, **kwargs):
@@ -78,6 +97,7 @@ def main(argv=None) -> int:
         return out
 
     line_module.census = timed
+    census_module.run_transients = counted
     LineSearch(omega[:3], float(s.axis("sigma")[-1]), zeta, s.periods, options).sweep()
     census(1.0, 2.0, zeta, [], options, 2, 20, 32)          # compile
     kinds = {m: collections.Counter() for m in modes}
@@ -94,9 +114,8 @@ def main(argv=None) -> int:
             sigma = sigmas[k]
             mode_now[0] = mode
             before = spent[mode]
-            setattr(census_module, switch, value[mode])
-            if switch == "TRANSIENT_RTOL":
-                certificate_module.RTOL = value[mode]
+            for setting in settings:
+                setattr(*setting, value[mode])
             ls = LineSearch(omega, float(sigma), zeta, s.periods, options)
             ls.sweep()
             ls.turn_folds()
@@ -124,16 +143,17 @@ def main(argv=None) -> int:
         return search
 
     res = abba({m: variant(m) for m in modes}, len(sigmas))
-    setattr(census_module, switch, values[1] if switch == "TRANSIENT_RTOL" else True)
-    certificate_module.RTOL = 1e-8
+    for setting, shipped_value in shipped.items():
+        setattr(*setting, shipped_value)
     line_module.census = census
+    census_module.run_transients = run_transients
     print(f"{len(sigmas)} sigma lines of {a.study} (every {a.lines}th from {a.offset}), "
           f"{len(omega)} omega points each")
     for mode in modes:
         per_period = ", ".join(f"{m}T {c}" for m, c in sorted(
             (k, v) for k, v in stable[mode].items() if k != "any"))
         print(f"{mode}: census {spent[mode]:.1f} s CPU at {points[mode]} points; named "
-              f"{named[mode]}; with a stable orbit {stable[mode]['any']} ({per_period})")
+              f"{named[mode]}; transients {periods_run[mode]:,.0f} periods; with a stable orbit {stable[mode]['any']} ({per_period})")
         print("  attractors no own state reached: " + (", ".join(
             f"{k} {v}" for k, v in sorted(unreached[mode].items())) or "none"))
         print("  kinds: " + "; ".join(f"{'+'.join(k)} {v}" for k, v in

@@ -3,7 +3,7 @@
 Public API::
 
     from hertzmap.kernels import shoot, shoot_batch, simulate, Orbit, status
-    orbit = shoot(omega, sigma, zeta, period=1, guess=(q0, v0), exponent=1.5, rtol=1e-10)
+    orbit = shoot(omega, sigma, zeta, period=1, guess=(q0, v0))   # Hertz, n = 3/2, rtol 1e-10
     a = attractor(omega, sigma, zeta, x0=(q0, v0), transient_periods=1000, record_periods=500)
 
 Modules: ``model`` (paper Eq. 7 and 11), ``flight`` (closed-form flight), ``_dop853`` (generated

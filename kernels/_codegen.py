@@ -26,8 +26,9 @@ Two systems share one tableau:
 * ``step_state``: state (q, v) only.
 Stages use the contact-side continuation of the law (kernels.model.contact_side_force):
 contact steps only; flight is closed form. ``*_w`` variants step in w with t = t_ref + sgn w^2 (next to a contact switch, where the
-solution is smooth in w but not in t). ``*_h`` variants step in x = -sqrt(q + n) onto a loss of
-contact, with tau = t - t_ref in place of q (smooth in x, and x = 0 is the surface). All take the FSAL derivative at the step start, return the error norm (accept if <= 1),
+solution is smooth in w but not in t). ``*_h`` variants step in x = -sqrt(q - level) onto a loss
+of contact (level = switch_level(n, model), the law's loss level: -n for the Hertz law), with
+tau = t - t_ref in place of q (smooth in x, and x = 0 is the surface). All take the FSAL derivative at the step start, return the error norm (accept if <= 1),
 write the new state, its derivative and the stages of (q, v) into ``K`` (for dense output).
 The error norm is Hairer's combined 5th/3rd order estimate (as in scipy) on all components.
 """
@@ -37,6 +38,7 @@ from hertzmap.kernels._jit import kernel
 from hertzmap.kernels.model import contact_side_force as rhs_force
 from hertzmap.kernels.model import cos_shifted
 from hertzmap.kernels.model import contact_side_force_and_stiffness as rhs_force_and_stiffness
+from hertzmap.kernels.model import switch_level
 
 '''
 
@@ -67,9 +69,10 @@ def _step(name: str, variational: bool, timemap: bool = False, heightmap: bool =
     """One DOP853 step. With ``timemap`` the independent variable is w, t = t_ref + sgn w^2,
     and every stage derivative is multiplied by dt/dw = 2 sgn w (stages at w + c h).
 
-    With ``heightmap`` the independent variable is x = -sqrt(q + n) (from below 0 up to 0, the
-    contact surface) and the first component is tau = t - t_ref instead of q: q = x^2 - n, and
-    every stage derivative is multiplied by dt/dx = 2 x / q' (q' < 0 on the way down).
+    With ``heightmap`` the independent variable is x = -sqrt(q - level) (from below 0 up to 0,
+    the contact surface q = level, the law's loss level: -n for the Hertz law) and the first
+    component is tau = t - t_ref instead of q: q = x^2 + level, and every stage derivative is
+    multiplied by dt/dx = 2 x / q' (q' < 0 on the way down).
 
     With ``inline``, LLVM copies the step into its callers' code (``forceinline``); without,
     its callers each link a copy of its compiled code (numba's way)."""
@@ -85,6 +88,9 @@ def _step(name: str, variational: bool, timemap: bool = False, heightmap: bool =
     L.append(f'@kernel("{sig}"{inlined})')
     L.append(f"def {name}(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol{extra}):")
     L.append("    tz = 2.0 * zeta")
+    if heightmap:
+        # the switching surface, once per step (x * x + level is x * x - n for Hertz, exactly)
+        L.append("    level = switch_level(n, model)")
     # the excitation at the stages: cos(omega t0 + theta) from one cos/sin at the step start
     if heightmap:
         L.append("    phi0 = omega * (t_ref + y[0])")
@@ -120,7 +126,7 @@ def _step(name: str, variational: bool, timemap: bool = False, heightmap: bool =
             mul = ""
         theta = "omega * (yq - q0)" if heightmap else _theta(ch, timemap)
         L.append(f"    g = cos_shifted(cphi, sphi, phi0, {theta})")
-        qs = "w * w - n" if heightmap else "yq"
+        qs = "w * w + level" if heightmap else "yq"
         if variational:
             L.append(f"    F, dF = rhs_force_and_stiffness({qs}, n, model)")
         else:
@@ -171,6 +177,7 @@ def _dense(name: str = "dense_coefficients", timemap: bool = False,
     L.append("    \"\"\"Fill P (7, 2) so that dense_eval(P, y_old, x) is (q, v) at t + x h, 0 <= x <= 1.\"\"\"")
     L.append("    tz = 2.0 * zeta")
     if heightmap:
+        L.append("    level = switch_level(n, model)")
         L.append("    phi0 = omega * (t_ref + y_old[0])")
     else:
         L.append("    phi0 = omega * (t_ref + sgn * t * t)" if timemap else "    phi0 = omega * t")
@@ -187,7 +194,7 @@ def _dense(name: str = "dense_coefficients", timemap: bool = False,
         if heightmap:
             L.append(f"    w = t + {ch}")
             L.append("    m = 2.0 * w / yv")
-            L.append("    F = rhs_force(w * w - n, n, model)")
+            L.append("    F = rhs_force(w * w + level, n, model)")
             L.append("    g = cos_shifted(cphi, sphi, phi0, omega * (yq - y_old[0]))")
             L.append(f"    k{s}q = m")
             L.append(f"    k{s}v = m * (1.0 + sigma * g - tz * yv - F)")

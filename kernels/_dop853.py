@@ -6,8 +6,9 @@ Two systems share one tableau:
 * ``step_state``: state (q, v) only.
 Stages use the contact-side continuation of the law (kernels.model.contact_side_force):
 contact steps only; flight is closed form. ``*_w`` variants step in w with t = t_ref + sgn w^2 (next to a contact switch, where the
-solution is smooth in w but not in t). ``*_h`` variants step in x = -sqrt(q + n) onto a loss of
-contact, with tau = t - t_ref in place of q (smooth in x, and x = 0 is the surface). All take the FSAL derivative at the step start, return the error norm (accept if <= 1),
+solution is smooth in w but not in t). ``*_h`` variants step in x = -sqrt(q - level) onto a loss
+of contact (level = switch_level(n, model), the law's loss level: -n for the Hertz law), with
+tau = t - t_ref in place of q (smooth in x, and x = 0 is the surface). All take the FSAL derivative at the step start, return the error norm (accept if <= 1),
 write the new state, its derivative and the stages of (q, v) into ``K`` (for dense output).
 The error norm is Hairer's combined 5th/3rd order estimate (as in scipy) on all components.
 """
@@ -17,6 +18,7 @@ from hertzmap.kernels._jit import kernel
 from hertzmap.kernels.model import contact_side_force as rhs_force
 from hertzmap.kernels.model import cos_shifted
 from hertzmap.kernels.model import contact_side_force_and_stiffness as rhs_force_and_stiffness
+from hertzmap.kernels.model import switch_level
 
 
 @kernel("float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64)", inline="llvm")
@@ -1042,6 +1044,7 @@ def dense_coefficients_w(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P,
 @kernel("float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64)")
 def step_var_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol, t_ref, sgn):
     tz = 2.0 * zeta
+    level = switch_level(n, model)
     phi0 = omega * (t_ref + y[0])
     cphi = cos(phi0)
     sphi = sin(phi0)
@@ -1078,7 +1081,7 @@ def step_var_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     w = t + 0.05260015195876773 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F, dF = rhs_force_and_stiffness(w * w - n, n, model)
+    F, dF = rhs_force_and_stiffness(w * w + level, n, model)
     k1q = m
     k1v = m * (1.0 + sigma * g - tz * yv - F)
     k1a = m * yc
@@ -1094,7 +1097,7 @@ def step_var_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     w = t + 0.0789002279381516 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F, dF = rhs_force_and_stiffness(w * w - n, n, model)
+    F, dF = rhs_force_and_stiffness(w * w + level, n, model)
     k2q = m
     k2v = m * (1.0 + sigma * g - tz * yv - F)
     k2a = m * yc
@@ -1110,7 +1113,7 @@ def step_var_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     w = t + 0.1183503419072274 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F, dF = rhs_force_and_stiffness(w * w - n, n, model)
+    F, dF = rhs_force_and_stiffness(w * w + level, n, model)
     k3q = m
     k3v = m * (1.0 + sigma * g - tz * yv - F)
     k3a = m * yc
@@ -1126,7 +1129,7 @@ def step_var_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     w = t + 0.2816496580927726 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F, dF = rhs_force_and_stiffness(w * w - n, n, model)
+    F, dF = rhs_force_and_stiffness(w * w + level, n, model)
     k4q = m
     k4v = m * (1.0 + sigma * g - tz * yv - F)
     k4a = m * yc
@@ -1142,7 +1145,7 @@ def step_var_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     w = t + 0.3333333333333333 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F, dF = rhs_force_and_stiffness(w * w - n, n, model)
+    F, dF = rhs_force_and_stiffness(w * w + level, n, model)
     k5q = m
     k5v = m * (1.0 + sigma * g - tz * yv - F)
     k5a = m * yc
@@ -1158,7 +1161,7 @@ def step_var_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     w = t + 0.25 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F, dF = rhs_force_and_stiffness(w * w - n, n, model)
+    F, dF = rhs_force_and_stiffness(w * w + level, n, model)
     k6q = m
     k6v = m * (1.0 + sigma * g - tz * yv - F)
     k6a = m * yc
@@ -1174,7 +1177,7 @@ def step_var_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     w = t + 0.3076923076923077 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F, dF = rhs_force_and_stiffness(w * w - n, n, model)
+    F, dF = rhs_force_and_stiffness(w * w + level, n, model)
     k7q = m
     k7v = m * (1.0 + sigma * g - tz * yv - F)
     k7a = m * yc
@@ -1190,7 +1193,7 @@ def step_var_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     w = t + 0.6512820512820513 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F, dF = rhs_force_and_stiffness(w * w - n, n, model)
+    F, dF = rhs_force_and_stiffness(w * w + level, n, model)
     k8q = m
     k8v = m * (1.0 + sigma * g - tz * yv - F)
     k8a = m * yc
@@ -1206,7 +1209,7 @@ def step_var_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     w = t + 0.6 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F, dF = rhs_force_and_stiffness(w * w - n, n, model)
+    F, dF = rhs_force_and_stiffness(w * w + level, n, model)
     k9q = m
     k9v = m * (1.0 + sigma * g - tz * yv - F)
     k9a = m * yc
@@ -1222,7 +1225,7 @@ def step_var_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     w = t + 0.8571428571428571 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F, dF = rhs_force_and_stiffness(w * w - n, n, model)
+    F, dF = rhs_force_and_stiffness(w * w + level, n, model)
     k10q = m
     k10v = m * (1.0 + sigma * g - tz * yv - F)
     k10a = m * yc
@@ -1238,7 +1241,7 @@ def step_var_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     w = t + 1.0 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F, dF = rhs_force_and_stiffness(w * w - n, n, model)
+    F, dF = rhs_force_and_stiffness(w * w + level, n, model)
     k11q = m
     k11v = m * (1.0 + sigma * g - tz * yv - F)
     k11a = m * yc
@@ -1254,7 +1257,7 @@ def step_var_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
     w = t + h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F, dF = rhs_force_and_stiffness(w * w - n, n, model)
+    F, dF = rhs_force_and_stiffness(w * w + level, n, model)
     k12q = m
     k12v = m * (1.0 + sigma * g - tz * yv - F)
     k12a = m * yc
@@ -1339,6 +1342,7 @@ def step_var_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, 
 @kernel("float64(float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64)")
 def step_state_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol, atol, t_ref, sgn):
     tz = 2.0 * zeta
+    level = switch_level(n, model)
     phi0 = omega * (t_ref + y[0])
     cphi = cos(phi0)
     sphi = sin(phi0)
@@ -1363,7 +1367,7 @@ def step_state_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol
     w = t + 0.05260015195876773 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F = rhs_force(w * w - n, n, model)
+    F = rhs_force(w * w + level, n, model)
     k1q = m
     k1v = m * (1.0 + sigma * g - tz * yv - F)
     yq = (q0 + h * (0.0197250569845379 * k0q)) + ha2 * k1q
@@ -1371,7 +1375,7 @@ def step_state_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol
     w = t + 0.0789002279381516 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F = rhs_force(w * w - n, n, model)
+    F = rhs_force(w * w + level, n, model)
     k2q = m
     k2v = m * (1.0 + sigma * g - tz * yv - F)
     yq = (q0 + h * (0.02958758547680685 * k0q)) + ha3 * k2q
@@ -1379,7 +1383,7 @@ def step_state_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol
     w = t + 0.1183503419072274 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F = rhs_force(w * w - n, n, model)
+    F = rhs_force(w * w + level, n, model)
     k3q = m
     k3v = m * (1.0 + sigma * g - tz * yv - F)
     yq = (q0 + h * (0.2413651341592667 * k0q + -0.8845494793282861 * k2q)) + ha4 * k3q
@@ -1387,7 +1391,7 @@ def step_state_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol
     w = t + 0.2816496580927726 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F = rhs_force(w * w - n, n, model)
+    F = rhs_force(w * w + level, n, model)
     k4q = m
     k4v = m * (1.0 + sigma * g - tz * yv - F)
     yq = (q0 + h * (0.037037037037037035 * k0q + 0.17082860872947386 * k3q)) + ha5 * k4q
@@ -1395,7 +1399,7 @@ def step_state_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol
     w = t + 0.3333333333333333 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F = rhs_force(w * w - n, n, model)
+    F = rhs_force(w * w + level, n, model)
     k5q = m
     k5v = m * (1.0 + sigma * g - tz * yv - F)
     yq = (q0 + h * (0.037109375 * k0q + 0.17025221101954405 * k3q + 0.06021653898045596 * k4q)) + ha6 * k5q
@@ -1403,7 +1407,7 @@ def step_state_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol
     w = t + 0.25 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F = rhs_force(w * w - n, n, model)
+    F = rhs_force(w * w + level, n, model)
     k6q = m
     k6v = m * (1.0 + sigma * g - tz * yv - F)
     yq = (q0 + h * (0.03709200011850479 * k0q + 0.17038392571223998 * k3q + 0.10726203044637328 * k4q + -0.015319437748624402 * k5q)) + ha7 * k6q
@@ -1411,7 +1415,7 @@ def step_state_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol
     w = t + 0.3076923076923077 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F = rhs_force(w * w - n, n, model)
+    F = rhs_force(w * w + level, n, model)
     k7q = m
     k7v = m * (1.0 + sigma * g - tz * yv - F)
     yq = (q0 + h * (0.6241109587160757 * k0q + -3.3608926294469414 * k3q + -0.868219346841726 * k4q + 27.59209969944671 * k5q + 20.154067550477894 * k6q)) + ha8 * k7q
@@ -1419,7 +1423,7 @@ def step_state_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol
     w = t + 0.6512820512820513 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F = rhs_force(w * w - n, n, model)
+    F = rhs_force(w * w + level, n, model)
     k8q = m
     k8v = m * (1.0 + sigma * g - tz * yv - F)
     yq = (q0 + h * (0.47766253643826434 * k0q + -2.4881146199716677 * k3q + -0.590290826836843 * k4q + 21.230051448181193 * k5q + 15.279233632882423 * k6q + -33.28821096898486 * k7q)) + ha9 * k8q
@@ -1427,7 +1431,7 @@ def step_state_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol
     w = t + 0.6 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F = rhs_force(w * w - n, n, model)
+    F = rhs_force(w * w + level, n, model)
     k9q = m
     k9v = m * (1.0 + sigma * g - tz * yv - F)
     yq = (q0 + h * (-0.9371424300859873 * k0q + 5.186372428844064 * k3q + 1.0914373489967295 * k4q + -8.149787010746927 * k5q + -18.52006565999696 * k6q + 22.739487099350505 * k7q + 2.4936055526796523 * k8q)) + ha10 * k9q
@@ -1435,7 +1439,7 @@ def step_state_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol
     w = t + 0.8571428571428571 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F = rhs_force(w * w - n, n, model)
+    F = rhs_force(w * w + level, n, model)
     k10q = m
     k10v = m * (1.0 + sigma * g - tz * yv - F)
     yq = (q0 + h * (2.273310147516538 * k0q + -10.53449546673725 * k3q + -2.0008720582248625 * k4q + -17.9589318631188 * k5q + 27.94888452941996 * k6q + -2.8589982771350235 * k7q + -8.87285693353063 * k8q + 12.360567175794303 * k9q)) + ha11 * k10q
@@ -1443,7 +1447,7 @@ def step_state_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol
     w = t + 1.0 * h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F = rhs_force(w * w - n, n, model)
+    F = rhs_force(w * w + level, n, model)
     k11q = m
     k11v = m * (1.0 + sigma * g - tz * yv - F)
     yq = (q0 + h * (0.054293734116568765 * k0q + 4.450312892752409 * k5q + 1.8915178993145003 * k6q + -5.801203960010585 * k7q + 0.3111643669578199 * k8q + -0.1521609496625161 * k9q + 0.20136540080403034 * k10q)) + ha12 * k11q
@@ -1451,7 +1455,7 @@ def step_state_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol
     w = t + h
     m = 2.0 * w / yv
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - q0))
-    F = rhs_force(w * w - n, n, model)
+    F = rhs_force(w * w + level, n, model)
     k12q = m
     k12v = m * (1.0 + sigma * g - tz * yv - F)
     y_new[0] = yq
@@ -1505,6 +1509,7 @@ def step_state_h(t, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol
 def dense_coefficients_h(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P, t_ref, sgn):
     """Fill P (7, 2) so that dense_eval(P, y_old, x) is (q, v) at t + x h, 0 <= x <= 1."""
     tz = 2.0 * zeta
+    level = switch_level(n, model)
     phi0 = omega * (t_ref + y_old[0])
     cphi = cos(phi0)
     sphi = sin(phi0)
@@ -1538,7 +1543,7 @@ def dense_coefficients_h(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P,
     yv = y_old[1] + h * (0.056167502283047954 * k0v + 0.25350021021662483 * k6v + -0.2462390374708025 * k7v + -0.12419142326381637 * k8v + 0.15329179827876568 * k9v + 0.00820105229563469 * k10v + 0.007567897660545699 * k11v + -0.008298 * k12v)
     w = t + 0.1 * h
     m = 2.0 * w / yv
-    F = rhs_force(w * w - n, n, model)
+    F = rhs_force(w * w + level, n, model)
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - y_old[0]))
     k13q = m
     k13v = m * (1.0 + sigma * g - tz * yv - F)
@@ -1546,7 +1551,7 @@ def dense_coefficients_h(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P,
     yv = y_old[1] + h * (0.03183464816350214 * k0v + 0.028300909672366776 * k5v + 0.053541988307438566 * k6v + -0.05492374857139099 * k7v + -0.00010834732869724932 * k10v + 0.0003825710908356584 * k11v + -0.00034046500868740456 * k12v + 0.1413124436746325 * k13v)
     w = t + 0.2 * h
     m = 2.0 * w / yv
-    F = rhs_force(w * w - n, n, model)
+    F = rhs_force(w * w + level, n, model)
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - y_old[0]))
     k14q = m
     k14v = m * (1.0 + sigma * g - tz * yv - F)
@@ -1554,7 +1559,7 @@ def dense_coefficients_h(t, h, y_old, y_new, K, omega, sigma, zeta, n, model, P,
     yv = y_old[1] + h * (-0.42889630158379194 * k0v + -4.697621415361164 * k5v + 7.683421196062599 * k6v + 4.06898981839711 * k7v + 0.3567271874552811 * k8v + -0.0013990241651590145 * k12v + 2.9475147891527724 * k13v + -9.15095847217987 * k14v)
     w = t + 0.7777777777777778 * h
     m = 2.0 * w / yv
-    F = rhs_force(w * w - n, n, model)
+    F = rhs_force(w * w + level, n, model)
     g = cos_shifted(cphi, sphi, phi0, omega * (yq - y_old[0]))
     k15q = m
     k15v = m * (1.0 + sigma * g - tz * yv - F)

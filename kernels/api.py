@@ -13,7 +13,8 @@ import numpy as np
 
 from hertzmap.kernels import status as st
 from hertzmap.kernels.integrate import N_HARMONICS, N_STATS, integrate
-from hertzmap.kernels.model import check_exponent, model_code, rhs_force
+from hertzmap.kernels.model import (DEFAULT_EXPONENT, DEFAULT_LAW, check_exponent, model_code,
+                                    rhs_force)
 from hertzmap.kernels.periodic_orbit import (DEFAULT_MAX_ITER, DEFAULT_MAX_STEPS, DEFAULT_RTOL, Orbit,  # noqa: F401
                                     shoot, shoot_batch)
 from hertzmap.kernels.shooting import N_FIELDS
@@ -43,7 +44,7 @@ def section_times(T: float, t_end: float, samples_per_period: int = 1) -> np.nda
 
 def simulate(omega: float, sigma: float, zeta: float, x0=(0.0, 0.0), *, t_end: float | None = None,
              periods: float = 50.0, t_eval=None, samples_per_period: int = 64,
-             exponent: float = 1.5, model: str = "hertz", rtol: float = DEFAULT_RTOL,
+             exponent: float = DEFAULT_EXPONENT, model: str = DEFAULT_LAW, rtol: float = DEFAULT_RTOL,
              atol: float | None = None, max_steps: int = 10_000_000) -> dict[str, np.ndarray]:
     """Transient from x0 = (q, q') at tau = 0 to t_end (default ``periods`` excitation periods).
 
@@ -221,7 +222,7 @@ def _attractor_options(transient_periods, record_periods, lyapunov, lyapunov_dis
 def attractor(omega: float, sigma: float, zeta: float, x0=(0.0, 0.0), *,
               transient_periods: int = 1000, record_periods: int = 500, lyapunov: bool = True,
               lyapunov_discard: int | None = None, force_samples: int = 0, cycle_tol: float = 1e-6,
-              cycle_repeats: int = 3, exponent: float = 1.5, model: str = "hertz",
+              cycle_repeats: int = 3, exponent: float = DEFAULT_EXPONENT, model: str = DEFAULT_LAW,
               rtol: float = DEFAULT_ATTRACTOR_RTOL, atol: float | None = None,
               shoot_rtol: float = DEFAULT_RTOL, max_steps: int = DEFAULT_MAX_STEPS,
               harmonics: bool = True, strobe_capacity: int | None = None) -> Attractor:
@@ -261,8 +262,8 @@ def attractor_batch(omega: float, sigma: float, zeta: float, x0, *,
                     transient_periods: int = 1000, record_periods: int = 500,
                     lyapunov: bool = True, lyapunov_discard: int | None = None,
                     force_samples: int = 0, cycle_tol: float = 1e-6, cycle_repeats: int = 3,
-                    exponent: float = 1.5,
-                    model: str = "hertz", rtol: float = DEFAULT_ATTRACTOR_RTOL,
+                    exponent: float = DEFAULT_EXPONENT,
+                    model: str = DEFAULT_LAW, rtol: float = DEFAULT_ATTRACTOR_RTOL,
                     atol: float | None = None, shoot_rtol: float = DEFAULT_RTOL,
                     max_steps: int = DEFAULT_MAX_STEPS, harmonics: bool = True,
                     strobe_capacity: int | None = None) -> dict[str, np.ndarray]:
@@ -294,7 +295,7 @@ def attractor_batch(omega: float, sigma: float, zeta: float, x0, *,
 
 
 def lyapunov(omega: float, sigma: float, zeta: float, x0=(0.0, 0.0), *, periods: int = 2000,
-             discard: int = 32, exponent: float = 1.5, model: str = "hertz",
+             discard: int = 32, exponent: float = DEFAULT_EXPONENT, model: str = DEFAULT_LAW,
              rtol: float = DEFAULT_ATTRACTOR_RTOL, atol: float | None = None,
              max_steps: int = DEFAULT_MAX_STEPS) -> dict[str, float]:
     """Largest Lyapunov exponent (per unit tau) along the trajectory from x0 at tau = 0, by

@@ -10,8 +10,9 @@ constant coefficients. With a = 2 zeta, s = tau - tau0 and E = exp(-a s):
     P(t) = (a cos wt + w sin wt)/(a^2 + w^2)   (P' + a P = cos wt),  Q = integral of P.
 
 The flow Jacobian of the flight is [[1, phi1], [0, E]] (used for the exact monodromy).
-Recontact is the first upward crossing of q = -n, found by scanning the flight in short
-intervals, splitting each at the extremum of q (root of v) and refining with safeguarded Newton.
+Recontact is the first upward crossing of the contact law's loss level (kernels.model.LAWS,
+``switch_level``: q = -n for the Hertz law), found by scanning the flight in short intervals,
+splitting each at the extremum of q (root of v) and refining with safeguarded Newton.
 """
 from math import cos, expm1, pi, sin
 
@@ -114,12 +115,13 @@ def _root(q0, v0, t0, lo, hi, omega, sigma, zeta, which, negative_at_lo):
 
 
 @kernel(UniTuple(float64, 3)(float64, float64, float64, float64, float64, float64, float64, float64))
-def flight_until_recontact(q0, v0, t0, s_max, omega, sigma, zeta, n):
-    """First upward crossing of q = -n after t0, searched in (0, s_max].
+def flight_until_recontact(q0, v0, t0, s_max, omega, sigma, zeta, level):
+    """First upward crossing of q = level after t0, searched in (0, s_max]: ``level`` is the
+    contact law's loss level (kernels.model.switch_level; -n for the Hertz law).
 
     Returns (s, min_q, found): s = duration of the flight (s_max if no recontact), min_q = lowest
     q reached in the flight (for the orbit measures), found = 1.0 if recontact happens.
-    Starting exactly on q = -n with v0 < 0 (just lost contact) is the usual case.
+    Starting exactly on q = level with v0 < 0 (just lost contact) is the usual case.
     The scan points are equally spaced: cos and sin of omega t there advance by one rotation
     (no trig per point; re-anchored every 8 points, the drift stays at round-off), and only the
     roots are refined on the exact closed form.
@@ -135,8 +137,8 @@ def flight_until_recontact(q0, v0, t0, s_max, omega, sigma, zeta, n):
     sd = sin(omega * ds)
     ck = c0
     sk = s0
-    # q0 is shifted so that the contact surface is at 0: g = q + n
-    g0 = q0 + n
+    # q0 is shifted so that the contact surface is at 0: g = q - level (q + n for Hertz)
+    g0 = q0 - level
     qmin = q0
     s_lo = 0.0
     g_lo = g0 if g0 < 0.0 else -1e-300   # starting on the surface counts as just below it
@@ -162,8 +164,8 @@ def flight_until_recontact(q0, v0, t0, s_max, omega, sigma, zeta, n):
             # minimum of q inside: the crossing (if any) lies after it
             sm = _root(g0, v0, t0, s_lo, s_hi, omega, sigma, zeta, 1, 1)
             gm, _, _, _ = flight_state(g0, v0, t0, sm, omega, sigma, zeta)
-            if gm - n < qmin:
-                qmin = gm - n
+            if gm + level < qmin:
+                qmin = gm + level
             left = sm
             g_left = gm
         elif (v_lo > 0.0) and (v_hi < 0.0):
@@ -178,8 +180,8 @@ def flight_until_recontact(q0, v0, t0, s_max, omega, sigma, zeta, n):
         if g_left < 0.0 and g_hi >= 0.0:
             s = _root(g0, v0, t0, left, s_hi, omega, sigma, zeta, 0, 1)
             return s, qmin, 1.0
-        if g_hi - n < qmin:
-            qmin = g_hi - n
+        if g_hi + level < qmin:
+            qmin = g_hi + level
         s_lo = s_hi
         g_lo = g_hi
         v_lo = v_hi

@@ -1,5 +1,9 @@
 """Event-driven integration of paper Eq. 7 with exact contact loss and recontact.
 
+The switching surface is the contact law's loss level, q = level = switch_level(n, model) as
+the law declares it (kernels.model.LAWS): q = -n for the Hertz law, the only law with one
+(``switches``). Below, "q = -n" and "q + n" stand for q = level and q - level.
+
 In contact: adaptive DOP853 (kernels/_dop853.py), with the variational equations when a
 monodromy matrix is wanted. When a trial step ends below q = -n, or q' changes sign inside an
 accepted step that comes close to q = -n (a grazing dip the step ends cannot see), the crossing
@@ -40,7 +44,7 @@ from hertzmap.kernels._dop853 import (dense_coefficients, dense_coefficients_h, 
                              step_state, step_state_h, step_state_w, step_var, step_var_h,
                              step_var_w)
 from hertzmap.kernels.flight import flight_state, flight_until_recontact
-from hertzmap.kernels.model import SWITCHES, rhs_force, rhs_force_and_stiffness
+from hertzmap.kernels.model import SWITCHES, rhs_force, rhs_force_and_stiffness, switch_level
 from hertzmap.kernels.records import N_HARMONICS
 
 # layout of the ``stats`` array filled by ``integrate``
@@ -202,18 +206,19 @@ def _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model):
     return x
 
 
-@kernel("Tuple((float64, boolean))(float64, float64[::1], float64[::1], float64[::1], float64, float64, float64, float64, int64)")
-def _lose_contact(t, y, f, stats, omega, sigma, zeta, n, model):
-    """Contact is lost at t: q = -n exactly and one more event. Returns the t-mode variable
-    (with f the derivative there) and whether flight follows (q' < 0)."""
-    y[0] = -n
+@kernel("Tuple((float64, boolean))(float64, float64[::1], float64[::1], float64[::1], float64, float64, float64, float64, int64, float64)")
+def _lose_contact(t, y, f, stats, omega, sigma, zeta, n, model, level):
+    """Contact is lost at t: q = level (the law's loss level, -n for Hertz) exactly and one
+    more event. Returns the t-mode variable (with f the derivative there) and whether flight
+    follows (q' < 0)."""
+    y[0] = level
     stats[S_EVENTS] += 1
     return _enter(MODE_T, t, t, y, f, omega, sigma, zeta, n, model), y[1] < 0.0
 
 
 @kernel(float64(float64, float64, float64))
 def _time_to_surface(g, v, a):
-    """First s > 0 with g + v s + a s^2 / 2 = 0 (g = q + n >= 0 the height above the contact
+    """First s > 0 with g + v s + a s^2 / 2 = 0 (g = q - level >= 0 the height above the contact
     surface, v and a the velocity and acceleration): when contact would be lost on the local
     parabola; inf if never."""
     if g <= 0.0:
@@ -283,10 +288,11 @@ def _hermite_root(g0, d0, a0, g1, d1, a1):
     return x
 
 
-@kernel("UniTuple(float64, 2)(int64, int64, float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64, float64[::1])")
+@kernel("UniTuple(float64, 2)(int64, int64, float64, float64, float64[::1], float64[::1], float64[::1], float64[::1], float64[:, ::1], float64, float64, float64, float64, int64, float64, float64, float64, float64, float64[::1], float64)")
 def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
-                     atol, t_ref, s_guess, stats_partial):
-    """Increment s in (0, h] of the mode's variable from x where q = -n, the step over h ending
+                     atol, t_ref, s_guess, stats_partial, level):
+    """Increment s in (0, h] of the mode's variable from x where q = level (the law's loss
+    level, switch_level: -n for Hertz; "q + n" below is q - level), the step over h ending
     below (or dipping below) the surface. Bracketed Newton on partial steps from x (each lies in
     contact up to the root, so it is as accurate as a step) from a Hermite first guess, to
     |q + n| <= g_tol = max(1e-2 rtol, 1e-14) n; dq/dx is the FSAL derivative f_new[0]. Counts
@@ -298,10 +304,10 @@ def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta,
     hi = h
     # The switch state is set to q = -n exactly, so a residual g is a local error of the step
     # onto it: 1e-2 rtol n is far inside the step's own error budget, and saves the partial
-    # step that would take g from ~1e-11 to round-off
+    # step that would take g from ~1e-11 to round-off. (n here is a scale of q, not the level.)
     g_tol = max(1e-2 * rtol, 1e-14) * n
-    g_hi = y_new[0] + n
-    g_lo = y[0] + n
+    g_hi = y_new[0] - level
+    g_lo = y[0] - level
     if s_guess > 0.0:
         s = s_guess
     elif g_lo - g_hi > 0.0:
@@ -314,7 +320,7 @@ def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta,
     for _ in range(30):
         err = _step(dim, mode, x, s, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
                     atol, t_ref)
-        g = y_new[0] + n
+        g = y_new[0] - level
         stats_partial[0] += 1
         if abs(g) <= g_tol:
             return s, err
@@ -335,7 +341,7 @@ def _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta,
             if d * d <= g_tol and lo < s + d < hi:
                 for i in range(dim):
                     y_new[i] += d * f_new[i]
-                y_new[0] = -n
+                y_new[0] = level
                 return s + d, err
         s_new = s - g / dg if dg != 0.0 else 0.5 * (lo + hi)
         if not (lo < s_new < hi):
@@ -366,6 +372,9 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
     """
     dim = y.shape[0]
     switches = SWITCHES[model]
+    # the switching surface q = level, as the law declares it (-n for the Hertz law, bit for
+    # bit): every "-n" of the comments below is this level, every "q + n" q - level
+    level = switch_level(n, model)
     t = t0
     n_eval = t_eval.shape[0]
     i_eval = 0
@@ -381,9 +390,9 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
     # which phase do we start in?
     in_flight = False
     if switches:
-        if y[0] < -n:
+        if y[0] < level:
             in_flight = True
-        elif y[0] == -n:
+        elif y[0] == level:
             acc0 = 1.0 + sigma * cos(omega * t0) - 2.0 * zeta * y[1]
             in_flight = y[1] < 0.0 or (y[1] == 0.0 and acc0 < 0.0)
     mode = MODE_T
@@ -402,7 +411,8 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
             return st.STEP_LIMIT
         if in_flight:
             s_max = t1 - t
-            s, qmin_f, found = flight_until_recontact(y[0], y[1], t, s_max, omega, sigma, zeta, n)
+            s, qmin_f, found = flight_until_recontact(y[0], y[1], t, s_max, omega, sigma, zeta,
+                                                      level)
             while i_eval < n_eval and t_eval[i_eval] <= t + s:
                 qe, ve, _, _ = flight_state(y[0], y[1], t, t_eval[i_eval] - t, omega, sigma, zeta)
                 out_eval[0, i_eval] = qe
@@ -422,7 +432,7 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
                 if qmin_f < stats[S_MIN_Q]:
                     stats[S_MIN_Q] = qmin_f
             if found > 0.5:
-                y[0] = -n
+                y[0] = level
                 y[1] = v1
                 t = t + s
                 if t >= t1 - 1e-15 * max(1.0, abs(t1)):
@@ -465,7 +475,7 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
         err = _step(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma, zeta, n, model, rtol,
                     atol, t_ref)
         if mode == MODE_HEIGHT:
-            # y[0] holds tau = t - t_ref here, and q = x^2 - n
+            # y[0] holds tau = t - t_ref here, and q = x^2 + level (x^2 - n)
             t_new = t_ref + y_new[0]
             leave = (not (y_new[1] < 0.0) or t_new >= t1
                      or (i_eval < n_eval and t_eval[i_eval] <= t_new))
@@ -479,20 +489,21 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
                 stats[S_ACCEPTED] += 1
                 if measure:
                     # q falls monotonically here: its lowest value is at the step end
-                    q_end = -n if at_target else (x + h) * (x + h) - n
+                    q_end = level if at_target else (x + h) * (x + h) + level
                     if q_end < stats[S_MIN_Q]:
                         stats[S_MIN_Q] = q_end
                     if harmonics:
                         dense_coefficients_h(x, h, y, y_new, K, omega, sigma, zeta, n, model,
                                              P, t_ref, 1.0)
-                        _height_step_harmonics(P, y, x, h, t_ref, n, model, w_h, harm)
+                        _height_step_harmonics(P, y, x, h, t_ref, n, model, w_h, harm, level)
                 for i in range(dim):
                     y[i] = y_new[i]
                     f[i] = f_new[i]
                 t = t_new
                 if at_target:
                     # on the surface: contact is lost here
-                    x, in_flight = _lose_contact(t, y, f, stats, omega, sigma, zeta, n, model)
+                    x, in_flight = _lose_contact(t, y, f, stats, omega, sigma, zeta, n, model,
+                                                 level)
                     mode = MODE_T
                     h = h_t
                     continue
@@ -502,18 +513,19 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
             if leave:
                 # q may turn before the surface (dt/dx = 2 x / q' would blow up), or the span's
                 # end or an output time comes first: go on in t from the last accepted point
-                y[0] = x * x - n
+                y[0] = x * x + level
                 mode = MODE_T
                 height_ok = False
                 x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
                 h = h_t
             continue
         land_on_switch = False
-        if switches and mode != MODE_LOSS and y_new[0] < -n:
+        if switches and mode != MODE_LOSS and y_new[0] < level:
             # The trial step crossed the surface. Its error estimate is meaningless (a kink
             # inside): locate the crossing now and approach it in w = -sqrt(t_stop - t).
             s, err_s = _locate_crossing(dim, mode, x, h, y, f, y_new, f_new, K, omega, sigma,
-                                        zeta, n, model, rtol, atol, t_ref, 0.0, stats[S_PARTIAL:])
+                                        zeta, n, model, rtol, atol, t_ref, 0.0, stats[S_PARTIAL:],
+                                        level)
             if s == 0.0:
                 if t == t_zero:
                     # On the surface with q' > 0 (a grazing recontact) and a step longer than
@@ -557,23 +569,23 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
         if switches and mode == MODE_T:
             q0_, v0_ = y[0], y[1]
             q1_, v1_ = y_new[0], y_new[1]
-            if v0_ < 0.0 and v1_ > 0.0 and min(q0_, q1_) + n < h * max(-v0_, v1_):
+            if v0_ < 0.0 and v1_ > 0.0 and min(q0_, q1_) - level < h * max(-v0_, v1_):
                 # a minimum inside the step near the surface: look at it on the interpolant
                 dense_coefficients(x, h, y, y_new, K, omega, sigma, zeta, n, model, P)
                 have_dense = True
                 xm = _dense_root(P, y, 0.0, 1.0, 0.0, 1)
-                if dense_eval(P, 0, y[0], xm) < -n:
-                    x0g = _dense_root(P, y, 0.0, xm, -n, 0)
+                if dense_eval(P, 0, y[0], xm) < level:
+                    x0g = _dense_root(P, y, 0.0, xm, level, 0)
                     s, _ = _locate_crossing(dim, mode, x, xm * h, y, f, y_new, f_new, K,
                                             omega, sigma, zeta, n, model, rtol, atol, t_ref,
-                                            x0g * h, stats[S_PARTIAL:])
+                                            x0g * h, stats[S_PARTIAL:], level)
                     h_t = h
                     mode = MODE_LOSS
                     t_ref = t + s
                     x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
                     h = -x
                     continue
-        lands = land_on_switch or (mode == MODE_LOSS and (at_target or y_new[0] < -n))
+        lands = land_on_switch or (mode == MODE_LOSS and (at_target or y_new[0] < level))
         # ---- accepted step ------------------------------------------------------------------
         if n_eval > 0 or measure:
             # the continuous extension costs 3 more stages: only on steps that need it (an
@@ -605,11 +617,11 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
             # (time to the surface)^-k, so the error of a step of given h grows as that time
             # shrinks; scale h by its ratio over this step (without this, every step of the
             # approach was followed by a rejected one: 5 rejections per contact loss)
-            d1 = _time_to_surface(y_new[0] + n, y_new[1], f_new[1])
+            d1 = _time_to_surface(y_new[0] - level, y_new[1], f_new[1])
             if d1 <= 0.0:
                 d1 = np.inf     # ended exactly on the surface: the next trial crosses anyway
             elif d1 < 4.0 * h:
-                d0 = _time_to_surface(y[0] + n, y[1], f[1])
+                d0 = _time_to_surface(y[0] - level, y[1], f[1])
                 if d1 < d0 < np.inf:
                     approach = max(0.2, d1 / d0)
         x = x_target if at_target else x + h
@@ -628,7 +640,7 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
             # pow takes longer on that critical path
             h *= min(10.0, max(0.2, 0.9 / sqrt(sqrt(sqrt(err))))) * approach
         to_height = (d1 < HEIGHT_TRIGGER * h and height_ok and n != 1.0 and t + d1 < t1
-                     and not at_target and _lands_steeply(y[0] + n, y[1], f[1]))
+                     and not at_target and _lands_steeply(y[0] - level, y[1], f[1]))
         if h >= 0.7 * d1 and not to_height:
             # the surface is within about one (scaled) step: aim past it, so that the next
             # trial crosses and the crossing is located
@@ -639,7 +651,7 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
             # t-step in x units
             h_t = h
             t_ref = t
-            x = -sqrt(max(0.0, y[0] + n))
+            x = -sqrt(max(0.0, y[0] - level))
             m = 2.0 * x / y[1]
             f[0] = 1.0
             for i in range(dim):
@@ -650,7 +662,7 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
         elif lands:
             # contact is lost exactly at t_stop
             t = t_ref
-            x, in_flight = _lose_contact(t, y, f, stats, omega, sigma, zeta, n, model)
+            x, in_flight = _lose_contact(t, y, f, stats, omega, sigma, zeta, n, model, level)
             mode = MODE_T
             h = h_t
         elif mode == MODE_RECONTACT and at_target:
@@ -660,7 +672,7 @@ def integrate(y, t0, t1, omega, sigma, zeta, n, model, rtol, atol, h, max_steps,
             x = _enter(mode, t, t_ref, y, f, omega, sigma, zeta, n, model)
             h = max(h_min, 2.0 * W_EXIT * h_w)
     if mode == MODE_HEIGHT:     # (not reached: a step in x never ends at t1; q from x if it did)
-        y[0] = x * x - n
+        y[0] = x * x + level
     # outputs at t1 exactly (t_eval may end at t1)
     while i_eval < n_eval and t_eval[i_eval] <= t1 * (1.0 + 1e-15) + 1e-300:
         out_eval[0, i_eval] = y[0]
@@ -724,15 +736,16 @@ def _measure_step(P, y, y_new, mode, x, h, t_ref, n, model, extremum, harmonics,
             harm[H_SQUARE, 0] += Fq * Fe
 
 
-@kernel("void(float64[:, ::1], float64[::1], float64, float64, float64, float64, int64, float64, float64[:, ::1])")
-def _height_step_harmonics(P, y, x, h, t_ref, n, model, w_h, harm):
-    """The contact-force harmonics over one step in x = -sqrt(q + n) (P: its continuous
-    extension of (tau, q')): q = x^2 - n at the Gauss nodes, dt = 2 x / q' dx."""
+@kernel("void(float64[:, ::1], float64[::1], float64, float64, float64, float64, int64, float64, float64[:, ::1], float64)")
+def _height_step_harmonics(P, y, x, h, t_ref, n, model, w_h, harm, level):
+    """The contact-force harmonics over one step in x = -sqrt(q - level) (P: its continuous
+    extension of (tau, q')): q = x^2 + level at the Gauss nodes (level = -n: the law's loss
+    level), dt = 2 x / q' dx."""
     for j in range(8):
         xi = _GL_X[j]
         xx = x + xi * h
         dtdx = 2.0 * xx / dense_eval(P, 1, y[1], xi)
-        Fq = rhs_force(xx * xx - n, n, model)
+        Fq = rhs_force(xx * xx + level, n, model)
         Fe = Fq * _GL_W[j] * h * dtdx
         if Fe != 0.0:
             _add_harmonics(Fe, t_ref + dense_eval(P, 0, y[0], xi), w_h, harm)

@@ -17,7 +17,6 @@ surface and the saltation matrix of a contact loss or recontact is the identity.
 """
 from dataclasses import dataclass
 from math import cos, isfinite, nan, sqrt
-from typing import Callable
 
 from numba import float64, int64
 from numba.types import UniTuple
@@ -26,6 +25,13 @@ from hertzmap.kernels._jit import kernel
 
 HERTZ = 0
 TAYLOR = 1
+
+#: The model every solve takes unless told otherwise, declared once: the Hertz law (paper
+#: Eq. 7) with n = 3/2, and the shooting's integrator tolerance (relative and absolute, on
+#: (q, q') and the monodromy matrix). Function signatures name these instead of restating them.
+DEFAULT_LAW = "hertz"
+DEFAULT_EXPONENT = 1.5
+DEFAULT_RTOL = 1e-10
 
 #: Paper Eq. 12: the Taylor force 1 + q + q^2/6 - q^3/54 of Eq. 10 vanishes here, the Taylor
 #: model's "loss of contact". The cubic factors exactly, -54 F = (q + 3)(q^2 - 12 q - 18), so
@@ -38,25 +44,37 @@ TAYLOR_CONTACT_LOSS = 6.0 - 3.0 * sqrt(6.0)
 @dataclass(frozen=True)
 class ContactLaw:
     """A contact law F(q), declared once; the kernels' force functions below branch on its
-    ``code``, the integrator on ``switches`` (a switching surface at q = -n, below which F = 0
-    and the flight is integrated in closed form), the study file on ``name`` and
-    ``has_exponent``; ``loss_level(n)`` is the q at which contact is lost (the grazing
-    threshold of every product). Its independent twin for the tests is benchmarks/oracle.py's
-    ``force`` of the same name."""
+    ``code``, the integrator on ``switches`` (a switching surface at the loss level, below
+    which F = 0 and the flight is integrated in closed form), the study file on ``name`` and
+    ``has_exponent``. The loss level, the q at which contact is lost (the integrator's
+    switching surface and the grazing threshold of every product), is declared as
+    ``loss_slope * n + loss_offset`` (n the contact exponent): the kernels read it through
+    LOSS_SLOPE and LOSS_OFFSET (``switch_level``), Python through ``loss_level(n)``. Its
+    independent twin for the tests is benchmarks/oracle.py's ``force`` of the same name."""
 
     name: str
     code: int
     switches: bool
     has_exponent: bool
-    loss_level: Callable[[float], float]
+    loss_slope: float
+    loss_offset: float
     equation: str
     description: str
 
+    def loss_level(self, n) -> float:
+        """q at which contact is lost for the exponent n: loss_slope * n + loss_offset, the
+        same arithmetic as the kernels' ``switch_level`` (a law whose level does not depend on
+        n takes any n, None included)."""
+        if self.loss_slope == 0.0:
+            return float(self.loss_offset)
+        return float(self.loss_slope) * float(n) + float(self.loss_offset)
+
 
 LAWS = (
-    ContactLaw("hertz", HERTZ, True, True, lambda n: -float(n), "Eq. 7",
+    # level -n: -1.0 * n + 0.0 is -n exactly (IEEE), so the integrator's q - level is q + n
+    ContactLaw("hertz", HERTZ, True, True, -1.0, 0.0, "Eq. 7",
                "F = (1 + q/n)^n in contact, 0 in flight below q = -n (n = 3/2: Hertz)"),
-    ContactLaw("taylor", TAYLOR, False, False, lambda n: TAYLOR_CONTACT_LOSS, "Eq. 10-12",
+    ContactLaw("taylor", TAYLOR, False, False, 0.0, TAYLOR_CONTACT_LOSS, "Eq. 10-12",
                "F = 1 + q + q^2/6 - q^3/54, the third-order expansion of the n = 3/2 law; "
                "never loses contact (valid above TAYLOR_CONTACT_LOSS)"),
 )
@@ -66,9 +84,14 @@ MODELS = {law.name: law.code for law in LAWS}
 LAW_OF_CODE = {law.code: law for law in LAWS}
 #: code -> has a switching surface (a compile-time constant of the integrator)
 SWITCHES = tuple(LAW_OF_CODE[c].switches for c in range(len(LAWS)))
-#: code -> the contact-loss level of a law without a switching surface (NaN for the others,
-#: whose level -n depends on the exponent)
-FIXED_LOSS_LEVEL = tuple(float(LAW_OF_CODE[c].loss_level(nan)) for c in range(len(LAWS)))
+#: code -> the loss level's slope and offset, level = LOSS_SLOPE * n + LOSS_OFFSET (the
+#: integrator's switching surface: ``switch_level``)
+LOSS_SLOPE = tuple(float(LAW_OF_CODE[c].loss_slope) for c in range(len(LAWS)))
+LOSS_OFFSET = tuple(float(LAW_OF_CODE[c].loss_offset) for c in range(len(LAWS)))
+#: code -> the contact-loss level of a law whose level does not depend on the exponent (NaN
+#: for the others, whose level, -n for the Hertz law, does)
+FIXED_LOSS_LEVEL = tuple(LOSS_OFFSET[c] if LOSS_SLOPE[c] == 0.0 else nan
+                         for c in range(len(LAWS)))
 
 
 def contact_loss_level(model: str, exponent: float) -> float:
@@ -91,6 +114,13 @@ def check_exponent(exponent: float) -> float:
     if not (isfinite(exponent) and exponent > 0.0):    # math's: numpy's costs 1 us a call
         raise ValueError(f"exponent must be a finite number > 0, got {exponent!r}")
     return exponent
+
+
+@kernel(float64(float64, int64))
+def switch_level(n, model):
+    """The law's contact-loss level for the exponent n, as declared (LAWS): the q of the
+    integrator's switching surface (-1.0 * n + 0.0 = -n exactly for the Hertz law)."""
+    return LOSS_SLOPE[model] * n + LOSS_OFFSET[model]
 
 
 @kernel(float64(float64, float64, int64))
@@ -186,7 +216,7 @@ def cos_shifted(c0, s0, phi0, theta):
     return cos(phi0 + theta)
 
 
-def contact_force(q, exponent=1.5, model="hertz"):
+def contact_force(q, exponent=DEFAULT_EXPONENT, model=DEFAULT_LAW):
     """Vectorised F(q) for numpy arrays (post-processing; not used inside the kernels)."""
     import numpy as np
 
@@ -195,3 +225,43 @@ def contact_force(q, exponent=1.5, model="hertz"):
         return 1.0 + q + q**2 / 6.0 - q**3 / 54.0
     s = np.maximum(1.0 + q / exponent, 0.0)
     return s**exponent
+
+
+@dataclass(frozen=True)
+class Model:
+    """A contact law with its exponent, and the integrator's tolerance: the value a solve is
+    given (the study's [model] and [solver] tables, a store's attrs, a solver's options dict).
+    ``exponent`` is n of the law F = (1 + q/n)^n (ignored by a law without one); ``rtol`` the
+    shooting's relative tolerance (dimensionless)."""
+
+    law: str = DEFAULT_LAW
+    exponent: float = DEFAULT_EXPONENT
+    rtol: float = DEFAULT_RTOL
+
+    def __post_init__(self):
+        model_code(self.law)
+        object.__setattr__(self, "exponent", check_exponent(self.exponent))
+        object.__setattr__(self, "rtol", float(self.rtol))
+
+    @property
+    def code(self) -> int:
+        """The kernels' int code of the law."""
+        return MODELS[self.law]
+
+    @property
+    def loss_level(self) -> float:
+        """q at which contact is lost (the law's declaration, LAWS)."""
+        return contact_loss_level(self.law, self.exponent)
+
+    @classmethod
+    def of(cls, options) -> "Model":
+        """The model of a solver options dict or a store's attrs (keys ``model``, ``exponent``,
+        ``rtol``; a missing or None one takes the default)."""
+        values = {"law": options.get("model"), "exponent": options.get("exponent"),
+                  "rtol": options.get("rtol")}
+        try:
+            # a law without an exponent: a store's attrs may hold "none" there
+            float(values["exponent"])
+        except (TypeError, ValueError):
+            values["exponent"] = None
+        return cls(**{k: v for k, v in values.items() if v is not None})

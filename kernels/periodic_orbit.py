@@ -10,12 +10,12 @@ from __future__ import annotations
 import numpy as np
 
 from hertzmap.kernels import status as st
-from hertzmap.kernels.model import check_exponent, model_code
+from hertzmap.kernels.model import (DEFAULT_EXPONENT, DEFAULT_LAW, DEFAULT_RTOL, check_exponent,
+                                    model_code)
 from hertzmap.kernels.records import ORBIT
 from hertzmap.kernels.shooting import (FIELDS, I_M11, I_M22, I_Q0, I_STATUS, I_V0, N_FIELDS, F,
                                        shoot_batch_into, shoot_into)
 
-DEFAULT_RTOL = 1e-10
 DEFAULT_MAX_ITER = 40
 DEFAULT_MAX_STEPS = 200_000
 
@@ -121,7 +121,7 @@ def _check_stall_ratio(stall_ratio) -> None:
 
 
 def shoot(omega: float, sigma: float, zeta: float, period: int = 1, guess=(0.0, 0.0), *,
-          exponent: float = 1.5, model: str = "hertz", rtol: float = DEFAULT_RTOL,
+          exponent: float = DEFAULT_EXPONENT, model: str = DEFAULT_LAW, rtol: float = DEFAULT_RTOL,
           atol: float | None = None, max_iter: int = DEFAULT_MAX_ITER, stall_ratio: float = 1.0,
           max_steps: int = DEFAULT_MAX_STEPS, harmonics: bool = True) -> Orbit:
     """Find the period-``period`` orbit of paper Eq. 7 (or Eq. 11 with model="taylor") by Newton
@@ -146,8 +146,8 @@ def shoot(omega: float, sigma: float, zeta: float, period: int = 1, guess=(0.0, 
     return Orbit(omega, sigma, zeta, period, row)
 
 
-def shoot_batch(omega, sigma, zeta, period, q_guess, v_guess, *, exponent: float = 1.5,
-                model: str = "hertz", rtol: float = DEFAULT_RTOL, atol: float | None = None,
+def shoot_batch(omega, sigma, zeta, period, q_guess, v_guess, *, exponent: float = DEFAULT_EXPONENT,
+                model: str = DEFAULT_LAW, rtol: float = DEFAULT_RTOL, atol: float | None = None,
                 max_iter: int = DEFAULT_MAX_ITER, stall_ratio: float = 1.0,
                 max_steps: int = DEFAULT_MAX_STEPS,
                 harmonics: bool = True) -> dict[str, np.ndarray]:

@@ -113,8 +113,8 @@ def check_request(store: str | Path, omega: float, sigma: float, zeta: float | N
         store, tuple(index), tuple(point), parse_grid(grid),
         parse_range(q_range, "--q-range", TRANSIENT_BOX[0]),
         parse_range(v_range, "--v-range", TRANSIENT_BOX[1]),
-        dict(exponent=1.5 if study.exponent is None else float(study.exponent),
-             model=study.model, rtol=float(study.rtol)),
+        dict(exponent=study.model_value.exponent, model=study.model_value.law,
+             rtol=study.model_value.rtol),
         int(study.transient_periods), int(study.record_periods), study.name, study.hash)
 
 

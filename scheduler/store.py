@@ -1014,15 +1014,43 @@ def stage_sweep(store: str | Path, line: int, direction: str,
     return stage_file(store, SWEEP_STAGE, sweep_name(line, direction), arrays)
 
 
-def staged_sweeps(store: str | Path) -> dict[tuple[int, str], dict[str, np.ndarray]]:
-    """The sweeps staged so far, by (line, direction)."""
-    root = Path(store) / SWEEP_STAGE
+def staged_files(store: str | Path, folder: str) -> dict[str, dict[str, np.ndarray]]:
+    """The files staged whole so far in ``folder`` of the store (stage_file; not one being
+    written, not its subfolders), by name."""
+    root = Path(store) / folder
     if not root.is_dir():
         return {}
+    return {p.stem: read_stage_file(store, folder, p.stem) for p in sorted(root.iterdir())
+            if p.suffix == ".npz" and not p.name.startswith(".")}
+
+
+def staged_sweeps(store: str | Path) -> dict[tuple[int, str], dict[str, np.ndarray]]:
+    """The sweeps staged so far, by (line, direction)."""
+    return {(int(name.partition("-")[0]), name.partition("-")[2]): arrays
+            for name, arrays in staged_files(store, SWEEP_STAGE).items()}
+
+
+#: the staged swept-sine runs: a subfolder of the stepped sweeps' staging folder (removed with
+#: it; staged_sweeps reads only the files at its top)
+SWEPT_STAGE = f"{SWEEP_STAGE}/swept"
+
+
+def swept_name(line: int, direction: str, rate_index: int) -> str:
+    """The staged file's name of a swept run: ``<line>-<direction>-<rate index>``."""
+    return f"{int(line):06d}-{direction}-{int(rate_index):03d}"
+
+
+def stage_swept(store: str | Path, line: int, direction: str, rate_index: int,
+                arrays: dict[str, np.ndarray]) -> Path:
+    """Stage one finished swept run's arrays (the client, holding the store's lock, commits
+    them with the sweeps)."""
+    return stage_file(store, SWEPT_STAGE, swept_name(line, direction, rate_index), arrays)
+
+
+def staged_swept(store: str | Path) -> dict[tuple[int, str, int], dict[str, np.ndarray]]:
+    """The swept runs staged so far, by (line, direction, rate index)."""
     out = {}
-    for p in sorted(root.iterdir()):
-        if p.suffix != ".npz" or p.name.startswith("."):
-            continue
-        line, _, direction = p.stem.partition("-")
-        out[(int(line), direction)] = read_stage_file(store, SWEEP_STAGE, p.stem)
+    for name, arrays in staged_files(store, SWEPT_STAGE).items():
+        line, direction, k = name.split("-")
+        out[(int(line), direction, int(k))] = arrays
     return out

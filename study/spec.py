@@ -22,7 +22,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from hertzmap.kernels.model import LAW_OF_CODE, LAWS, MODELS
+from hertzmap.kernels.model import (DEFAULT_EXPONENT, DEFAULT_LAW, DEFAULT_RTOL, LAW_OF_CODE, LAWS,
+                                    MODELS, Model)
 
 __all__ = [
     "StudyError",
@@ -35,6 +36,8 @@ __all__ = [
     "SPEC_VERSION",
     "SWEEP_AXES",
     "DEFAULT_SWEEP",
+    "SWEEP_RATE_RANGE",
+    "SWEEP_MAX_CYCLES",
 ]
 
 SPEC_VERSION = 2
@@ -98,6 +101,16 @@ SWEEP_RECORD_PERIODS_RANGE = (32, 10_000)
 #: leave the 1T orbit for the 2T one (1000 do not: the step is then recorded unsettled)
 DEFAULT_SWEEP = {"axis": "omega", "jump_tol": 1e-6, "settle_periods": 4000,
                  "record_periods": 200}
+#: [sweep] rates: the swept-sine runs beside the stepped sweeps (study.solve.sweep.swept_sine),
+#: each rate the swept parameter's change per unit dimensionless time tau (d omega / d tau for
+#: axis omega, d sigma / d tau for sigma), up and down each line; none by default (the key is
+#: then left out of the canonical form: a study without it hashes as before). rates_hz_per_s
+#: gives them on the [rig] instead (axis omega: d f / d t = rate 2 pi f0^2).
+SWEEP_RATE_RANGE = (1e-9, 1e-2)
+#: the most forcing cycles one swept-sine run may take (about 10 us each near omega 2, up to
+#: 80 us at omega 0.5 with impacts: 1e7 cycles are 2 to 15 minutes)
+SWEEP_MAX_CYCLES = 10_000_000
+SWEEP_MAX_RATES = 16
 
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$")
 
@@ -139,9 +152,9 @@ class Study:
     omega: tuple[float, ...]
     sigma: tuple[float, ...]
     zeta: tuple[float, ...]
-    model: str = "hertz"
-    exponent: float | None = 1.5
-    rtol: float = 1e-10
+    model: str = DEFAULT_LAW
+    exponent: float | None = DEFAULT_EXPONENT
+    rtol: float = DEFAULT_RTOL
     periods: tuple[int, ...] = (1, 2)
     discover: bool = False
     transients: int = 16
@@ -184,8 +197,15 @@ class Study:
     @property
     def sweep_dict(self) -> dict[str, Any] | None:
         """The [sweep] settings (axis, jump_tol, settle_periods, record_periods), defaults
-        filled in; None for a study without the "sweeps" output."""
+        filled in, and ``rates`` (a tuple, per unit tau, fastest first) when it has swept-sine
+        rates; None for a study without the "sweeps" output."""
         return None if self.sweep is None else dict(self.sweep)
+
+    @property
+    def sweep_rates(self) -> tuple[float, ...]:
+        """The [sweep] rates of the swept-sine runs (per unit tau, fastest first); () without
+        any (or without the "sweeps" output)."""
+        return tuple((self.sweep_dict or {}).get("rates", ()))
 
     def sweep_lines(self) -> list[dict[str, float]]:
         """The lines the "sweeps" output sweeps: the fixed parameters of each (the two axes
@@ -197,13 +217,20 @@ class Study:
         a, b = [ax for ax in AXES if ax != axis]
         return [{a: float(x), b: float(y)} for x in getattr(self, a) for y in getattr(self, b)]
 
+    @property
+    def model_value(self) -> Model:
+        """The study's contact law, exponent (the default where the law has none) and rtol."""
+        return Model(self.model, DEFAULT_EXPONENT if self.exponent is None else self.exponent,
+                     self.rtol)
+
     def solver_kwargs(self) -> dict[str, Any]:
         """Keyword arguments for ``study.block.solve_block`` (everything but the coordinates)."""
+        model = self.model_value
         kw = {
             "periods": tuple(self.periods),
-            "exponent": 1.5 if self.exponent is None else float(self.exponent),
-            "model": self.model,
-            "rtol": float(self.rtol),
+            "exponent": model.exponent,
+            "model": model.law,
+            "rtol": model.rtol,
         }
         if "force_harmonics" not in self.outputs:
             kw["harmonics"] = False  # not stored: skip their quadrature (a quarter of the time)
@@ -493,13 +520,13 @@ def _validated(doc: dict, default_name: str | None, text: str) -> Study:
     # [model]
     mt = _table(doc, "model")
     _refuse_unknown(mt, "model", ("kind", "exponent"))
-    kind = mt.get("kind", "hertz")
+    kind = mt.get("kind", DEFAULT_LAW)
     if kind not in MODEL_KINDS:
         raise StudyError("model.kind", f"must be one of {', '.join(map(repr, MODEL_KINDS))}, "
                          f"got {_r(kind)}")
     if LAW_OF_CODE[MODELS[kind]].has_exponent:
         lo, hi = EXPONENT_RANGE
-        exponent = _number(mt.get("exponent", 1.5), "model.exponent", f"{lo} < exponent <= {hi}")
+        exponent = _number(mt.get("exponent", DEFAULT_EXPONENT), "model.exponent", f"{lo} < exponent <= {hi}")
         if not lo < exponent <= hi:
             raise StudyError("model.exponent", f"must satisfy {lo:g} < exponent <= {hi:g}, "
                              f"got {_r(exponent)}")
@@ -517,7 +544,7 @@ def _validated(doc: dict, default_name: str | None, text: str) -> Study:
                          "point is stored (store format 2); delete this key")
     _refuse_unknown(so, "solver", ("rtol",))
     lo, hi = RTOL_RANGE
-    rtol = _number(so.get("rtol", 1e-10), "solver.rtol", f"{lo:g} <= rtol <= {hi:g}")
+    rtol = _number(so.get("rtol", DEFAULT_RTOL), "solver.rtol", f"{lo:g} <= rtol <= {hi:g}")
     if not lo <= rtol <= hi:
         raise StudyError("solver.rtol", f"must satisfy {lo:g} <= rtol <= {hi:g}, got {_r(rtol)}")
 
@@ -631,7 +658,6 @@ def _validated(doc: dict, default_name: str | None, text: str) -> Study:
                              "grid.omega, grid.sigma, grid.zeta two or more values, or drop "
                              "\"curves\")")
         outputs = list(outputs) + ["measures"]
-    sweep = _parse_sweep(doc, outputs, axes)
     if "sweeps" in outputs:
         outputs = list(outputs) + ["measures"]
     # the census's results are stored whenever it runs
@@ -658,6 +684,9 @@ def _validated(doc: dict, default_name: str | None, text: str) -> Study:
         values["contact"] = contact
         rig = tuple(sorted(values.items()))
 
+    # [sweep] (after [rig]: its rates may be given in the rig's units)
+    sweep = _parse_sweep(doc, outputs, axes, rig)
+
     return Study(
         name=name,
         description=description,
@@ -680,17 +709,19 @@ def _validated(doc: dict, default_name: str | None, text: str) -> Study:
     )
 
 
-def _parse_sweep(doc: Mapping[str, Any], outputs, axes: dict[str, tuple[float, ...]]
+def _parse_sweep(doc: Mapping[str, Any], outputs, axes: dict[str, tuple[float, ...]],
+                 rig: tuple[tuple[str, Any], ...] | None = None
                  ) -> tuple[tuple[str, Any], ...] | None:
     """The [sweep] table (the "sweeps" output's settings), defaults filled in, as sorted pairs;
-    None without the "sweeps" output (a [sweep] table is then refused)."""
+    None without the "sweeps" output (a [sweep] table is then refused). ``rig``: the study's
+    validated [rig] (for rates_hz_per_s)."""
     if "sweeps" not in outputs:
         if "sweep" in doc:
             raise StudyError("sweep", 'the [sweep] table is only meaningful with "sweeps" in '
                              "products.outputs")
         return None
     sw = _table(doc, "sweep")
-    _refuse_unknown(sw, "sweep", tuple(DEFAULT_SWEEP))
+    _refuse_unknown(sw, "sweep", (*DEFAULT_SWEEP, "rates", "rates_hz_per_s"))
     axis = sw.get("axis", DEFAULT_SWEEP["axis"])
     if axis not in SWEEP_AXES:
         raise StudyError("sweep.axis", f"must be one of {', '.join(map(repr, SWEEP_AXES))} (the "
@@ -716,7 +747,70 @@ def _parse_sweep(doc: Mapping[str, Any], outputs, axes: dict[str, tuple[float, .
             raise StudyError(f"sweep.{key}", f"expected an integer {lo}..{hi} ({what}), got "
                              f"{_r(value)}")
         out[key] = int(value)
+    rates = _parse_rates(sw, axis, axes, rig)
+    if rates:
+        out["rates"] = rates
     return tuple(sorted(out.items()))
+
+
+def _parse_rates(sw: Mapping[str, Any], axis: str, axes: dict[str, tuple[float, ...]],
+                 rig: tuple[tuple[str, Any], ...] | None) -> tuple[float, ...]:
+    """[sweep] rates (per unit tau) or rates_hz_per_s (on the [rig], axis omega), checked and
+    converted to per unit tau, fastest first; () when neither is given."""
+    if "rates" in sw and "rates_hz_per_s" in sw:
+        raise StudyError("sweep.rates_hz_per_s", "give the swept-sine rates once: rates "
+                         "(dimensionless, per unit tau) or rates_hz_per_s (on the [rig]), not "
+                         "both")
+    key = "rates_hz_per_s" if "rates_hz_per_s" in sw else "rates"
+    field_name = f"sweep.{key}"
+    given = sw.get(key, [])
+    lo, hi = SWEEP_RATE_RANGE
+    if key == "rates":
+        scale, unit = 1.0, ""
+        what = (f"each {lo:g} <= rate <= {hi:g}, the change of {axis} per unit dimensionless "
+                "time tau")
+    else:
+        if axis != "omega":
+            raise StudyError(field_name, 'a rate in Hz/s is a frequency\'s: only with axis = '
+                             '"omega"; give rates (d sigma per unit tau) for axis "sigma"')
+        if rig is None:
+            raise StudyError(field_name, "needs a [rig] (its f0 converts Hz/s into omega per "
+                             "unit tau); without one give rates (per unit tau)")
+        from hertzmap.study.analytic.rig import Rig
+
+        r = dict(rig)
+        f0 = Rig.hertz(r["E"], r["nu"], r["R"], r["m"], r["N"], contact=r["contact"]).f0
+        scale, unit = 1.0 / (2.0 * math.pi * f0 * f0), " Hz/s"
+        what = (f"each {lo / scale:.4g} <= rate <= {hi / scale:.4g} Hz/s (a rate of 1 in "
+                f"omega per unit tau is 2 pi f0^2 = {1 / scale:.6g} Hz/s, the rig's f0 = "
+                f"{f0:.6g} Hz)")
+    if not isinstance(given, list):
+        raise StudyError(field_name, f"expected a list of numbers ({what}), got {_r(given)}")
+    if len(given) > SWEEP_MAX_RATES:
+        raise StudyError(field_name, f"at most {SWEEP_MAX_RATES} rates, got {len(given)}")
+    rates = []
+    for x in given:
+        x = _number(x, field_name, what)
+        rate = x * scale
+        if not (x > 0.0 and lo * (1 - 1e-12) <= rate <= hi * (1 + 1e-12)):
+            raise StudyError(field_name, f"{what}; got {_r(x)}{unit}")
+        rates.append(rate)
+    if len(set(rates)) != len(rates):
+        raise StudyError(field_name, f"duplicated rate in {_r(given)}")
+    # the run's length: the forcing cycles of the slowest run along the line (T = 2 pi / omega)
+    values = axes[axis]
+    span = max(values) - min(values)
+    for x, rate in zip(given, rates):
+        if axis == "omega":
+            cycles = (max(values) ** 2 - min(values) ** 2) / (4.0 * math.pi * rate)
+        else:
+            cycles = span * max(axes["omega"]) / (2.0 * math.pi * rate)
+        if cycles > SWEEP_MAX_CYCLES:
+            raise StudyError(field_name, f"the rate {_r(x)}{unit} would sweep grid.{axis} "
+                             f"{min(values):g} .. {max(values):g} in {cycles:.3g} forcing "
+                             f"cycles, more than the limit of {SWEEP_MAX_CYCLES:,} a swept run; "
+                             f"give a rate at least {x * cycles / SWEEP_MAX_CYCLES:.3g}{unit}")
+    return tuple(sorted(rates, reverse=True))
 
 
 def load_study(path: str | Path) -> Study:

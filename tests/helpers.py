@@ -429,3 +429,37 @@ def trim_slots(ds: xr.Dataset, used: dict | None = None) -> xr.Dataset:
             assert (cut == spec.fill).all() or (np.issubdtype(cut.dtype, np.inexact)
                                                  and np.isnan(cut).all()), name
     return ds.isel({d: slice(0, n) for d, n in used.items() if d in ds.dims})
+
+
+def small_study_toml(name: str, *, omega, sigma, zeta, outputs, periods=(1, 2),
+                     attractors: str = "never", **tables) -> str:
+    """The TOML text of a small study of the tests: its grid (each axis a list of values or a
+    {start, stop, num} table), the search of ``periods`` with the census ``attractors``
+    ("never" unless a test needs it: seconds, not minutes), its ``outputs``, and any other
+    table given by name (``sweep={...}``, ``rig={...}``)."""
+    from hertzmap.study.spec import study_toml
+
+    doc = {"study": {"name": name}, "grid": {"omega": omega, "sigma": sigma, "zeta": zeta},
+           "search": {"periods": list(periods), "attractors": attractors},
+           "products": {"outputs": list(outputs)}}
+    doc.update(tables)
+    return study_toml(doc)
+
+
+def product_mtime(store, product: str) -> int:
+    """The newest modification time (ns) of any file of ``products/<product>`` in a store."""
+    return max(p.stat().st_mtime_ns for p in (Path(store) / "products" / product).rglob("*"))
+
+
+def assert_rerun_leaves_product(main, study, store, product: str, capsys,
+                                stage_line: str) -> str:
+    """Rerun ``hertzmap run STUDY --store STORE`` (``main``: the CLI's entry point) on a store
+    that holds everything: it exits 0, prints no ``stage_line`` (the stage's own summary line
+    starts with it: nothing was computed) and leaves ``products/<product>`` untouched (no file
+    of it rewritten). Returns the run's output."""
+    before = product_mtime(store, product)
+    assert main(["run", str(study), "--store", str(store)]) == 0
+    out = capsys.readouterr().out
+    assert not any(ln.startswith(stage_line) for ln in out.splitlines()), out
+    assert product_mtime(store, product) == before
+    return out

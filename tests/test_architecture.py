@@ -178,6 +178,9 @@ ONE_DEFINITION = {
     "ORBIT_CLASSES": "study.orbit_rules",
     "SAME_ORBIT_TOL": "study.orbit_rules",
     "LOCK_SUFFIX": "scheduler.store",
+    "DEFAULT_LAW": "kernels.model",
+    "DEFAULT_EXPONENT": "kernels.model",
+    "DEFAULT_RTOL": "kernels.model",
 }
 
 
@@ -211,6 +214,27 @@ def test_numbers_of_one_concept_are_not_written_twice():
             assert "1.3484" not in text and "3.0 * sqrt(6" not in text, m
         if m != "study.analytic.paper":
             assert not re.search(r"1\.348(?!\d)", text), m
+
+
+#: a default of the model restated (kernels.model's DEFAULT_LAW, DEFAULT_EXPONENT, DEFAULT_RTOL
+#: and Model are the one declaration: a signature names them, a reader takes Model.of)
+RESTATED_MODEL_DEFAULT = re.compile(
+    r"""\bmodel\s*(?::\s*str\s*)?=\s*["']hertz["']|\bexponent\s*(?::\s*float\s*)?=\s*1\.5\b"""
+    r"""|\brtol\s*(?::\s*float\s*)?=\s*1e-10\b"""
+    r"""|get\(\s*["'](?:model|exponent|rtol)["']\s*,\s*(?:["']hertz["']|1\.5|1e-10)\s*\)""")
+
+
+def test_the_model_defaults_are_declared_once():
+    """The contact law, exponent and tolerance a solve takes by default are declared once
+    (kernels.model); no other module of the packages restates them."""
+    restated = []
+    for m, path in MODULES.items():
+        if m == "kernels.model" or m.split(".")[0] == "benchmarks":
+            continue
+        for k, line in enumerate(path.read_text().splitlines(), 1):
+            if RESTATED_MODEL_DEFAULT.search(line) and not line.lstrip().startswith(("#", ">>>")):
+                restated.append(f"{path.relative_to(REPO)}:{k}: {line.strip()}")
+    assert not restated, "\n".join(restated)
 
 
 def test_every_module_is_named_in_the_architecture_doc():

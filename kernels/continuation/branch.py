@@ -34,7 +34,8 @@ from hertzmap.kernels.continuation.core import (BOUNDARY, BRANCH_DIFFERENCE, BRA
                                                 floquet_multipliers, fold_function,
                                                 illinois_bracket, illinois_trial, null_vector,
                                                 predict_correct)
-from hertzmap.kernels.periodic_orbit import DEFAULT_MAX_STEPS, DEFAULT_RTOL
+from hertzmap.kernels.model import DEFAULT_EXPONENT, DEFAULT_LAW, DEFAULT_RTOL
+from hertzmap.kernels.periodic_orbit import DEFAULT_MAX_STEPS
 
 # ---- records -------------------------------------------------------------------------------
 
@@ -157,7 +158,7 @@ def _locate(fun, ua, ub, ga, gb, gfun, pidx, max_iter=40, tol=1e-12):
 
 def continue_orbit(zeta, x0, *, omega, sigma, period=1, param="omega", direction=1.0,
                    p_min=None, p_max=None, ds=0.01, ds_min=1e-6, ds_max=0.5, max_points=2000,
-                   tangent=None, exponent=1.5, model="hertz", rtol=DEFAULT_RTOL,
+                   tangent=None, exponent=DEFAULT_EXPONENT, model=DEFAULT_LAW, rtol=DEFAULT_RTOL,
                    max_steps=DEFAULT_MAX_STEPS, locate=("fold", "flip", "grazing"),
                    stop_at_branch_point=True, polish=True, dp_max=None) -> Branch:
     """Pseudo-arclength continuation of the period-``period`` orbit through (x0, omega, sigma)
@@ -302,7 +303,7 @@ def flip_eigenvector(M):
     return e / np.linalg.norm(e)
 
 
-def switch_at_flip(zeta, flip: SpecialPoint, *, d=0.02, exponent=1.5, model="hertz",
+def switch_at_flip(zeta, flip: SpecialPoint, *, d=0.02, exponent=DEFAULT_EXPONENT, model=DEFAULT_LAW,
                    rtol=DEFAULT_RTOL, max_steps=DEFAULT_MAX_STEPS, param="omega", M=None):
     """First point of the 2T branch born at a flip of the 1T orbit: solve Phi_{2T}(x) = x on the
     hyperplane e . (x - x*) = d (e the eigenvector of the multiplier -1), with the parameter free.

@@ -1,7 +1,8 @@
 """Points located on a traced curve (kernels.continuation.curve): zeros of a test function
 between two vertices (codimension-2 points), extrema of a parameter along the curve (its
-turning points and cusps), and the end of a 2T curve on the 1T orbit, each on the curve's
-extended system and chord corrector (kernels.continuation.extended_system). Dimensionless.
+turning points and cusps: by the bounded search of kernels.continuation.extremum), and the
+end of a 2T curve on the 1T orbit, each on the curve's extended system and chord corrector
+(kernels.continuation.extended_system). Dimensionless.
 """
 from __future__ import annotations
 
@@ -11,9 +12,12 @@ import numpy as np
 
 from hertzmap.kernels.continuation.core import illinois_bracket, illinois_trial
 from hertzmap.kernels.continuation.extended_system import chord_correct
+from hertzmap.kernels.continuation.extremum import bounded_extremum
 
 #: codimension-2 points along a curve
 CODIM2_KINDS = ("cusp", "fold_flip", "fold_grazing", "flip_grazing")
+#: the extremum search's tolerance in the chord's parameter th (a share of the chord)
+EXTREMUM_XTOL = 1e-9
 
 
 @dataclass
@@ -85,30 +89,22 @@ def locate_zero(system, ua, ub, ga, gb, gfun, J=None, max_iter=30):
 def locate_extremum(system, ua, ub, J, d, maximum):
     """The point of the curve between ua and ub (vertices two apart, bracketing it) where
     d . (a, b) is extremal: the curve's points on the hyperplanes normal to the chord
-    through ua + th (ub - ua), th in [0, 1], with Brent's bounded search over th (to 1e-9
-    in th: the extremal value is then exact to ~1e-18 times the curvature). Returns
-    (u, F, aux) or None."""
-    from scipy.optimize import minimize_scalar
-
+    through ua + th (ub - ua), th in [0, 1], with the shared bounded search over th
+    (kernels.continuation.extremum.bounded_extremum, to EXTREMUM_XTOL in th: the extremal
+    value is then exact to ~1e-18 times the curvature). Returns (u, F, aux) or None."""
     c = ub - ua
     normal = c / np.linalg.norm(c)
-    sign = -1.0 if maximum else 1.0
-    found = {}
 
-    def phi(th):
+    def value_at(th):
         r = chord_correct(system, ua + th * c, normal, J=J)
-        if r is None:
-            return np.inf
-        found[th] = r
-        return sign * float(r[0][2:] @ d)
-    # a trial that does not converge is +inf: no arithmetic warning from the search
-    with np.errstate(invalid="ignore", over="ignore"):
-        res = minimize_scalar(phi, bounds=(0.0, 1.0), method="bounded",
-                              options={"xatol": 1e-9, "maxiter": 80})
-    th = float(res.x)
-    if th not in found or not np.isfinite(res.fun):
+        return None if r is None else (float(r[0][2:] @ d), r)
+
+    # the chord's parameter th in [0, 1]: the window centred on 0.5, half-width 0.5
+    found = bounded_extremum(value_at, 0.5, 0.5, xtol=EXTREMUM_XTOL, max_iter=80,
+                             maximum=maximum)
+    if found is None:
         return None
-    u, F, aux, _, _ = found[th]
+    u, F, aux, _, _ = found.point
     return u, F, aux
 
 

@@ -22,8 +22,13 @@ Test functions, from the 2x2 monodromy M:
     flip     1 + tr M + det M = (1 + mu1)(1 + mu2)     (a multiplier -1)
     grazing  min q + n   (Hertz; min q - q_c for the Taylor model, q_c = kernels.model.TAYLOR_CONTACT_LOSS, Eq. 12)
 
-Users: kernels.continuation.branch (continue_orbit, switch_at_flip), .path (arc_path) and .curve
-(trace_curve, whose compiled extended system is kernels.continuation.extended_system).
+Steps: the pseudo-arclength step (predict_correct) with its length adapted to the corrector's
+effort (adapt_step); and the natural-parameter predictor (natural_prediction: secant, then
+quadratic, through the last vertices) for continuation in a parameter held by the corrector.
+
+Users: kernels.continuation.branch (continue_orbit, switch_at_flip), .path (arc_path), .curve
+(trace_curve, whose compiled extended system is kernels.continuation.extended_system) and
+.extremum (continue_extremum: natural-parameter steps adapted to the predictor's miss).
 Dimensionless throughout (paper Eq. 5-8). Pure: numpy over the numba shooting kernels.
 """
 from __future__ import annotations
@@ -37,8 +42,9 @@ import numpy as np
 from hertzmap.kernels import status as st
 from hertzmap.kernels._jit import kernel
 from hertzmap.kernels.integrate import integrator_scratch
-from hertzmap.kernels.model import check_exponent, contact_loss_level, model_code
-from hertzmap.kernels.periodic_orbit import DEFAULT_MAX_STEPS, DEFAULT_RTOL, shoot
+from hertzmap.kernels.model import (DEFAULT_EXPONENT, DEFAULT_LAW, DEFAULT_RTOL, check_exponent,
+                                    contact_loss_level, model_code)
+from hertzmap.kernels.periodic_orbit import DEFAULT_MAX_STEPS, shoot
 from hertzmap.kernels.shooting import _map
 
 # ---- how a branch or a curve ends --------------------------------------------------------------
@@ -84,8 +90,8 @@ class System:
     """Paper Eq. 7 (or Eq. 11) at fixed zeta: maps, monodromies and test functions."""
 
     zeta: float
-    exponent: float = 1.5
-    model: str = "hertz"
+    exponent: float = DEFAULT_EXPONENT
+    model: str = DEFAULT_LAW
     rtol: float = DEFAULT_RTOL
     max_steps: int = DEFAULT_MAX_STEPS
 
@@ -301,14 +307,32 @@ def null_tangent(J, t_prev):
     return t * (np.sign(t @ t_prev) or 1.0)
 
 
-def adapt_step(h, iterations, h_max, *, h_min=0.0, easy=2, hard=5):
-    """Next arclength step from the corrector's effort: grown by 1.5 (to h_max) after at most
-    ``easy`` iterations, shrunk by 0.6 (to h_min) after ``hard`` or more (never when None)."""
-    if iterations <= easy:
+def adapt_step(h, effort, h_max, *, h_min=0.0, easy=2, hard=5):
+    """The next step from the last step's effort: grown by 1.5 (to h_max) at an effort of at
+    most ``easy``, shrunk by 0.6 (to h_min) at ``hard`` or more (never when None), else kept.
+
+    ``effort`` is any measure of how hard the step was that grows with the step, in the units
+    of ``easy`` and ``hard``: the corrector's iterations on an arclength step (branch, path,
+    curve), or the predictor's relative miss in natural-parameter continuation
+    (kernels.continuation.extremum); a failed step is an infinite effort."""
+    if effort <= easy:
         return min(h_max, 1.5 * h)
-    if hard is not None and iterations >= hard:
+    if hard is not None and effort >= hard:
         return max(h_min, 0.6 * h)
     return h
+
+
+def natural_prediction(params, points, p, *, order=2):
+    """The natural-parameter predictor: the point at parameter ``p`` extrapolated, component by
+    component, by the polynomial through the last k = min(len(points), order + 1) vertices
+    (params[i], points[i]): the last vertex itself (k = 1), the secant (k = 2), then the
+    quadratic (k = 3). Units those of ``points``."""
+    k = min(len(points), order + 1)
+    if k == 1:
+        return np.array(points[-1], float)
+    ps = np.array(params[-k:], float)
+    U = np.array(points[-k:], float)
+    return np.array([np.polyval(np.polyfit(ps, U[:, j], k - 1), p) for j in range(U.shape[1])])
 
 
 def predict_correct(correct_at, u, t, h, h_min, *, tangent_at=tangent, slack=1e-12):

@@ -28,7 +28,8 @@ from hertzmap.kernels.continuation.core import (BOUNDARY, BRANCH_POINT, BRANCH_S
                                                 predict_correct, tangent)
 from hertzmap.kernels.continuation.extended_system import (CURVE_KINDS, CURVE_PARAMS,
                                                            CurveSystem, chord_correct)
-from hertzmap.kernels.periodic_orbit import DEFAULT_MAX_STEPS, DEFAULT_RTOL, shoot
+from hertzmap.kernels.model import DEFAULT_EXPONENT, DEFAULT_LAW, DEFAULT_RTOL
+from hertzmap.kernels.periodic_orbit import DEFAULT_MAX_STEPS, shoot
 
 #: vertex flags (bit mask): why a vertex is where it is
 VERTEX_SEED = 1          # the corrected start point of the trace
@@ -329,7 +330,7 @@ class _Tracer:
 
 
 def trace_curve(x0, omega, sigma, zeta, *, kind, period=1, pair=("omega", "sigma"),
-                bounds=None, exponent=1.5, model="hertz", rtol=DEFAULT_RTOL,
+                bounds=None, exponent=DEFAULT_EXPONENT, model=DEFAULT_LAW, rtol=DEFAULT_RTOL,
                 max_steps=DEFAULT_MAX_STEPS, ds=0.01, ds_min=1e-7, ds_max=0.2,
                 dp_frac=0.01, max_points=1500, both_ways=True, direction=1.0,
                 hold=None) -> Curve:

@@ -1,8 +1,10 @@
 """``hertzmap explore STORE [--port P]``: the loss-of-contact map of a store as a local web page
-(a Bokeh server) where a click gives the point's orbits and "refine this window" recomputes the
-visible window on a finer grid through the same job queue as ``hertzmap run``.
+(a Bokeh server) where a click gives the point's orbits, "sweep through this point" the
+stepped-sine sweeps up and down omega or sigma through it (computed on a thread of this server,
+or the store's products/sweeps), and "refine this window" recomputes the visible window on a
+finer grid through the same job queue as ``hertzmap run``.
 
-* ``state.py``: the stores shown (read while they are written) and the refine job.
+* ``state.py``: the stores shown (read while they are written), the refine job and the sweeps.
 * ``page.py``: the page (one Bokeh document per browser tab).
 * the data the page shows: ``study.explore_data`` (no server there).
 

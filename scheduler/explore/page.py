@@ -3,7 +3,11 @@
 Left: the loss-of-contact map of the shown store (its zeta selected), the frequency-response
 slice through the clicked sigma, and "refine this window". Right: the clicked point's orbits,
 integrated again from the store's start points: a table, the phase portrait, q and the
-contact force over the orbit's period, the Floquet multipliers and the force harmonics.
+contact force over the orbit's period, the Floquet multipliers and the force harmonics; under
+them "sweep through this point": stepped-sine sweeps up and down omega or sigma through it
+(H1, H2, H1/2 and the amplitude, jumps marked), computed on a thread of the server
+(``ExploreState.start_sweep``) while the page says so, or read from the store's
+products/sweeps when it holds that line.
 Everything the page computes comes from ``study.explore_data``; this module only draws.
 """
 from __future__ import annotations
@@ -15,13 +19,14 @@ from pathlib import Path
 import numpy as np
 from bokeh.events import Tap
 from bokeh.layouts import column, row
-from bokeh.models import (Button, ColumnDataSource, Div, HoverTool, InlineStyleSheet, Legend,
-                          LegendItem, Range1d, Select, Span, Spinner)
+from bokeh.models import (Arrow, Button, ColumnDataSource, Div, HoverTool, InlineStyleSheet,
+                          LabelSet, Legend, LegendItem, Range1d, Select, Span, Spinner, VeeHead)
 from bokeh.plotting import figure
 
+from hertzmap.kernels.model import LAW_OF_CODE, Model
 from hertzmap.study import explore_data as E
 
-from hertzmap.scheduler.explore.state import ExploreState, StoreView
+from hertzmap.scheduler.explore.state import ExploreState, StoreView, SweepJob
 from hertzmap.scheduler.explore.table import orbit_table
 
 POLL_MS = 1000
@@ -50,6 +55,10 @@ def _div(text: str = "", width: int | None = None, name: str | None = None) -> D
     return Div(text=text, width=width, name=name, stylesheets=[InlineStyleSheet(css=CSS)])
 
 
+def _secs(x: float) -> str:
+    return f"{x:.2f} s" if x < 1 else f"{x:.1f} s"
+
+
 def _empty(*names) -> dict[str, list]:
     return {n: [] for n in names}
 
@@ -65,6 +74,10 @@ class Page:
         self.zeta = float(self.view.ds["zeta"].values[0])
         self.point: tuple[float, float] | None = None
         self.seen_job = None
+        self.sweep_job: SweepJob | None = None      # the last sweep asked for on this page
+        self.sweep_shown: SweepJob | None = None    # the sweep drawn (its job)
+        self.sweep_store: Path | None = None        # the store it was asked for on
+        self.sweep_point: tuple[float, float] | None = None    # and the point it went through
         self._build()
         self.show_store(self.path)
         doc.add_periodic_callback(self.poll, POLL_MS)
@@ -109,6 +122,10 @@ class Page:
         self.windows_r = p.quad(left="left", right="right", bottom="bottom", top="top",
                                 source=self.windows_src, fill_alpha=0, line_color="#333333",
                                 line_dash="dashed", line_width=1.2)
+        # the line of the last sweep through a clicked point
+        self.sweep_line_src = ColumnDataSource(_empty("x", "y"))
+        p.line("x", "y", source=self.sweep_line_src, line_color="#333333", line_dash="dashdot",
+               line_width=1.5)
         self.mark_src = ColumnDataSource(_empty("x", "y"))
         self.mark_r = p.scatter("x", "y", source=self.mark_src, marker="circle_x", size=16,
                                 fill_alpha=0, line_color="black", line_width=2)
@@ -213,7 +230,9 @@ class Page:
                    fill_color="white", line_color="black")
         hm.legend.visible = False
         self.hm = hm
-        for fig in (self.map, self.resp, self.phase, self.mu, self.qt, self.ft, self.hm):
+        self._build_sweep()
+        for fig in (self.map, self.resp, self.phase, self.mu, self.qt, self.ft, self.hm,
+                    *self.sweep_figs.values()):
             fig.title.text_font_size = "12px"
             fig.toolbar.logo = None
             fig.toolbar.autohide = True
@@ -221,9 +240,62 @@ class Page:
         left = column(row(self.store_select, self.zeta_select), self.map, self.resp,
                       row(self.n_omega, self.n_sigma, column(_div("&nbsp;"), self.refine_button)),
                       self.refine_div)
+        f = self.sweep_figs
         right = column(self.point_div, self.table_div, row(self.phase, self.mu, self.hm),
-                       row(self.qt, self.ft))
+                       row(self.qt, self.ft),
+                       row(self.sweep_axis, column(_div("&nbsp;"), self.sweep_button)),
+                       self.sweep_div, row(f["H1"], f["H2"]), row(f["H1_2"], f["ptp"]))
         self.doc.add_root(column(self.header, row(left, right)))
+
+    def _build_sweep(self) -> None:
+        """"Sweep through this point": the axis, the button, the status line and the four
+        panels (H1, H2, H1/2, amplitude against the swept parameter, up and down)."""
+        u = self.view.units
+        self.sweep_axis = Select(title="sweep along", value="omega", width=170, name="sweep_axis",
+                                 options=[("omega", "omega (frequency)"),
+                                          ("sigma", "sigma (amplitude)")])
+        self.sweep_button = Button(label="Sweep through this point", button_type="primary",
+                                   width=220, name="sweep_button", disabled=True)
+        self.sweep_button.on_click(self.on_sweep)
+        self.sweep_div = _div(
+            "<span class='muted'>stepped-sine sweeps up and down the chosen axis through the "
+            "clicked point, over the map's range, as a lab measures them: click a point, "
+            "then sweep</span>", width=RIGHT_W, name="sweep_status")
+        names = [n for n, _, _ in E.SWEEP_QUANTITIES]
+        self.sweep_srcs = {d: ColumnDataSource(_empty("x", "value", "period", *names),
+                                               name=f"sweep_{d}") for d in ("up", "down")}
+        self.sweep_jump_src = ColumnDataSource(
+            _empty("x", "kind", "direction", "color", *[f"{n}_{e}" for n in names for e in "01"]),
+            name="sweep_jumps")
+        self.sweep_figs: dict = {}
+        self.sweep_spans: list[Span] = []
+        x_range = None
+        for name, label, q in E.SWEEP_QUANTITIES:
+            if q == "force":
+                ylab = label.split(" (")[0] + (" [N]" if u.physical else " (F / N)")
+            else:
+                ylab = "peak-to-peak " + ("z - z_s [um]" if u.physical else "q")
+            f = figure(width=PANEL_W, height=230, name=f"sweep_{name}", title=label,
+                       x_axis_label=u.freq.label, y_axis_label=ylab,
+                       tools="pan,wheel_zoom,box_zoom,reset,save",
+                       **({"x_range": x_range} if x_range is not None else {}))
+            x_range = f.x_range
+            for d in ("up", "down"):
+                src, color = self.sweep_srcs[d], E.SWEEP_COLORS[d]
+                f.line("x", name, source=src, line_color=color, line_width=1.3, alpha=0.85)
+                f.scatter("x", name, source=src, marker=E.SWEEP_MARKERS[d], size=6,
+                          color=color, alpha=0.85)
+            f.add_layout(Arrow(end=VeeHead(size=8, fill_color="color", line_color="color"),
+                               x_start="x", y_start=f"{name}_0", x_end="x", y_end=f"{name}_1",
+                               source=self.sweep_jump_src, line_color="color",
+                               line_dash="dashed", line_width=1.5))
+            f.add_layout(LabelSet(x="x", y=f"{name}_1", text="kind", source=self.sweep_jump_src,
+                                  text_color="color", text_font_size="9px", x_offset=3))
+            span = Span(location=float("nan"), dimension="height", line_color="#444444",
+                        line_dash="dotted", line_width=1.2)
+            f.add_layout(span)
+            self.sweep_spans.append(span)
+            self.sweep_figs[name] = f
 
     # -- the store and its map ------------------------------------------------------------
     def refresh_store_options(self) -> None:
@@ -267,6 +339,7 @@ class Page:
             c = drawn.get(name)
             src.data = {"xs": c["xs"], "ys": c["ys"]} if c else {"xs": [], "ys": []}
         self.draw_windows()
+        self.draw_sweep_line()
         # legend: one entry per stable-response combination present (the first cell of each),
         # then the curves drawn
         items = []
@@ -326,11 +399,13 @@ class Page:
                  f"N = {u.preload_n:.4g} N" if u.physical else
                  "dimensionless (the study has no [rig])")
         sizes = " x ".join(f"{ds.sizes[d]} {d}" for d in ("omega", "sigma", "zeta"))
+        model = Model.of(ds.attrs)
+        law_exponent = f" n = {model.exponent:g}" if LAW_OF_CODE[model.code].has_exponent else ""
         self.header.text = (
             f"<h1>hertzmap explore</h1><div><b>{html.escape(v.name)}</b>: study "
             f"{html.escape(str(ds.attrs.get('hertzmap_study_name', '')))} "
             f"(hash {str(ds.attrs.get('hertzmap_study_hash', ''))[:8]}), {sizes}, "
-            f"{ds.attrs.get('model', 'hertz')} n = {ds.attrs.get('exponent', 1.5)}; {units}</div>"
+            f"{model.law}{law_exponent}; {units}</div>"
             f"<div>tasks <span id='tasks_done'>{done}/{total}</span> done "
             f"<progress value='{done}' max='{total}'></progress> {state}</div>")
 
@@ -343,6 +418,8 @@ class Page:
     def show_point(self, omega: float, sigma: float) -> None:
         v, u = self.view, self.view.units
         self.point = (omega, sigma)
+        self.sweep_button.disabled = (self.sweep_job is not None
+                                      and self.sweep_job.state == "running")
         ds = v.ds
         if not (ds["omega"].min() <= omega <= ds["omega"].max()
                 and ds["sigma"].min() <= sigma <= ds["sigma"].max()):
@@ -469,6 +546,124 @@ class Page:
                                 f"{self.zeta:g}: the store's orbits (dotted: the clicked omega)")
         self.resp_span.location = float(u.freq(omega))
 
+    # -- the sweep through the clicked point ---------------------------------------------
+    def on_sweep(self) -> None:
+        """Start the sweeps through the clicked point along the chosen axis (answered at once:
+        the store's or an earlier sweep is drawn now, a computed one when poll sees it done)."""
+        if self.point is None:
+            self.sweep_div.text = ("<span id='sweep_state' class='err'>refused</span>: click a "
+                                   "point of the map first")
+            return
+        if self.sweep_job is not None and self.sweep_job.state == "running":
+            return
+        omega, sigma = self.point
+        axis = self.sweep_axis.value
+        try:
+            job = self.state.start_sweep(self.view, axis, omega, sigma, self.zeta)
+        except ValueError as exc:
+            self.sweep_div.text = (f"<span id='sweep_state' class='err'>refused</span>: "
+                                   f"{html.escape(str(exc))}")
+            return
+        self.sweep_job = job
+        self.sweep_store = self.path
+        self.sweep_point = self.point
+        self.poll_sweep()
+
+    def poll_sweep(self) -> None:
+        """The sweep asked for: "computing ..." (with the seconds so far) while it runs, then
+        drawn; a failure shows its status and message."""
+        job = self.sweep_job
+        if job is None or job is self.sweep_shown:
+            return
+        if job.state == "running":
+            self.sweep_button.disabled = True
+            self.sweep_div.text = (
+                f"<b>Sweep</b> up and down {html.escape(job.what)}: "
+                f"<span id='sweep_state'>computing...</span> "
+                f"({time.monotonic() - job.started:.0f} s; stepped_sweep on the server, "
+                "both directions in turn)")
+            return
+        self.sweep_shown = job
+        self.sweep_button.disabled = self.point is None
+        if job.state == "failed":
+            self.sweep_div.text = (f"<b>Sweep</b> up and down {html.escape(job.what)}: "
+                                   f"<span id='sweep_state' class='err'>failed</span>: "
+                                   f"{html.escape(job.message)}")
+            return
+        self.draw_sweep(job)
+
+    def draw_sweep(self, job: SweepJob) -> None:
+        sw, u = job.result, self.view.units
+        cols = E.sweep_columns(sw, u)
+        for d, src in self.sweep_srcs.items():
+            src.data = dict(cols[d])
+        self.sweep_jump_src.data = dict(cols["jumps"])
+        axis, fixed = sw["axis"], sw["fixed"]
+        scale = u.freq if axis == "omega" else u.amp
+        pt = self.sweep_point
+        clicked = pt[0 if axis == "omega" else 1] if pt else float("nan")
+        for span in self.sweep_spans:
+            span.location = float(scale(clicked))
+        for f in self.sweep_figs.values():
+            f.xaxis.axis_label = cols["xlabel"]
+        self.draw_sweep_line()
+        n, ng = len(sw["value"]), self.view.ds.sizes[axis]
+        where = ", ".join(f"{a} = {v:g}" for a, v in fixed.items())
+        if sw["stride"] == 1:
+            steps = (f"{n} steps, the store's grid values of {axis} (step {sw['grid_step']:.4g})")
+        else:
+            steps = (f"{n} steps: one in {sw['stride']} of the store's {ng} grid values of "
+                     f"{axis} (more than the {E.MAX_SWEEP_STEPS} a sweep of the page takes), "
+                     "through the clicked value and both ends")
+        secs = sw["seconds"]
+        if job.origin == "stored":
+            origin = ("<span id='sweep_state' class='ok'>from the store</span> (products/sweeps, "
+                      "written by hertzmap run: not recomputed; "
+                      f"{_secs(secs['up'])} up, {_secs(secs['down'])} down on its worker)")
+        elif job.origin == "computed before":
+            origin = ("<span id='sweep_state' class='ok'>done</span> (computed before by this "
+                      f"server: {_secs(secs['up'])} up, {_secs(secs['down'])} down)")
+        else:
+            origin = (f"<span id='sweep_state' class='ok'>done</span>: computed here in "
+                      f"{_secs(job.seconds)} ({_secs(secs['up'])} up, "
+                      f"{_secs(secs['down'])} down)")
+        jt = sw["settings"].get("jump_tol")
+        jumps = []
+        for j in sw["jumps"]:
+            at = f"{axis} = {j['value']:.6g}"
+            if u.physical:
+                at += f" ({float(scale(j['value'])):.5g} {scale.unit})"
+            jumps.append(f"{j['direction']}: {html.escape(j['kind'])} at {at}, "
+                         f"{j['from_period'] or '-'}T &rarr; {j['to_period'] or '-'}T")
+        self.sweep_div.text = (
+            f"<b>Stepped-sine sweeps</b> up and down {axis} at {where}: {origin}; {steps}; "
+            f"from rest, each step from where the last ended"
+            + (f", jumps located to {jt:g}" if jt else "") + ". <span id='sweep_jumps'>"
+            + ("jumps: " + "; ".join(jumps) if jumps else "no jump") + "</span>"
+            + f"<br><span class='muted'><span style='color:{E.SWEEP_COLORS['up']}'>&#9650; up "
+            f"sweep</span>, <span style='color:{E.SWEEP_COLORS['down']}'>&#9660; down "
+            "sweep</span>; arrows: the jumps, from "
+            "the step before to the step after, at the located value; dotted: the clicked "
+            "point; dash-dotted on the map: the swept line</span>")
+
+    def draw_sweep_line(self) -> None:
+        """The drawn sweep's line over the map (when it is of the shown store and zeta)."""
+        job, u = self.sweep_shown, self.view.units
+        sw = job.result if job is not None and job.state == "done" else None
+        if (sw is None or self.sweep_store != self.path
+                or abs(sw["fixed"]["zeta"] - self.zeta) > 1e-12 * max(1.0, self.zeta)):
+            self.sweep_line_src.data = {"x": [], "y": []}
+            return
+        lo, hi = float(np.min(sw["value"])), float(np.max(sw["value"]))
+        if sw["axis"] == "omega":
+            s = sw["fixed"]["sigma"]
+            self.sweep_line_src.data = {"x": [float(u.freq(lo)), float(u.freq(hi))],
+                                        "y": [float(u.amp(s))] * 2}
+        else:
+            w = sw["fixed"]["omega"]
+            self.sweep_line_src.data = {"x": [float(u.freq(w))] * 2,
+                                        "y": [float(u.amp(lo)), float(u.amp(hi))]}
+
     # -- refine ---------------------------------------------------------------------------
     def window(self) -> tuple[tuple[float, float], tuple[float, float]]:
         u = self.view.units
@@ -553,6 +748,7 @@ class Page:
 
     # -- polling --------------------------------------------------------------------------
     def poll(self) -> None:
+        self.poll_sweep()
         # the shown store: redrawn when its flags changed (a run still writing it)
         try:
             v = self.state.view(self.path)

@@ -1,6 +1,9 @@
 """What one ``hertzmap explore`` process shares between its pages: the stores it shows (read
-as they are written), and the refine job (one at a time) that writes a new store through
-``scheduler.run.run_study`` on a background thread.
+as they are written), the refine job (one at a time) that writes a new store through
+``scheduler.run.run_study`` on a background thread, and the stepped-sine sweeps through clicked
+points (``study.explore_data.line_sweep``, each on its own background thread of this process;
+the store's products/sweeps where it holds the line; the sweeps computed kept for the other
+pages).
 """
 from __future__ import annotations
 
@@ -9,6 +12,7 @@ import io
 import threading
 import time
 import warnings
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -21,9 +25,11 @@ from hertzmap.scheduler.defaults import DEFAULT_TASK_SECONDS
 from hertzmap.scheduler.plan import choose_chunks, make_plan
 from hertzmap.scheduler.errors import RunError, StoreError
 from hertzmap.scheduler.run import RunOptions, run_study
-from hertzmap.scheduler.store import lock_path, read_attrs, read_done_flags
+from hertzmap.scheduler.store import (has_run_product, lock_path, read_attrs, read_done_flags,
+                                      read_product)
 from hertzmap.study import explore_data as E
 from hertzmap.study import products as P
+from hertzmap.study.products.stepped_sweeps import SWEEPS
 
 
 @contextlib.contextmanager
@@ -69,6 +75,7 @@ class StoreView:
     flags: np.ndarray
 
     _columns: dict = field(default_factory=dict, repr=False)
+    _sweeps: Any = field(default=None, repr=False)
 
     def map_columns(self, zeta: float) -> dict[str, np.ndarray]:
         """The map's cells at ``zeta`` (``explore_data.map_columns``), computed once per store
@@ -76,6 +83,20 @@ class StoreView:
         if zeta not in self._columns:
             self._columns[zeta] = E.map_columns(self.ds, self.lcm, zeta, self.units)
         return self._columns[zeta]
+
+    def sweeps(self) -> xr.Dataset | None:
+        """The store's ``sweeps`` product (products/sweeps), read once; None when the store
+        holds none written by a run of its study (or it cannot be read)."""
+        if self._sweeps is None:
+            found = None
+            study_hash = self.ds.attrs.get("hertzmap_study_hash")
+            try:
+                if study_hash and has_run_product(self.path, SWEEPS, study_hash):
+                    found = read_product(self.path, SWEEPS)
+            except Exception:       # unreadable: the page computes the sweep instead
+                found = None
+            self._sweeps = found if found is not None else False
+        return self._sweeps if self._sweeps is not False else None
 
     @property
     def done(self) -> tuple[int, int]:
@@ -171,6 +192,48 @@ class RefineJob:
             self.seconds = time.monotonic() - self.started
 
 
+class SweepJob:
+    """Stepped-sine sweeps up and down one line through a clicked point (``explore_data.
+    line_sweep``), computed on a thread of the server process, or a result already at hand
+    (the store's products/sweeps, or a sweep this server computed before). ``state``:
+    running, done, failed; ``result``: the sweep (explore_data's form) once done; ``origin``:
+    "computed", "stored" or "computed before"; ``message`` says why it failed (no traceback);
+    ``seconds``: from the start to the end."""
+
+    def __init__(self, what: str, compute=None, *, result=None, origin: str = "computed",
+                 on_done=None):
+        self.what = what
+        self.origin = origin
+        self.result = result
+        self.message = ""
+        self.started = time.monotonic()
+        self.seconds: float | None = None if result is None else 0.0
+        self.state = "running" if result is None else "done"
+        self._compute = compute
+        self._on_done = on_done
+        self.thread = None
+        if result is None:
+            self.thread = threading.Thread(target=self._run, name="hertzmap-sweep", daemon=True)
+            self.thread.start()
+
+    def _run(self) -> None:
+        try:
+            result = self._compute()
+            if self._on_done is not None:
+                self._on_done(result)
+            self.result = result
+            self.state = "done"
+        except Exception as exc:  # shown on the page; the server keeps serving
+            self.message = f"{type(exc).__name__}: {exc}"
+            self.state = "failed"
+        finally:
+            self.seconds = time.monotonic() - self.started
+
+
+#: sweeps computed by one server kept for its pages (a click on the same line shows them again)
+SWEEP_CACHE = 32
+
+
 @dataclass
 class ExploreState:
     """Shared by every page of one server: the first store, where refines run, the job."""
@@ -185,6 +248,8 @@ class ExploreState:
     _lock: threading.Lock = field(default_factory=threading.Lock)
     # its own lock: starting a cluster takes seconds and must not hold up the pages' reads
     _client_lock: threading.Lock = field(default_factory=threading.Lock)
+    _sweeps: OrderedDict = field(default_factory=OrderedDict)
+    _sweep_lock: threading.Lock = field(default_factory=threading.Lock)
 
     def stores(self) -> list[Path]:
         """The first store and the refines next to it (``<stem>.refine-*.zarr``), oldest first."""
@@ -234,6 +299,38 @@ class ExploreState:
         self.job = RefineJob(study, text, store, study_file, self.cluster,
                              self._client_for_refines).start()
         return self.job
+
+    def start_sweep(self, view: StoreView, axis: str, omega: float, sigma: float,
+                    zeta: float) -> SweepJob:
+        """The sweeps up and down ``axis`` through the grid point nearest (omega, sigma, zeta)
+        of the store ``view``: the store's products/sweeps when it holds that line (nothing
+        computed), else a sweep this server computed before on the same line and steps, else
+        ``explore_data.line_sweep`` started on a thread (the job answers at once: the page
+        polls it). Raises ValueError (shown on the page, nothing computed) when the line cannot
+        be swept (one grid value along the axis)."""
+        values, _ = E.sweep_values(view.ds, axis, omega, sigma)     # ValueError: refused
+        stored = E.stored_line_sweep(view.sweeps(), axis, omega, sigma, zeta)
+        fixed = E.sweep_fixed(view.ds, axis, omega, sigma, zeta)
+        what = (f"{axis} ({values.size} steps) at "
+                + ", ".join(f"{a} = {v:g}" for a, v in fixed.items()))
+        if stored is not None:
+            return SweepJob(what, result=stored, origin="stored")
+        key = (str(view.path), view.ds.attrs.get("hertzmap_study_hash"), axis,
+               tuple(sorted(fixed.items())), values.tobytes())
+        with self._sweep_lock:
+            hit = self._sweeps.get(key)
+            if hit is not None:
+                self._sweeps.move_to_end(key)
+                return SweepJob(what, result=hit, origin="computed before")
+
+        def keep(result) -> None:
+            with self._sweep_lock:
+                self._sweeps[key] = result
+                while len(self._sweeps) > SWEEP_CACHE:
+                    self._sweeps.popitem(last=False)
+
+        ds = view.ds
+        return SweepJob(what, lambda: E.line_sweep(ds, axis, omega, sigma, zeta), on_done=keep)
 
     def close(self) -> None:
         # bounded: a scheduler that went away first must not hold up Ctrl-C

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
+
+from hertzmap.kernels.model import Model
 from hertzmap.study.plots.style import CLASS_STYLE, save, zeta_label
 from hertzmap.study.products.mms import MMS_OMEGA
 
@@ -173,7 +175,9 @@ def plot_sweeps(line, path, *, title=None) -> Path:
     parameter (frequency in Hz, forces in N, amplitude in um with a rig), the up and down
     paths, an arrow at each jump from the level it left to the level it landed on (its kind
     beside it), and the store's orbits along the line in grey behind (linked into branches:
-    stable solid, unstable dashed)."""
+    stable solid, unstable dashed). With swept-sine runs ([sweep] rates), each rate's up and
+    down paths drawn thinly beside the stepped ones, in their direction's colour, fainter the
+    faster (their jumps later, the later the faster)."""
     from matplotlib.lines import Line2D
 
     axis = line.attrs.get("sweep_axis", "omega")
@@ -230,6 +234,15 @@ def plot_sweeps(line, path, *, title=None) -> Path:
             at = np.flatnonzero(cut)
             ax.plot(np.insert(x, at, np.nan), np.insert(y, at, np.nan), color=color,
                     marker=marker, ms=3, lw=0.9, alpha=0.85, zorder=3)
+        if "rate" in line.dims:
+            # the swept sines: thin, over the stepped paths (which they follow away from the
+            # jumps), one per rate and direction, the fastest faintest
+            sx = line["sample_value"].values * xscale
+            for k in range(line.sizes["rate"]):
+                for d, (color, _, _) in SWEEP_STYLE.items():
+                    sy = line[f"swept_{name}"].isel(rate=k, direction=d).values * scale
+                    ax.plot(sx, sy, color=color, lw=0.7, alpha=_swept_alpha(k, line),
+                            zorder=3.5)
         for j in range(line.sizes["jump"]):
             d = int(line["jump_direction"].values[j])
             a, c = int(line["jump_from_step"].values[j]), int(line["jump_to_step"].values[j])
@@ -252,6 +265,13 @@ def plot_sweeps(line, path, *, title=None) -> Path:
     handles += [Line2D([], [], color="k", lw=1.2, ls="--", label="jump (fold, flip, loss)"),
                 Line2D([], [], color="0.6", lw=1.0, label="stored orbits, stable"),
                 Line2D([], [], color="0.75", lw=0.8, ls="--", label="stored orbits, unstable")]
+    if "rate" in line.dims:
+        unit = next(((c, u) for c, u in (("rate_hz_per_s", "Hz/s"), ("rate_N_per_s", "N/s"))
+                     if c in line.coords), ("rate", "per unit tau"))
+        for k in range(line.sizes["rate"]):
+            rate = f"{float(line[unit[0]][k]):.3g} {unit[1]}"
+            handles.append(Line2D([], [], color="k", lw=0.6, alpha=_swept_alpha(k, line),
+                                  label=f"swept sine, {rate}"))
     fig.legend(handles=handles, loc="outside lower center", ncols=5, fontsize=8)
     fixed = ", ".join(f"{k} = {line.attrs[k]:g}" for k in ("omega", "sigma", "zeta")
                       if k in line.attrs and k != axis)
@@ -259,9 +279,12 @@ def plot_sweeps(line, path, *, title=None) -> Path:
     return save(fig, path)
 
 
+def _swept_alpha(k: int, line) -> float:
+    """The opacity of the k-th swept-sine rate's paths (fastest first: the faintest)."""
+    n = line.sizes["rate"]
+    return 0.35 + 0.55 * (k / (n - 1) if n > 1 else 1.0)
+
+
 def _exponent(ds) -> float:
     """The contact exponent n of a product (its attrs; 1.5 when not a number)."""
-    try:
-        return float(ds.attrs.get("exponent", 1.5))
-    except (TypeError, ValueError):
-        return 1.5
+    return Model.of(ds.attrs).exponent

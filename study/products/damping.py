@@ -21,8 +21,9 @@ import numpy as np
 import xarray as xr
 
 from hertzmap.kernels.continuation import VERTEX_EXTREMUM
+from hertzmap.kernels.model import Model
 from hertzmap.study.analytic import multiple_scales as mms
-from hertzmap.study.products.results import (exponent_of, in_stored_order, source_attrs,
+from hertzmap.study.products.results import (in_stored_order, source_attrs,
                                              stored_axes, var_attrs)
 from hertzmap.study.products.traced_curves import isola_boundary
 from hertzmap.study.solve import thresholds as th
@@ -124,8 +125,8 @@ def thresholds(ds: xr.Dataset, traced_curves: xr.Dataset | None = None) -> xr.Da
     on its workers and stores as products/thresholds. ``traced_curves``: that product, when
     at hand (sigma** starts from it)."""
     zetas = np.sort(np.asarray(ds["zeta"].values, float))
-    kw = dict(exponent=exponent_of(ds), model=ds.attrs.get("model", "hertz"),
-              rtol=float(ds.attrs.get("rtol", 1e-10)))
+    model = Model.of(ds.attrs)
+    kw = dict(exponent=model.exponent, model=model.law, rtol=model.rtol)
     star = th.star_threshold(zetas, **kw)
     double = th.double_star_threshold(zetas, isola_start_of(traced_curves), **kw)
     return thresholds_dataset(ds, star, double)

@@ -8,8 +8,9 @@ import numpy as np
 import xarray as xr
 
 from hertzmap.kernels import simulate
+from hertzmap.kernels.model import Model
 from hertzmap.study.products.classes import orbit_classes, valid_orbits
-from hertzmap.study.products.results import (var_attrs, coord_attrs, source_attrs, exponent_of,
+from hertzmap.study.products.results import (var_attrs, coord_attrs, source_attrs,
                                     open_store)
 
 def _add_frequency_hz(out: xr.Dataset, rig) -> xr.Dataset:
@@ -115,9 +116,8 @@ def time_histories(ds: xr.Dataset, omegas: Iterable[float] | None = None,
         idx = list(range(om_all.size))
     else:
         idx = [int(np.argmin(np.abs(om_all - w))) for w in omegas]
-    n = exponent_of(ds)
-    model = ds.attrs.get("model", "hertz")
-    rtol = float(ds.attrs.get("rtol", 1e-10))
+    law = Model.of(ds.attrs)
+    n, model, rtol = law.exponent, law.law, law.rtol
     cyc = np.linspace(0.0, cycles, int(round(cycles * samples_per_cycle)) + 1)
     valid = valid_orbits(ds.expand_dims(["sigma", "zeta"])).isel(sigma=0, zeta=0).transpose(
         "omega", "solution")

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from hertzmap.kernels.model import contact_loss_level
+from hertzmap.kernels.model import DEFAULT_EXPONENT, DEFAULT_LAW, Model
 from hertzmap.study.analytic.rig import Rig
 from hertzmap.study.schema import POINT_DIMS, check_format, study_from_attrs
 from hertzmap.study.spec import StudyError
@@ -117,18 +117,14 @@ def sorted_axes(product: xr.Dataset) -> xr.Dataset:
 
 def exponent_of(ds: xr.Dataset) -> float:
     """The contact exponent n of the store (1.5 for the Taylor model, whose threshold differs)."""
-    e = ds.attrs.get("exponent", 1.5)
-    try:
-        return float(e)
-    except (TypeError, ValueError):
-        return 1.5
+    return Model.of(ds.attrs).exponent
 
 
 
 def contact_threshold(ds: xr.Dataset) -> float:
     """q at which contact is lost: -n (Hertz, Eq. 7) or kernels.model.TAYLOR_CONTACT_LOSS
     (Taylor, Eq. 12)."""
-    return contact_loss_level(ds.attrs.get("model", "hertz"), exponent_of(ds))
+    return Model.of(ds.attrs).loss_level
 
 
 def rig_of(ds: xr.Dataset) -> Rig | None:
@@ -157,8 +153,8 @@ def source_attrs(ds: xr.Dataset, title: str) -> dict[str, Any]:
         "hertzmap_study_hash": ds.attrs.get("hertzmap_study_hash", ""),
         "hertzmap_product_source": "main group of the store",
         "hertzmap_points_computed": f"{int(comp.sum())}/{comp.size}",
-        "model": ds.attrs.get("model", "hertz"),
-        "exponent": ds.attrs.get("exponent", 1.5),
+        "model": ds.attrs.get("model", DEFAULT_LAW),
+        "exponent": ds.attrs.get("exponent", DEFAULT_EXPONENT),
     }
 
 

@@ -18,6 +18,16 @@ Beside them, the product holds the store's own orbits along each line (the block
 the atlas's: every branch, stable or not), linked into branches for drawing (dim
 ``branch_point``): what the sweeps can land on, drawn grey behind them.
 
+With ``[sweep] rates``, the swept sines too (study.solve.sweep.swept_sine, one task per line,
+direction and rate): the parameter moved at each rate over the line's range, up and down, from
+the state the stepped sweep's first step settled on; each run read at SWEPT_SAMPLES values of
+the swept parameter (dims line, rate, direction, sample: H1, H2, H1/2, ptp over two forcing
+cycles) and, for every jump of the stepped sweep of its direction, where it leaves that jump's
+branch and its delay against the stepped jump (dims jump, rate). They are stored in the same
+group as the stepped sweeps: one stage writes the product whole (its resume rule), the swept
+jumps are read against the stepped jumps (the same dim ``jump``) and the ``sweeps`` figure draws
+both from one product. A study without rates has none of them (the product as before).
+
 Pure: numpy and xarray; the sweeps themselves are computed by study.solve.sweep (here only in
 :func:`stepped_sweeps`, the same in one process).
 """
@@ -34,11 +44,14 @@ from hertzmap.study.products.classes import class_flag_attrs, valid_orbits
 from hertzmap.study.products.results import open_store, rig_of, source_attrs, var_attrs
 from hertzmap.study.schema import study_from_attrs
 from hertzmap.study.spec import DEFAULT_SWEEP, Study
-from hertzmap.study.solve.sweep import DIRECTIONS, JUMP_KINDS, stepped_sweep
+from hertzmap.study.solve.sweep import (DIRECTIONS, JUMP_KINDS, SWEPT_WINDOW, force_components,
+                                        jump_measure, stepped_sweep, swept_crossing,
+                                        swept_sine)
 
-__all__ = ["SWEEPS", "JUMP_KIND_CODES", "SWEEP_START", "LINK_TOL", "force_components",
-           "sweep_specs", "run_sweep", "sweep_record", "sweeps_dataset", "stepped_sweeps",
-           "stored_branches", "sweep_line", "jumps_of"]
+__all__ = ["SWEEPS", "JUMP_KIND_CODES", "SWEEP_START", "LINK_TOL", "SWEPT_SAMPLES",
+           "force_components", "sweep_specs", "run_sweep", "sweep_record", "swept_specs",
+           "run_swept", "swept_record", "sweeps_dataset", "stepped_sweeps", "stored_branches",
+           "sweep_line", "jumps_of"]
 
 #: the product's name (its group products/sweeps)
 SWEEPS = "sweeps"
@@ -139,25 +152,50 @@ _BRANCH = {
 }
 _STEP_FIELDS = ("value", "period", "status", "settled", "stable", "min_q", "max_q", "ptp",
                 "loses_contact", "rms_force", "class_code", "branch", "periods_run")
-
-
-def force_components(force_harmonics, period) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(H1, H2, H1/2): the amplitudes of F/N at omega, 2 omega and omega / 2 of orbits of
-    ``period`` m whose ``force_harmonics`` (..., 4) are at k omega / m, k = 1..4: H1 is k = m,
-    H2 k = 2m, H1/2 k = m / 2 (0 for an odd m: an m T orbit has no component at omega / 2);
-    NaN where k > 4 or there is no orbit (m = 0)."""
-    fh = np.asarray(force_harmonics, float)
-    m = np.asarray(period, int)
-    out = []
-    for k, half in ((m, False), (2 * m, False), (m // 2, True)):
-        ok = (m > 0) & (k >= 1) & (k <= N_HARMONICS)
-        got = np.take_along_axis(fh, np.clip(k - 1, 0, N_HARMONICS - 1)[..., None],
-                                 axis=-1)[..., 0]
-        val = np.where(ok, got, np.nan)
-        if half:
-            val = np.where((m > 0) & (m % 2 == 1), 0.0, val)
-        out.append(val)
-    return out[0], out[1], out[2]
+#: the swept-sine runs ([sweep] rates): each run read at SWEPT_SAMPLES values of the swept
+#: parameter (dim sample: the middles of SWEPT_SAMPLES equal bins of the line's range), each
+#: sample the first forcing cycle of the run to reach that value, over the window of
+#: study.solve.sweep.SWEPT_WINDOW cycles ending there
+SWEPT_SAMPLES = 1000
+_WINDOW = f"over the {SWEPT_WINDOW} forcing cycles ending at the sample's cycle"
+_SWEPT = {
+    "swept_value": ("swept parameter of the swept run", "1",
+                    "its value during the sample's forcing cycle (the first of the run at or "
+                    "past sample_value in the run's direction; NaN: not reached)"),
+    "swept_tau": ("time of the swept run", "1",
+                  "dimensionless time tau at the start of the sample's cycle, from the run's "
+                  "start"),
+    "swept_min_q": ("minimum of q of the swept run", "1", _WINDOW),
+    "swept_max_q": ("maximum of q of the swept run", "1", _WINDOW),
+    "swept_ptp": ("peak-to-peak q (amplitude) of the swept run", "1", _WINDOW),
+    "swept_H1": ("contact-force harmonic H1 of the swept run", "1",
+                 "amplitude of F/N at the excitation frequency " + _WINDOW + " (a tracking "
+                 "filter's reading: the orbit's own H1 for a 1T or 2T response)"),
+    "swept_H2": ("contact-force harmonic H2 of the swept run", "1",
+                 "amplitude of F/N at twice the excitation frequency " + _WINDOW),
+    "swept_H1_2": ("contact-force subharmonic H1/2 of the swept run", "1",
+                   "amplitude of F/N at half the excitation frequency " + _WINDOW),
+}
+_SWEPT_RUN = {
+    "swept_cycles": ("forcing cycles of the swept run", "1",
+                     "from the line's first value to its last in the run's direction"),
+    "swept_status": ("status of the swept run", "1",
+                     "kernels.status of its last cycle: 0 every cycle integrated"),
+    "swept_seconds": ("wall time of the swept run", "s", "on its worker"),
+}
+_SWEPT_JUMP = {
+    "swept_jump_value": ("jump location of the swept run", "1",
+                         "where the swept response leaves the branch the stepped sweep's jump "
+                         "left (study.solve.sweep.swept_crossing: its subharmonic H1/2 for a "
+                         "1T <-> 2T jump, else its ptp, crosses the middle of the two "
+                         "responses'); NaN: it does not there (it stayed on another response, "
+                         "or left it only past the next jump), the two responses differ by "
+                         "less than 10 % (nothing jumps), or the jump is not between two "
+                         "periodic responses"),
+    "swept_jump_delay": ("delay of the swept jump", "1",
+                         "swept_jump_value - jump_value in the sweep's direction (> 0: later "
+                         "than the stepped jump); tends to 0 as the rate falls"),
+}
 
 
 def sweep_specs(study: Study) -> list[dict[str, Any]]:
@@ -188,7 +226,9 @@ def sweep_record(sweep) -> dict[str, np.ndarray]:
     """The arrays of one stepped sweep (a study.solve.sweep.Sweep), in sweep order, as its
     task returns them (numbers only: staged by the run as one .npz file): per step the
     fields of ``Sweep.arrays`` with ``force_harmonics`` (steps, 4), ``multipliers`` (steps, 2);
-    per jump ``jump_*``; and ``seconds``, ``probes``."""
+    per jump ``jump_*`` (``jump_from_ptp``, ``jump_from_H1``, ``jump_from_H1_2``: the followed
+    orbit's at the bracket's attracting end, what a swept run's jump is read against); and
+    ``seconds``, ``probes``."""
     a = sweep.arrays()
     out = {name: np.asarray(a[name]) for name in _STEP_FIELDS}
     out["force_harmonics"] = np.asarray(a["force_harmonics"], float).reshape(-1, N_HARMONICS)
@@ -206,8 +246,148 @@ def sweep_record(sweep) -> dict[str, np.ndarray]:
             ("step", lambda j: j.step_index, np.int32)):
         out[f"jump_{name}"] = np.array([get(j) for j in js], dtype)
     out["jump_multipliers"] = np.array([j.multipliers for j in js], complex).reshape(-1, 2)
+    # the followed orbit at the bracket: what a swept run's jump is read against
+    fo = [j.from_orbit for j in js]
+    out["jump_from_ptp"] = np.array([o.ptp if o is not None else np.nan for o in fo], float)
+    h1, _, h12 = force_components(
+        np.array([o.force_harmonics if o is not None else np.full(N_HARMONICS, np.nan)
+                  for o in fo], float).reshape(-1, N_HARMONICS),
+        np.array([o.period if o is not None else 0 for o in fo], int))
+    out["jump_from_H1"], out["jump_from_H1_2"] = np.asarray(h1, float), np.asarray(h12, float)
     out["seconds"] = np.float64(sweep.seconds)
     out["probes"] = np.int64(sweep.probes)
+    return out
+
+
+def sample_values(study: Study) -> np.ndarray:
+    """The values of the swept parameter the swept runs are read at (dim sample): the middles
+    of SWEPT_SAMPLES equal bins of the line's range (the grid's values of the [sweep] axis),
+    increasing."""
+    values = study.axis(study.sweep_dict["axis"])
+    lo, hi = float(values.min()), float(values.max())
+    return lo + (hi - lo) * (np.arange(SWEPT_SAMPLES) + 0.5) / SWEPT_SAMPLES
+
+
+def swept_specs(study: Study, records: Mapping[tuple[int, str], Mapping[str, Any]]
+                ) -> list[dict[str, Any]]:
+    """The swept-sine runs of a study with [sweep] rates, one dict each (line, direction, rate
+    index, the keyword arguments of study.solve.sweep.swept_sine, and the stepped sweep's
+    jumps to read on it): for each stepped sweep of ``records`` (by (line, direction): each
+    run needs its own direction's stepped sweep) and each rate, fastest first. A run goes over
+    the line's whole range in the sweep's direction from the state the stepped sweep's first
+    step settled on (the rig dwelt there first; rest when that step has no orbit), and is read
+    at :func:`sample_values`. Each jump of the stepped sweep is looked for on it between the
+    step before it and the step before the next jump (study.solve.sweep.swept_crossing)."""
+    settings = study.sweep_dict
+    rates = study.sweep_rates
+    if settings is None or not rates:
+        return []
+    axis = settings["axis"]
+    values = np.sort(study.axis(axis))
+    kw = study.solver_kwargs()
+    samples = sample_values(study)
+    out = []
+    for i, fixed in enumerate(study.sweep_lines()):
+        for d in DIRECTIONS:
+            rec = records.get((i, d))
+            if rec is None:
+                continue
+            q0, v0 = float(rec["q0"][0]), float(rec["v0"][0])
+            x0 = (q0, v0) if np.isfinite(q0) and np.isfinite(v0) else tuple(SWEEP_START)
+            ends = (values[0], values[-1]) if d == "up" else (values[-1], values[0])
+            jumps = _swept_jump_specs(rec)
+            for k, rate in enumerate(rates):
+                out.append({"line": i, "direction": d, "rate_index": k,
+                            "swept": {"axis": axis, "start": float(ends[0]),
+                                      "stop": float(ends[1]), "rate": float(rate),
+                                      "fixed": dict(fixed), "x0": x0,
+                                      "exponent": kw["exponent"], "model": kw["model"]},
+                            "jumps": jumps, "samples": samples})
+    return out
+
+
+def _swept_jump_specs(rec: Mapping[str, Any]) -> dict[str, np.ndarray]:
+    """What swept_crossing needs of each jump of a stepped sweep's record (sweep order): its
+    value, the measure it is read on (``subharmonic``: True for H1/2, a 1T <-> 2T jump, False
+    for the ptp: study.solve.sweep.jump_measure), the two responses' levels of it (the followed
+    orbit's at
+    the bracket, the landed step's), the contrast's scale, the ptp's period, and the window of
+    the run it is looked for in (start: the step before it; stop: the step before the next
+    jump, NaN for the last); ``read`` False for a jump not between two periodic responses (NaN
+    on the swept run)."""
+    value = np.asarray(rec["value"], float)
+    at = np.asarray(rec["jump_step"], int)
+    prev = np.maximum(at - 1, 0)
+    from_period = np.asarray(rec["jump_from_period"], int)
+    to_period = np.asarray(rec["jump_to_period"], int)
+    h1, _, h12 = force_components(rec["force_harmonics"], rec["period"])
+    ptp = np.asarray(rec["ptp"], float)
+    before = value[prev]
+    # the followed orbit at the bracket (a record staged before these were kept: the step's)
+    from_ptp = np.asarray(rec.get("jump_from_ptp", ptp[prev]), float)
+    from_h1 = np.asarray(rec.get("jump_from_H1", h1[prev]), float)
+    from_h12 = np.asarray(rec.get("jump_from_H1_2", h12[prev]), float)
+    subharmonic = np.array([jump_measure(a, b) == "H1_2"
+                            for a, b in zip(from_period, to_period)], bool)
+    with np.errstate(invalid="ignore"):
+        scale = np.where(subharmonic, np.fmax(from_h1, h1[at]),
+                         np.fmax(np.abs(from_ptp), np.abs(ptp[at])))
+    return {"value": np.asarray(rec["jump_value"], float), "subharmonic": subharmonic,
+            "from": np.where(subharmonic, from_h12, from_ptp),
+            "to": np.where(subharmonic, h12[at], ptp[at]), "scale": scale,
+            "period": np.maximum(np.maximum(from_period, to_period), 1),
+            "start": before, "stop": np.append(before[1:], np.nan),
+            "read": (np.asarray(rec["jump_located"], bool) & (from_period > 0) & (to_period > 0)
+                     & (at > 0))}
+
+
+def run_swept(spec: Mapping[str, Any]) -> dict[str, np.ndarray]:
+    """One swept-sine run of :func:`swept_specs` computed: its :func:`swept_record`."""
+    return swept_record(swept_sine(**spec["swept"]), spec["jumps"], spec["samples"])
+
+
+def swept_record(swept, jumps: Mapping[str, np.ndarray], samples) -> dict[str, np.ndarray]:
+    """The arrays of one swept-sine run (a study.solve.sweep.SweptSine) as its task returns
+    them (numbers only: staged by the run as one .npz file): at each of ``samples`` (values of
+    the swept parameter, increasing) the first cycle that reached it, read over the
+    SWEPT_WINDOW cycles ending there (``value``, ``tau``, ``min_q``, ``max_q``, ``ptp``,
+    ``H1``, ``H2``, ``H1_2``; NaN where the run did not reach it); per jump of the stepped
+    sweep (``jumps``: :func:`_swept_jump_specs`) ``jump_value``, ``jump_delay``
+    (study.solve.sweep.swept_crossing); and ``cycles``, ``status``, ``seconds``, ``x0``."""
+    w = SWEPT_WINDOW
+    n = swept.values.size
+    idx = swept.cycle_at(samples)
+    ok = (idx >= 0) & (n >= w)
+    idx = np.where(ok, np.maximum(idx, w - 1), 0)
+    lows = np.lib.stride_tricks.sliding_window_view(swept.min_q, w).min(axis=-1) if n >= w \
+        else np.zeros(0)
+    highs = np.lib.stride_tricks.sliding_window_view(swept.max_q, w).max(axis=-1) if n >= w \
+        else np.zeros(0)
+    h1, h2, h12 = swept.force_components(w)
+
+    def at(a, shift=0):
+        a = np.asarray(a, float)
+        if a.size == 0:
+            return np.full(idx.size, np.nan)
+        return np.where(ok, a[np.clip(idx - shift, 0, a.size - 1)], np.nan)
+
+    out = {"value": at(swept.values), "tau": at(swept.tau), "min_q": at(lows, w - 1),
+           "max_q": at(highs, w - 1), "ptp": at(swept.ptp(w)), "H1": at(h1), "H2": at(h2),
+           "H1_2": at(h12)}
+    m = np.asarray(jumps["value"]).size
+    jv, jd = np.full(m, np.nan), np.full(m, np.nan)
+    for k in range(m):
+        if not jumps["read"][k]:
+            continue
+        stop = float(jumps["stop"][k])
+        jv[k], jd[k] = swept_crossing(
+            swept, float(jumps["value"][k]), float(jumps["from"][k]), float(jumps["to"][k]),
+            measure="H1_2" if jumps["subharmonic"][k] else "ptp", period=int(jumps["period"][k]),
+            scale=float(jumps["scale"][k]), start=float(jumps["start"][k]),
+            stop=stop if np.isfinite(stop) else None)
+    out.update(jump_value=jv, jump_delay=jd, cycles=np.int64(n), status=np.int64(swept.status),
+               seconds=np.float64(swept.seconds),
+               x0=np.asarray(swept.settings.get("x0", (np.nan, np.nan)), float))
     return out
 
 
@@ -275,11 +455,18 @@ def stored_branches(ds: xr.Dataset, axis: str, lines: list[dict[str, float]]) ->
 
 
 def sweeps_dataset(ds: xr.Dataset, records: Mapping[tuple[int, str], Mapping[str, Any]],
-                   study: Study | None = None) -> xr.Dataset:
+                   study: Study | None = None,
+                   swept: Mapping[tuple[int, str, int], Mapping[str, Any]] | None = None
+                   ) -> xr.Dataset:
     """The ``sweeps`` product from the sweeps' records (:func:`sweep_record`, by (line,
     direction)) and the results ``ds`` (study.products.open_store: the store's orbits along
     each line, the source attrs; ``study``: the study, read from ds's attrs by default).
-    A sweep without a record (its task failed) is left empty (NaN, 0, False).
+    A sweep without a record (its task failed) is left empty (NaN, 0, False). With [sweep]
+    rates, the swept-sine runs' records too (``swept``: :func:`swept_record`, by (line,
+    direction, rate index)): dims ``rate`` (coordinate ``rate``, per unit tau, fastest first)
+    and ``sample`` (coordinate ``sample_value``), variables ``swept_*`` on (line, rate,
+    direction, sample), (line, rate, direction) and (jump, rate); a run without a record is
+    left empty. A study without rates has none of them (the product as before).
 
     Dims: ``line`` (the lines swept, coordinates ``line_<param>`` for the two fixed
     parameters), ``direction`` (0 up, 1 down), ``step`` (the grid's values of the swept axis in
@@ -310,11 +497,13 @@ def sweeps_dataset(ds: xr.Dataset, records: Mapping[tuple[int, str], Mapping[str
                  "sweep_probes": np.zeros(shape[:2], np.int32),
                  "sweep_jumps": np.zeros(shape[:2], np.int32)}
     jumps: dict[str, list] = {k: [] for k in _JUMP}
+    first_jump: dict[tuple[int, str], tuple[int, int]] = {}   # (line, direction) -> first, count
     for i in range(nl):
         for d, direction in enumerate(DIRECTIONS):
             rec = records.get((i, direction))
             if rec is None:
                 continue
+            first_jump[(i, direction)] = (len(jumps["jump_line"]), len(rec["jump_value"]))
             rv = np.asarray(rec["value"], float)
             # sweep order -> dim step (increasing values): the down sweep is reversed
             at = np.searchsorted(values, rv)
@@ -377,6 +566,10 @@ def sweeps_dataset(ds: xr.Dataset, records: Mapping[tuple[int, str], Mapping[str
         data[name] = (dims, arr, _attrs(_JUMP, name, **extra))
     for name, arr in branches.items():
         data[name] = (("branch_point",), arr, _attrs(_BRANCH, name))
+    rates = study.sweep_rates
+    if rates:
+        data.update(_swept_variables(swept or {}, rates, nl, jarr["jump_value"].size,
+                                     first_jump))
     fixed_axes = [a for a in ("omega", "sigma", "zeta") if a != axis]
     coords = {
         "line": ("line", np.arange(nl, dtype=np.int32), var_attrs(
@@ -394,6 +587,18 @@ def sweeps_dataset(ds: xr.Dataset, records: Mapping[tuple[int, str], Mapping[str
         "jump": ("jump", np.arange(jarr["jump_value"].size, dtype=np.int32), var_attrs(
             "jump", "1", "every jump of every sweep, by line, direction and sweep order")),
     }
+    if rates:
+        coords["rate"] = ("rate", np.asarray(rates, float), var_attrs(
+            "rate of the swept-sine runs", "1",
+            f"d {axis} / d tau: the change of {axis} per unit dimensionless time tau "
+            "(study.solve.sweep.swept_sine), fastest first"))
+        coords["sample"] = ("sample", np.arange(SWEPT_SAMPLES, dtype=np.int32), var_attrs(
+            "sample", "1", f"index of the swept runs' reading along {axis}, increasing"))
+        coords["sample_value"] = ("sample", sample_values(study), var_attrs(
+            f"{axis} of the sample", "1",
+            f"the middles of {SWEPT_SAMPLES} equal bins of the line's {axis} range, increasing: "
+            "where both directions' swept runs are read (the down run ran them from the last "
+            "to the first)"))
     for a in fixed_axes:
         coords[f"line_{a}"] = ("line", np.array([f[a] for f in lines], float), var_attrs(
             {"omega": "excitation frequency omega", "sigma": "excitation amplitude sigma",
@@ -411,7 +616,58 @@ def sweeps_dataset(ds: xr.Dataset, records: Mapping[tuple[int, str], Mapping[str
                            "ended and settles on an attractor (stroboscopic map, Newton "
                            "shooting); jumps bracketed by bisection from the followed branch "
                            "(the quasi-static limit) and named from its Floquet multipliers"}
+    if rates:
+        out.attrs.update({
+            "sweep_rates": [float(r) for r in rates], "swept_samples": SWEPT_SAMPLES,
+            "swept_window": SWEPT_WINDOW,
+            "swept_method": "study.solve.sweep.swept_sine: the swept parameter moved at each "
+                            "rate while the forcing runs, its phase continuous (updated at the "
+                            "end of every forcing cycle), over the line's range from the state "
+                            "the stepped sweep's first step settled on; its jumps read against "
+                            "the stepped sweep's (study.solve.sweep.swept_crossing)"})
     return _with_rig(out, axis, rig_of(ds))
+
+
+def _swept_variables(swept: Mapping[tuple[int, str, int], Mapping[str, Any]],
+                     rates: tuple[float, ...], nl: int, n_jumps: int,
+                     first_jump: Mapping[tuple[int, str], tuple[int, int]]
+                     ) -> dict[str, tuple]:
+    """The ``swept_*`` variables of the product from the swept runs' records."""
+    nr, nd = len(rates), len(DIRECTIONS)
+    shape = (nl, nr, nd, SWEPT_SAMPLES)
+    per_sample = {name: np.full(shape, np.nan) for name in _SWEPT}
+    per_run = {"swept_cycles": np.zeros(shape[:3], np.int64),
+               "swept_status": np.full(shape[:3], -1, np.int8),
+               "swept_seconds": np.full(shape[:3], np.nan)}
+    per_jump = {name: np.full((n_jumps, nr), np.nan) for name in _SWEPT_JUMP}
+    for (i, direction, k), rec in swept.items():
+        if not (0 <= i < nl and 0 <= k < nr and direction in DIRECTIONS):
+            continue
+        d = DIRECTIONS.index(direction)
+        for name in _SWEPT:
+            src = np.asarray(rec[name.removeprefix("swept_")], float)
+            if src.shape == (SWEPT_SAMPLES,):
+                per_sample[name][i, k, d] = src
+        per_run["swept_cycles"][i, k, d] = int(rec["cycles"])
+        per_run["swept_status"][i, k, d] = int(rec["status"])
+        per_run["swept_seconds"][i, k, d] = float(rec["seconds"])
+        # its readings of the jumps of its stepped sweep (the one it was specified from)
+        j0, count = first_jump.get((i, direction), (0, -1))
+        jv = np.asarray(rec["jump_value"], float)
+        if jv.size == count:
+            per_jump["swept_jump_value"][j0:j0 + count, k] = jv
+            per_jump["swept_jump_delay"][j0:j0 + count, k] = np.asarray(rec["jump_delay"],
+                                                                        float)
+    status = dict(flag_values=np.array([v for v, _ in STATUS_FLAGS], np.int8),
+                  flag_meanings=" ".join(m for _, m in STATUS_FLAGS))
+    data = {name: (("line", "rate", "direction", "sample"), arr, _attrs(_SWEPT, name))
+            for name, arr in per_sample.items()}
+    data.update({name: (("line", "rate", "direction"), arr,
+                        _attrs(_SWEPT_RUN, name, **(status if name == "swept_status" else {})))
+                 for name, arr in per_run.items()})
+    data.update({name: (("jump", "rate"), arr, _attrs(_SWEPT_JUMP, name))
+                 for name, arr in per_jump.items()})
+    return data
 
 
 def _with_rig(out: xr.Dataset, axis: str, rig) -> xr.Dataset:
@@ -441,23 +697,69 @@ def _with_rig(out: xr.Dataset, axis: str, rig) -> xr.Dataset:
         out["jump_force_amplitude_N"] = ("jump", np.asarray(rig.sigma_to_force_amplitude(
             out["jump_value"].values), float), var_attrs(
             "jump force amplitude", "N", "jump_value N"))
+    if "rate" in out.coords:
+        out = _swept_with_rig(out, axis, rig)
     out.attrs.update({"rig_f0_hz": rig.f0, "rig_N": rig.N, "rig_m": rig.m, "rig_k": rig.k,
                       "rig_z_s": rig.z_s})
+    return out
+
+
+def _swept_with_rig(out: xr.Dataset, axis: str, rig) -> xr.Dataset:
+    """The rig's units of the swept runs: the rates (Hz/s, or N/s for axis sigma: tau =
+    Omega t), the samples' and the jumps' values and delays, forces in N, amplitudes in m,
+    times in s."""
+    for name in ("H1", "H2", "H1_2"):
+        out[f"swept_{name}_N"] = (out[f"swept_{name}"] * rig.N).assign_attrs(var_attrs(
+            out[f"swept_{name}"].attrs["long_name"], "N", f"N times swept_{name}"))
+    out["swept_ptp_m"] = (out["swept_ptp"] * rig.z_s / rig.n).assign_attrs(var_attrs(
+        "peak-to-peak displacement of the swept run", "m", "swept_ptp z_s / n (paper Eq. 5)"))
+    out["swept_time_s"] = (out["swept_tau"] / rig.Omega).assign_attrs(var_attrs(
+        "time of the swept run", "s", "swept_tau / Omega (Omega = 2 pi f0)"))
+    rate = out["rate"].values
+    if axis == "omega":
+        hz = {"sample": ("sample_frequency_hz", out["sample_value"]),
+              "value": ("swept_frequency_hz", out["swept_value"]),
+              "jump": ("swept_jump_frequency_hz", out["swept_jump_value"]),
+              "delay": ("swept_jump_delay_hz", out["swept_jump_delay"])}
+        out = out.assign_coords(rate_hz_per_s=("rate", rate * 2.0 * np.pi * rig.f0 ** 2,
+                                               var_attrs(
+            "rate of the swept-sine runs", "Hz/s", f"rate 2 pi f0^2 (f0 = {rig.f0:.6g} Hz, the "
+            "study's [rig]): the excitation frequency's change per second")))
+        unit, scale, what = "Hz", rig.f0, "f0"
+    else:
+        hz = {"sample": ("sample_force_amplitude_N", out["sample_value"]),
+              "value": ("swept_force_amplitude_N", out["swept_value"]),
+              "jump": ("swept_jump_force_amplitude_N", out["swept_jump_value"]),
+              "delay": ("swept_jump_delay_N", out["swept_jump_delay"])}
+        out = out.assign_coords(rate_N_per_s=("rate", rate * rig.N * rig.Omega, var_attrs(
+            "rate of the swept-sine runs", "N/s", f"rate N Omega (N = {rig.N:g} N, Omega = 2 pi "
+            "f0, the study's [rig]): the force amplitude's change per second")))
+        unit, scale, what = "N", rig.N, "N"
+    name, src = hz["sample"]
+    out = out.assign_coords({name: ("sample", src.values * scale, var_attrs(
+        src.attrs["long_name"], unit, f"sample_value {what}"))})
+    for key in ("value", "jump", "delay"):
+        name, src = hz[key]
+        out[name] = (src * scale).assign_attrs(var_attrs(
+            src.attrs["long_name"], unit, f"{src.name} {what}"))
     return out
 
 
 def stepped_sweeps(ds: xr.Dataset) -> xr.Dataset:
     """The ``sweeps`` product computed in this process (every sweep one after the other): what
     the run's sweeps stage (scheduler.sweep_tasks, the ``sweeps`` output) computes on its
-    workers and stores as products/sweeps. ``ds``: the results of a study with the ``sweeps``
-    output (or any study: its [sweep] defaults then)."""
+    workers and stores as products/sweeps, the swept-sine runs of its [sweep] rates included.
+    ``ds``: the results of a study with the ``sweeps`` output (or any study: its [sweep]
+    defaults then)."""
     if "computed" not in ds:
         ds = open_store(ds)
     study = study_from_attrs(ds.attrs)
     if study.sweep is None:
         study = replace(study, sweep=tuple(sorted(DEFAULT_SWEEP.items())))
     records = {(s["line"], s["direction"]): run_sweep(s) for s in sweep_specs(study)}
-    return sweeps_dataset(ds, records, study)
+    swept = {(s["line"], s["direction"], s["rate_index"]): run_swept(s)
+             for s in swept_specs(study, records)}
+    return sweeps_dataset(ds, records, study, swept)
 
 
 def sweep_line(sweeps: xr.Dataset, line: int) -> xr.Dataset:
@@ -467,6 +769,7 @@ def sweep_line(sweeps: xr.Dataset, line: int) -> xr.Dataset:
     one = sweeps.isel(line=line)
     one = one.isel(jump=np.flatnonzero(sweeps["jump_line"].values == line),
                    branch_point=np.flatnonzero(sweeps["branch_line"].values == line))
+    one.attrs = dict(one.attrs)          # its own (isel shares the product's attrs dict)
     for name in sweeps.coords:
         if name.startswith("line_"):
             one.attrs[name.removeprefix("line_")] = float(sweeps[name].values[line])

@@ -30,7 +30,8 @@ import time
 import numpy as np
 
 from hertzmap.kernels import status as st
-from hertzmap.kernels.model import MODELS, contact_loss_level
+from hertzmap.kernels.model import (DEFAULT_EXPONENT, DEFAULT_LAW, DEFAULT_RTOL, MODELS,
+                                    contact_loss_level)
 from hertzmap.study.schema import (ATTRACTOR_VARIABLES, BIFURCATION_KINDS, BIFURCATION_SLOTS,
                                    BIFURCATION_VARIABLES, CROSSING_SLOTS, CROSSING_VARIABLES,
                                    ORBIT_VARIABLES, empty_arrays)
@@ -88,7 +89,8 @@ def entry_kernels(*, attractors="never", turn_folds=True, discover=False, locate
     return out
 
 
-def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hertz", rtol=1e-10,
+def solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=DEFAULT_EXPONENT, model=DEFAULT_LAW,
+                rtol=DEFAULT_RTOL,
                 discover=False, transients=16, locate=False, crossings=False,
                 harmonics=True, time_budget=None, seeds=(), turn_folds=True,
                 attractors="never", initial_states=16, transient_periods=500,

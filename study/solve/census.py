@@ -82,7 +82,7 @@ import numpy as np
 from hertzmap.kernels import status as st
 from hertzmap.kernels.attractors import (A, LYAPUNOV_FIELDS, N_ATTRACTOR_FIELDS, N_LYAPUNOV_FIELDS,
                                 NO_LABEL, attractor_batch_into, lyapunov_into)
-from hertzmap.kernels.model import MODELS
+from hertzmap.kernels.model import Model
 from hertzmap.kernels.shooting import N_FIELDS
 from hertzmap.study.basin_entropy import BasinEntropy, scattered_basin_entropy
 from hertzmap.study.orbit_rules import same_orbit
@@ -607,9 +607,8 @@ def needs_second_census(found: list[Attractor], orbits: list[dict], transient_pe
 def transient_settings(options: dict) -> tuple[float, object, float, float]:
     """(exponent, contact law, the transients' rtol, the shooting's rtol) of the solver's
     options (exponent, model, rtol)."""
-    rtol = float(options.get("rtol", 1e-10))
-    return (float(options.get("exponent", 1.5)), MODELS[options.get("model", "hertz")],
-            max(TRANSIENT_RTOL, rtol), rtol)
+    model = Model.of(options)
+    return model.exponent, model.code, max(TRANSIENT_RTOL, model.rtol), model.rtol
 
 
 def run_transients(omega, sigma, zeta, q0, v0, options: dict, budget: int,

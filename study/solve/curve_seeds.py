@@ -55,6 +55,7 @@ import xarray as xr
 
 from hertzmap.kernels import continuation as cont
 from hertzmap.kernels import status as st
+from hertzmap.kernels.model import DEFAULT_EXPONENT, DEFAULT_LAW, DEFAULT_RTOL
 from hertzmap.kernels.continuation import extended_system
 from hertzmap.study.orbit_rules import (CONTINUITY_SHARE, continuity_distance, flip_function, fold_function,
                           match_neighbours)
@@ -398,8 +399,9 @@ def curve_kernels() -> list:
             cont.period_map_into]
 
 
-def trace_seed(seed: Seed, bounds: dict[str, tuple[float, float]], *, exponent: float = 1.5,
-               model: str = "hertz", rtol: float = 1e-10, options: dict | None = None) -> dict:
+def trace_seed(seed: Seed, bounds: dict[str, tuple[float, float]], *,
+               exponent: float = DEFAULT_EXPONENT, model: str = DEFAULT_LAW,
+               rtol: float = DEFAULT_RTOL, options: dict | None = None) -> dict:
     """Trace the curve through ``seed`` across ``bounds`` ({param: (lo, hi)} of its plane).
 
     Returns a plain dict (picklable, no xarray): ``seed`` (its dict), ``status`` (backward,

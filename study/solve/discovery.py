@@ -32,6 +32,7 @@ import numpy as np
 from hertzmap.kernels import simulate
 from hertzmap.kernels import continuation as cont
 from hertzmap.kernels import status as st
+from hertzmap.kernels.model import DEFAULT_EXPONENT, DEFAULT_LAW, DEFAULT_RTOL
 from hertzmap.study.orbit_rules import ORBIT_CLASSES, class_code
 from hertzmap.study.solve.line import grid_crossings
 from hertzmap.study.solve.point import is_known, merge_new_orbits, shoot_seeds_minimal, solve_point
@@ -46,7 +47,8 @@ def transient_periods(omega, zeta, min_periods=40, max_periods=400):
     return n + (n % 2)
 
 
-def transient_seeds(omega, sigma, zeta, count=16, *, exponent=1.5, model="hertz", rtol=1e-10):
+def transient_seeds(omega, sigma, zeta, count=16, *, exponent=DEFAULT_EXPONENT,
+                    model=DEFAULT_LAW, rtol=DEFAULT_RTOL):
     """End states of transients from ``initial_states(count)`` (at tau = 0 mod 2T)."""
     n = transient_periods(omega, zeta)
     seeds = []
@@ -97,8 +99,8 @@ def _same_special(a, b):
             and abs(a["sigma"] - b["sigma"]) <= 1e-9)
 
 
-def discover_line(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5, model="hertz",
-                  rtol=1e-10, transients=16, transient_points=12, continuation=True,
+def discover_line(omega, sigma, zeta, *, periods=(1, 2), exponent=DEFAULT_EXPONENT,
+                  model=DEFAULT_LAW, rtol=DEFAULT_RTOL, transients=16, transient_points=12, continuation=True,
                   max_branches=16, max_points=1500, sweep=True, initial=None,
                   debug=False) -> LineResult:
     """Every periodic response found along the line ``omega`` at (sigma, zeta).

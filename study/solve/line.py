@@ -29,6 +29,7 @@ import numpy as np
 
 from hertzmap.kernels import continuation as cont
 from hertzmap.kernels import status as st
+from hertzmap.kernels.model import Model
 from hertzmap.study.orbit_rules import (CONTINUITY_SHARE, continuity_distance, fold_function,
                           match_neighbours, same_orbit)
 from hertzmap.study.solve.census import attractor_starts, census, needs_second_census
@@ -87,9 +88,8 @@ class LineSearch:
     attractors: dict = field(default_factory=dict)      # grid index -> census result
 
     def __post_init__(self):
-        self.system = cont.System(float(self.zeta), float(self.options.get("exponent", 1.5)),
-                                  self.options.get("model", "hertz"),
-                                  float(self.options.get("rtol", 1e-10)))
+        model = Model.of(self.options)
+        self.system = cont.System(float(self.zeta), model.exponent, model.law, model.rtol)
         self.omega = np.asarray(self.omega, float)
         self.order = np.argsort(self.omega, kind="stable")
         self.rank = np.empty(self.omega.size, int)

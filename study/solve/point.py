@@ -13,7 +13,7 @@ import numpy as np
 
 from hertzmap.kernels import status as st
 from hertzmap.kernels.periodic_orbit import DEFAULT_MAX_ITER, DEFAULT_MAX_STEPS
-from hertzmap.kernels.model import MODELS
+from hertzmap.kernels.model import Model
 from hertzmap.kernels.records import ORBIT
 from hertzmap.kernels.shooting import F, N_FIELDS, shoot_batch_into
 from hertzmap.study.orbit_rules import same_orbit
@@ -54,11 +54,10 @@ def _solve(omega, sigma, zeta, periods, q_guess, v_guess, options) -> list[dict]
     wrapper, broadcasting and a dict of arrays per call, cost ~15 % of a block)."""
     inputs = np.array([omega, sigma, zeta, q_guess, v_guess], float)
     periods = np.asarray(periods, np.int64)
-    rtol = float(options.get("rtol", 1e-10))
+    model = Model.of(options)
     rows = np.empty((periods.size, N_FIELDS))
     shoot_batch_into(inputs[0], inputs[1], inputs[2], periods, inputs[3], inputs[4],
-                     float(options.get("exponent", 1.5)), MODELS[options.get("model", "hertz")],
-                     rtol, rtol, int(options.get("max_iter", DEFAULT_MAX_ITER)),
+                     model.exponent, model.code, model.rtol, model.rtol, int(options.get("max_iter", DEFAULT_MAX_ITER)),
                      float(options.get("stall_ratio", 1.0)), DEFAULT_MAX_STEPS,
                      bool(options.get("harmonics", True)), rows)
     return solutions_from_rows(rows, periods)

@@ -13,21 +13,24 @@
 the period-m monodromy: kernels.continuation's extended system) the curve's sigma at fixed
 omega, sigma_c(omega), is the extended system solved by the chord corrector with omega held
 (three equations, three unknowns q, q', sigma; warm-started from the nearest omega solved). The
-lowest point is where d sigma_c / d omega = 0, found as the minimum of sigma_c by Brent's
-bounded search over omega (:func:`curve_minimum`), not as the zero of a difference-Jacobian
-tangent (which moved sigma** by 1e-6: docs/curves.md): sigma is flat there, so its value is
-exact to the corrector's tolerance (|du| <= 1e-11). **Accuracy**: in sigma, the change of
-sigma_c at the minimum when the integrator's tolerance is divided by ACCURACY_RTOL_FACTOR; in
-omega, the half-width of the interval over which sigma_c stays within that accuracy of its
-minimum (sqrt(2 accuracy / sigma_c''), the curvature from three points).
+lowest point is where d sigma_c / d omega = 0, found as the minimum of sigma_c over omega by
+the bounded search of kernels.continuation.extremum (Brent, recentred when the minimum is on
+the window's edge: :func:`curve_minimum`), not as the zero of a difference-Jacobian tangent
+(which moved sigma** by 1e-6: docs/curves.md): sigma is flat there, so its value is exact to
+the corrector's tolerance (|du| <= 1e-11). **Accuracy**: in sigma, the change of sigma_c at the
+minimum when the integrator's tolerance is divided by ACCURACY_RTOL_FACTOR; in omega, the
+half-width of the interval over which sigma_c stays within that accuracy of its minimum
+(sqrt(2 accuracy / sigma_c''), the curvature from three points).
 
 **Continued in zeta** (:func:`continue_minimum`): the minimum is a point of codimension 2 in
-(omega, sigma, zeta) (a curve point with d sigma / d omega = 0) followed in zeta by natural-
-parameter continuation: a secant (then quadratic) predictor of (q, q', omega, sigma) in zeta,
-the minimum found again at each zeta around the predicted omega, the step grown when the
-predictor was good and shortened when it was not (or the corrector failed), landing on every
-zeta asked for (the study's grid values). The curves sigma*(zeta), sigma**(zeta) are these
-vertices.
+(omega, sigma, zeta) (a curve point with d sigma / d omega = 0) followed in zeta by the
+extremum continuation of kernels.continuation.extremum (natural-parameter steps: the core's
+secant then quadratic predictor of (q, q', omega, sigma) in zeta, the minimum found again at
+each zeta around the predicted omega, the step adapted by the core's rule to the predictor's
+miss in sigma), landing on every zeta asked for (the study's grid values). The curves
+sigma*(zeta), sigma**(zeta) are these vertices. What stays here is the physics: which curve
+each threshold is, where its search starts (multiple scales), how wide it is, the accuracy
+estimate and the isola's join.
 
 Pure (numpy, scipy and kernels; no xarray, no Dask). Dimensionless (paper Eq. 7 / 11).
 """
@@ -40,6 +43,8 @@ import numpy as np
 
 from hertzmap.kernels import continuation as cont
 from hertzmap.kernels.continuation.extended_system import CurveSystem, chord_correct
+from hertzmap.kernels.continuation.extremum import bounded_extremum, continue_extremum
+from hertzmap.kernels.model import DEFAULT_EXPONENT, DEFAULT_LAW, DEFAULT_RTOL
 from hertzmap.kernels.periodic_orbit import shoot
 from hertzmap.study.analytic import multiple_scales as mms
 
@@ -53,19 +58,14 @@ OMEGA_XTOL = 1e-9
 ACCURACY_RTOL_FACTOR = 1e-2
 #: sigma_c'' from three points this far apart in omega (relative to the search's half-width).
 CURVATURE_SHARE = 0.05
-#: A minimum within this share of the half-width from an end of the search is on the edge: the
-#: search is recentred there (at most RECENTRE times).
-EDGE_SHARE = 0.02
+#: A minimum on the edge of the search's window (kernels.continuation.extremum.EDGE_SHARE) is
+#: searched again in the window recentred there, at most RECENTRE times.
 RECENTRE = 4
-#: Continuation in zeta: at least MIN_VERTICES vertices over the range (the step at most its
-#: 1/MIN_VERTICES), at most MAX_VERTICES; the step grows by GROW when the predictor missed sigma
-#: by less than PREDICTOR_TOL / 10 (relative), shrinks by SHRINK when it missed by more than
-#: PREDICTOR_TOL or the minimum was not found; it gives up below MIN_STEP_SHARE of the range.
+#: Continuation in zeta (kernels.continuation.extremum.continue_extremum): at least
+#: MIN_VERTICES vertices over the range (the step at most its 1/MIN_VERTICES), at most
+#: MAX_VERTICES a side.
 MIN_VERTICES = 40
 MAX_VERTICES = 400
-GROW, SHRINK = 1.5, 0.5
-PREDICTOR_TOL = 1e-3
-MIN_STEP_SHARE = 1e-4
 
 
 @dataclass
@@ -108,45 +108,39 @@ class _SigmaOnCurve:
             self.solved[float(r.u[2])] = r.u.copy()
         return r is not None
 
-    def __call__(self, omega: float) -> float:
+    def point(self, omega: float) -> tuple[float, np.ndarray] | None:
+        """(sigma_c(omega), the curve's point (q0, v0, omega, sigma) there), or None."""
         known = np.array(list(self.solved))
         u = self.solved[float(known[np.argmin(np.abs(known - omega))])].copy()
         u[2] = omega
         r = chord_correct(self.system, u, self._HOLD_OMEGA, max_iter=30)
         if r is None:
-            return math.inf
+            return None
         self.solved[float(omega)] = r.u.copy()
-        return float(r.u[3])
+        return float(r.u[3]), self.solved[float(omega)]
+
+    def __call__(self, omega: float) -> float:
+        """sigma_c(omega), +inf where the corrector does not reach the curve."""
+        found = self.point(omega)
+        return math.inf if found is None else found[0]
 
 
 def curve_minimum(kind: str, period: int, zeta: float, start, *, half_width: float,
-                  exponent: float = 1.5, model: str = "hertz", rtol: float = 1e-10,
+                  exponent: float = DEFAULT_EXPONENT, model: str = DEFAULT_LAW, rtol: float = DEFAULT_RTOL,
                   max_steps: int = 10**6) -> CurveMinimum | None:
     """The lowest point in sigma of the ``kind`` ("fold" or "flip") curve of period-``period``
     orbits in (omega, sigma) at ``zeta``, searched within ``half_width`` of the omega of
     ``start`` = (q0, v0, omega, sigma), a point near the curve (recentred when the minimum is
-    on the search's edge). None when the corrector does not reach the curve or the minimum
-    stays on the edge."""
-    from scipy.optimize import minimize_scalar
-
+    on the search's edge: kernels.continuation.extremum.bounded_extremum). None when the
+    corrector does not reach the curve or the minimum stays on the edge."""
     sig = _SigmaOnCurve(kind, period, zeta, exponent, model, rtol, max_steps)
     if not sig.seed(start):
         return None
-    centre = float(np.asarray(start, float)[2])
-    for _ in range(RECENTRE + 1):
-        lo, hi = centre - half_width, centre + half_width
-        with np.errstate(invalid="ignore", over="ignore"):
-            res = minimize_scalar(sig, bounds=(lo, hi), method="bounded",
-                                  options={"xatol": OMEGA_XTOL, "maxiter": 200})
-        w = float(res.x)
-        if not math.isfinite(res.fun) or w not in sig.solved:
-            return None
-        if min(w - lo, hi - w) > EDGE_SHARE * half_width:
-            break
-        centre = w
-    else:
+    lowest = bounded_extremum(sig.point, float(np.asarray(start, float)[2]), half_width,
+                              xtol=OMEGA_XTOL, max_iter=200, recentre=RECENTRE)
+    if lowest is None:
         return None
-    u = sig.solved[w]
+    w, u = lowest.at, lowest.point
     d = CURVATURE_SHARE * half_width
     s_lo, s_hi = sig(w - d), sig(w + d)
     curvature = (s_lo + s_hi - 2.0 * u[3]) / d**2
@@ -161,8 +155,8 @@ def curve_minimum(kind: str, period: int, zeta: float, start, *, half_width: flo
                         sig.system.maps + fine.system.maps)
 
 
-def flip_start(zeta: float, *, exponent: float = 1.5, model: str = "hertz",
-               rtol: float = 1e-10, max_steps: int = 10**6):
+def flip_start(zeta: float, *, exponent: float = DEFAULT_EXPONENT, model: str = DEFAULT_LAW,
+               rtol: float = DEFAULT_RTOL, max_steps: int = 10**6):
     """A point near the 1T flip curve's lowest point at ``zeta``: omega = 2, sigma of paper
     Eq. 26 (multiple scales), the 1T orbit there shot from the static equilibrium (q = 0).
     (q0, v0, omega, sigma), or None."""
@@ -195,73 +189,32 @@ class ZetaCurve:
 
 
 def continue_minimum(kind: str, period: int, start: CurveMinimum, zeta_range, *,
-                     land_on=(), half_width=None, exponent: float = 1.5, model: str = "hertz",
-                     rtol: float = 1e-10, max_steps: int = 10**6) -> ZetaCurve:
+                     land_on=(), half_width=None, exponent: float = DEFAULT_EXPONENT, model: str = DEFAULT_LAW,
+                     rtol: float = DEFAULT_RTOL, max_steps: int = 10**6) -> ZetaCurve:
     """Continue the lowest point ``start`` of a ``kind`` curve in zeta, both ways across
     ``zeta_range`` = (lo, hi), landing on every zeta of ``land_on`` in the range (the study's
-    grid values). ``half_width``: a function of zeta, the search's half-width (default
-    :func:`star_half_width` for the flip, DOUBLE_STAR_HALF_WIDTH for a fold). Returns a
-    :class:`ZetaCurve` (vertices in increasing zeta, ``start`` among them)."""
+    grid values): kernels.continuation.extremum.continue_extremum, the minimum found again at
+    each zeta by :func:`curve_minimum` around the predicted omega. ``half_width``: a function
+    of zeta, the search's half-width (default :func:`star_half_width` for the flip,
+    DOUBLE_STAR_HALF_WIDTH for a fold), widened to 3 times the predicted move of omega. Returns
+    a :class:`ZetaCurve` (vertices in increasing zeta, ``start`` among them)."""
     lo, hi = (float(z) for z in zeta_range)
     if not lo <= start.zeta <= hi:
         raise ValueError(f"start.zeta = {start.zeta} is outside zeta_range ({lo}, {hi})")
     if half_width is None:
         half_width = star_half_width if kind == "flip" else (lambda z: DOUBLE_STAR_HALF_WIDTH)
-    span = max(hi - lo, 1e-12)
-    targets = sorted(float(z) for z in land_on if lo <= z <= hi)
-    maps = 0
-    sides, status = [], []
-    for end in (lo, hi):
-        path = [start]
-        h = span / MIN_VERTICES
-        how = "range"
-        while path[-1].zeta != end:
-            if len(path) >= MAX_VERTICES:
-                how = "max_vertices"
-                break
-            z0 = path[-1].zeta
-            step = min(h, span / MIN_VERTICES, abs(end - z0))
-            z1 = z0 + math.copysign(step, end - z0)
-            # land on the grid's zeta values in the way
-            between = [t for t in targets if min(z0, z1) < t < max(z0, z1)]
-            if between:
-                z1 = min(between, key=lambda t: abs(t - z0))
-            if abs(end - z1) < 1e-12 * span:
-                z1 = end
-            guess = _predict(path, z1)
-            w_move = abs(guess[2] - path[-1].omega)
-            found = curve_minimum(kind, period, z1, guess,
-                                  half_width=max(half_width(z1), 3.0 * w_move),
-                                  exponent=exponent, model=model, rtol=rtol, max_steps=max_steps)
-            if found is None:
-                h = SHRINK * abs(z1 - z0)
-                if h < MIN_STEP_SHARE * span:
-                    how = "lost"
-                    break
-                continue
-            maps += found.maps
-            path.append(found)
-            miss = abs(found.sigma - guess[3]) / max(found.sigma, 1e-12)
-            # a step shortened to land on a grid zeta says nothing against the step length
-            h = max(h, abs(z1 - z0)) * (GROW if miss < 0.1 * PREDICTOR_TOL else
-                                        SHRINK if miss > PREDICTOR_TOL else 1.0)
-            h = max(h, MIN_STEP_SHARE * span)
-        sides.append(path)
-        status.append(how)
-    vertices = sides[0][::-1] + sides[1][1:]
-    return ZetaCurve(vertices, (status[0], status[1]), maps)
 
+    def minimum_at(zeta, u_pred, u_last):
+        # the window reaches three times as far as the predictor moved omega
+        found = curve_minimum(kind, period, zeta, u_pred,
+                              half_width=max(half_width(zeta), 3.0 * abs(u_pred[2] - u_last[2])),
+                              exponent=exponent, model=model, rtol=rtol, max_steps=max_steps)
+        return None if found is None else (found.u(), found)
 
-def _predict(path: list, zeta: float) -> np.ndarray:
-    """(q0, v0, omega, sigma) at ``zeta`` extrapolated from the last vertices (secant, then a
-    quadratic through three)."""
-    k = min(len(path), 3)
-    if k == 1:
-        u = path[-1].u()
-        return u
-    zs = np.array([p.zeta for p in path[-k:]])
-    U = np.array([p.u() for p in path[-k:]])
-    return np.array([np.polyval(np.polyfit(zs, U[:, j], k - 1), zeta) for j in range(4)])
+    path = continue_extremum(minimum_at, (start.zeta, start.u(), start), (lo, hi),
+                             min_vertices=MIN_VERTICES, max_vertices=MAX_VERTICES,
+                             land_on=land_on, value_index=3)
+    return ZetaCurve(path.found, path.status, sum(v.maps for v in path.found) - start.maps)
 
 
 @dataclass
@@ -285,8 +238,8 @@ JOIN_BOUNDS = {"omega": 2.6, "sigma": 3.0}
 JOIN_START_OFFSET = 1e-3
 
 
-def isola_join(lowest: CurveMinimum, *, exponent: float = 1.5, model: str = "hertz",
-               rtol: float = 1e-10, max_steps: int = 10**6) -> Join | None:
+def isola_join(lowest: CurveMinimum, *, exponent: float = DEFAULT_EXPONENT, model: str = DEFAULT_LAW,
+               rtol: float = DEFAULT_RTOL, max_steps: int = 10**6) -> Join | None:
     """The isola's join with the flip-born branch at ``lowest.zeta``: its 2T fold curve traced
     (kernels.continuation.trace_curve) from just right of its lowest point (``lowest``, sigma**)
     towards higher omega until it ends on the 1T orbit, where its end is extrapolated (the
@@ -307,8 +260,8 @@ def isola_join(lowest: CurveMinimum, *, exponent: float = 1.5, model: str = "her
                 int(curve.maps))
 
 
-def star_threshold(zetas, *, exponent: float = 1.5, model: str = "hertz",
-                   rtol: float = 1e-10) -> tuple[ZetaCurve | None, str]:
+def star_threshold(zetas, *, exponent: float = DEFAULT_EXPONENT, model: str = DEFAULT_LAW,
+                   rtol: float = DEFAULT_RTOL) -> tuple[ZetaCurve | None, str]:
     """sigma*(zeta) over the range of ``zetas`` (landing on each): the lowest point of the 1T
     flip curve found at the middle zeta from the multiple-scales estimate (:func:`flip_start`),
     continued both ways (:func:`continue_minimum`). Returns the curve (None when the minimum
@@ -325,8 +278,8 @@ def star_threshold(zetas, *, exponent: float = 1.5, model: str = "hertz",
     return curve, " ".join(curve.status)
 
 
-def double_star_threshold(zetas, start, *, exponent: float = 1.5, model: str = "hertz",
-                          rtol: float = 1e-10) -> tuple[ZetaCurve | None, list, str]:
+def double_star_threshold(zetas, start, *, exponent: float = DEFAULT_EXPONENT, model: str = DEFAULT_LAW,
+                          rtol: float = DEFAULT_RTOL) -> tuple[ZetaCurve | None, list, str]:
     """sigma**(zeta) over the range of ``zetas`` (landing on each) and the isola's join traced
     from each of its vertices (:func:`isola_join`). ``start``: (zeta, (q0, v0, omega, sigma)),
     a point near the isola's lowest point (the traced isola's refined lowest vertex:

@@ -3,7 +3,11 @@ chromium-driver) driven by selenium loads the page of a small store made here wi
 ``hertzmap run``, clicks a grid point that has a stable 2T orbit with contact loss, reads the
 orbit table from the DOM and compares it with the store and with an independent
 ``kernels.simulate``; then box-zooms, refines the window (6 x 6) and waits for the new store
-and the page showing it. Bad input: not a store, a port in use, a store still being written.
+and the page showing it. A sweep through the clicked point: the button, "computing...", the
+sweep's panels, their data read from the page's Bokeh document and compared with an independent
+``study.solve.sweep.stepped_sweep`` (along omega, computed by the page; along sigma, the
+store's products/sweeps, shown as such). Bad input: not a store, a port in use, a store still
+being written; a sweep refused or failing says so.
 
 Screenshots go to pytest's tmp_path, or to the folder $HERTZMAP_SCREENSHOTS names
 (scripts/make-figures.sh: docs/figures/explore/, the gallery's; the tests never write there
@@ -52,7 +56,9 @@ needs_browser = pytest.mark.skipif(bool(MISSING), reason=f"browser test not run:
 needs_bokeh = pytest.mark.skipif(not HAVE_BOKEH, reason="needs bokeh (a dependency of hertzmap: bash scripts/install.sh)")
 
 # A small map around the flip near omega = 2 (paper Fig. 6-9), in the paper's rig units:
-# 11 x 16 = 176 points, a few seconds.
+# 11 x 16 = 176 points, a few seconds; with stepped sweeps along sigma (the sweeps output: 11
+# lines x up, down x 16 steps, about a second), so that the page's sweep along sigma is the
+# store's and the one along omega is computed.
 STUDY = """
 [study]
 name = "explore_e2e"
@@ -67,7 +73,10 @@ zeta = 0.01
 periods = [1, 2]
 
 [products]
-outputs = ["orbits", "measures", "force_harmonics"]
+outputs = ["orbits", "measures", "force_harmonics", "sweeps"]
+
+[sweep]
+axis = "sigma"
 
 [rig]
 E = 2.1e11
@@ -358,6 +367,213 @@ def test_click_gives_the_orbits_and_a_refine_recomputes_the_window(map_store, br
         rc, out, err = server.stop()
     assert rc == 0, err
     assert "Traceback" not in err, err
+
+
+READ_SWEEP = """
+const doc = Bokeh.documents[0];
+const out = {};
+for (const name of ['sweep_up', 'sweep_down', 'sweep_jumps']) {
+  const d = doc.get_model_by_name(name).data;
+  const keys = d instanceof Map ? [...d.keys()] : Object.keys(d);
+  out[name] = {};
+  for (const k of keys) {
+    const col = d instanceof Map ? d.get(k) : d[k];
+    out[name][k] = Array.from(col).map(
+      x => (typeof x === 'number' && !Number.isFinite(x)) ? null : x);
+  }
+}
+const fig = doc.get_model_by_name('sweep_H1');
+out.drawn = !!Bokeh.index.find_one(fig);
+return out;
+"""
+
+
+def _columns(data: dict) -> dict[str, np.ndarray]:
+    """A data source read by READ_SWEEP: numbers as float arrays (null: NaN)."""
+    return {k: (np.array([np.nan if x is None else x for x in v], float)
+                if all(x is None or isinstance(x, (int, float)) for x in v) else v)
+            for k, v in data.items()}
+
+
+def _independent_sweeps(axis, values, fixed):
+    """study.solve.sweep.stepped_sweep up and down, called here with the study's settings
+    (its [sweep] table, model and rtol; from rest): {direction: (values in increasing order,
+    H1, H2, ptp, period in that order, the Sweep)}."""
+    from hertzmap.study.products.stepped_sweeps import force_components
+    from hertzmap.study.solve.sweep import stepped_sweep
+    from hertzmap.study.spec import parse_study
+
+    study = parse_study(STUDY)
+    sw = study.sweep_dict
+    out = {}
+    for d in ("up", "down"):
+        r = stepped_sweep(axis, values, fixed, d, x0=(0.0, 0.0), exponent=1.5, model="hertz",
+                          rtol=study.rtol, jump_tol=sw["jump_tol"],
+                          settle_periods=sw["settle_periods"],
+                          record_periods=sw["record_periods"])
+        a = r.arrays()
+        h1, h2, _ = force_components(a["force_harmonics"], a["period"])
+        o = np.argsort(a["value"])
+        out[d] = (a["value"][o], h1[o], h2[o], a["ptp"][o], a["period"][o], r)
+    return out
+
+
+def _check_sweep(got: dict, want: dict, scale: float) -> None:
+    """The page's sweep columns (READ_SWEEP) against the independent sweeps: the steps, H1 and
+    H2 (N), the amplitude (um), the jumps (location in Hz or N, kind)."""
+    jumps = _columns(got["sweep_jumps"])
+    n_jumps = 0
+    for d, (values, h1, h2, ptp, period, ref) in want.items():
+        c = _columns(got[f"sweep_{d}"])
+        rows = np.isfinite(c["value"])             # the path's breaks at its jumps dropped
+        assert int((~rows).sum()) == sum(1 for j in ref.jumps if j.step_index > 0), d
+        np.testing.assert_array_equal(c["value"][rows], values)
+        np.testing.assert_allclose(c["x"][rows], values * scale, rtol=1e-12)
+        np.testing.assert_allclose(c["H1"][rows] / PRELOAD, h1, rtol=1e-9, equal_nan=True)
+        np.testing.assert_allclose(c["H2"][rows] / PRELOAD, h2, rtol=1e-9, equal_nan=True)
+        np.testing.assert_allclose(c["ptp"][rows] / UM, ptp, rtol=1e-9, equal_nan=True)
+        np.testing.assert_array_equal(c["period"][rows], period)
+        mine = [k for k, dd in enumerate(jumps["direction"]) if dd == d]
+        assert len(mine) == len(ref.jumps), (d, jumps)
+        for k, j in zip(mine, ref.jumps):
+            assert jumps["kind"][k] == j.kind
+            assert jumps["x"][k] / scale == pytest.approx(j.value, rel=1e-12)
+        n_jumps += len(mine)
+    assert len(jumps["x"]) == n_jumps
+
+
+def _sweep_button(driver):
+    """The page's "Sweep through this point" button once it is enabled (by a click on the map,
+    or the last sweep done)."""
+    return _wait(lambda: driver.execute_script(
+        DEEP + "return deep(document, 'button', [])"
+        ".filter(e => e.textContent.includes('Sweep through this point') && !e.disabled)[0]"),
+        10, "the sweep button enabled")
+
+
+@needs_browser
+def test_a_sweep_through_the_clicked_point(map_store, browser, tmp_path):
+    """Click (1.9, 0.5), press "Sweep through this point": the page says "computing...", then
+    draws the sweeps up and down omega (the store's 11 omega values, computed in the server)
+    that an independent stepped_sweep gives; along sigma it shows the store's products/sweeps
+    (not recomputed), the same numbers."""
+    from hertzmap.scheduler.store import read_product
+    from hertzmap.study import products as P
+
+    ds = P.open_store(map_store)
+    w, s = _nearest(ds["omega"].values, OMEGA), _nearest(ds["sigma"].values, SIGMA)
+    server = Served(map_store)
+    try:
+        _open(browser, server.url)
+        ab, pa = _pointer(browser)
+        pa.move_to_location(*_map_px(browser, w * F0, s * PRELOAD))
+        pa.click()
+        ab.perform()
+        _wait(lambda: _table(browser), 30, "the orbit table")
+        button = _sweep_button(browser)
+
+        # -- along omega (the default): computed in the server ----------------------------
+        t0 = time.monotonic()
+        button.click()
+        states = set()
+
+        def state(want):
+            st = _text(browser, "#sweep_state")
+            states.add(st)
+            return st == want
+        _wait(lambda: state("done"), 60, "the sweep along omega")
+        page_seconds = time.monotonic() - t0
+        assert "computing..." in states, states          # the page said so while it ran
+        def drawn():
+            g = browser.execute_script(READ_SWEEP)
+            return g if g["drawn"] and g["sweep_up"]["x"] else None
+        got = _wait(drawn, 10, "the sweep's panels")
+        want = _independent_sweeps("omega", np.sort(ds["omega"].values),
+                                   {"sigma": s, "zeta": ZETA})
+        _check_sweep(got, want, F0)
+        # the up sweep leaves the 1T response at its flip near omega 1.97758 for the 2T one
+        up = want["up"][5]
+        assert [j.kind for j in up.jumps] == ["flip"]
+        assert abs(up.jumps[0].value - 1.97758) < 1e-5
+        status = browser.execute_script(
+            DEEP + "return deep(document, 'div', []).map(e => e.textContent).join(' ')")
+        assert "computed here" in status and "11 steps, the store's grid values of omega" \
+            in status, status
+        assert "up: flip at omega = 1.97758" in status, status
+        time.sleep(0.5)
+        browser.execute_script("window.scrollTo(0, document.body.scrollHeight)")
+        time.sleep(0.3)
+        _screenshot(browser, tmp_path / "explore_sweep.png")      # not a gallery image
+
+        # -- along sigma: the store's products/sweeps, shown as such ----------------------
+        browser.execute_script(
+            "Bokeh.documents[0].get_model_by_name('sweep_axis').value = 'sigma'")
+        time.sleep(0.3)                                   # the choice reaches the server
+        _sweep_button(browser).click()                   # (redrawn since: found again)
+        _wait(lambda: state("from the store"), 30, "the stored sweep along sigma")
+        got = browser.execute_script(READ_SWEEP)
+        sigmas = np.sort(ds["sigma"].values)
+        want = _independent_sweeps("sigma", sigmas, {"omega": w, "zeta": ZETA})
+        _check_sweep(got, want, PRELOAD)
+        product = read_product(map_store, "sweeps")
+        i = int(np.flatnonzero(np.isclose(product["line_omega"].values, w))[0])
+        up = _columns(got["sweep_up"])
+        np.testing.assert_allclose(up["H1"][np.isfinite(up["value"])] / PRELOAD,
+                                   product["H1"].values[i, 0], rtol=1e-12, equal_nan=True)
+        page = browser.execute_script(
+            DEEP + "return deep(document, 'div', []).map(e => e.textContent).join(' ')")
+        assert "products/sweeps" in page and "not recomputed" in page
+        said = status[status.index("Stepped-sine sweeps"):].split("\u25b2")[0]
+        print(f"sweep along omega (11 steps up and down) on the page: {page_seconds:.1f} s "
+              f"from the click; the page: {said}")
+    finally:
+        rc, _, err = server.stop()
+    assert rc == 0, err
+    assert "Traceback" not in err, err
+
+
+@needs_bokeh
+def test_a_refused_or_failed_sweep_says_so_and_the_server_goes_on(tmp_path, monkeypatch):
+    """No browser: the page's document with its callbacks run here. A line study has one
+    sigma: a sweep along sigma is refused, nothing computed; a sweep whose computation raises
+    shows "failed" and the message, no traceback; the next one is drawn."""
+    from bokeh.document import Document
+
+    from hertzmap.scheduler.cluster import ClusterSpec
+    from hertzmap.scheduler.explore.page import Page
+    from hertzmap.scheduler.explore.state import ExploreState
+    from hertzmap.study import explore_data as E
+    from tests.helpers import blank_results, write_results
+
+    ds = blank_results("[grid]\nomega = [1.96, 1.98, 2.0]\nsigma = 0.5\nzeta = 0.01\n", "line")
+    store = write_results(ds, tmp_path / "line.zarr")
+    page = Page(Document(), ExploreState(store, ClusterSpec()))
+    assert page.sweep_button.disabled                   # no point clicked yet
+    page.show_point(1.98, 0.5)
+    assert not page.sweep_button.disabled
+    page.sweep_axis.value = "sigma"
+    page.on_sweep()
+    assert "refused" in page.sweep_div.text and "one sigma value" in page.sweep_div.text
+    assert page.sweep_job is None
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("the integrator gave up")
+    monkeypatch.setattr(E, "line_sweep", broken)
+    page.sweep_axis.value = "omega"
+    page.on_sweep()
+    _wait(lambda: page.sweep_job.state != "running", 10, "the sweep's thread")
+    page.poll()
+    assert "failed" in page.sweep_div.text
+    assert "RuntimeError: the integrator gave up" in page.sweep_div.text
+    assert "Traceback" not in page.sweep_div.text and not page.sweep_button.disabled
+    monkeypatch.undo()
+    page.on_sweep()
+    assert "computing..." in page.sweep_div.text and page.sweep_button.disabled
+    _wait(lambda: page.sweep_job.state != "running", 60, "the sweep's thread")
+    page.poll()
+    assert "done" in page.sweep_div.text, page.sweep_div.text
+    np.testing.assert_array_equal(page.sweep_srcs["down"].data["value"], [1.96, 1.98, 2.0])
+    assert list(page.sweep_line_src.data["y"]) == [0.5, 0.5]      # the swept line on the map
 
 
 @needs_browser

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from benchmarks import oracle
-from hertzmap.kernels.model import (LAWS, MODELS, TAYLOR, TAYLOR_CONTACT_LOSS, contact_side_force,
-                                    contact_side_force_and_stiffness, rhs_force,
-                                    rhs_force_and_stiffness)
+from hertzmap.kernels.model import (FIXED_LOSS_LEVEL, LAWS, MODELS, TAYLOR, TAYLOR_CONTACT_LOSS,
+                                    contact_side_force, contact_side_force_and_stiffness,
+                                    rhs_force, rhs_force_and_stiffness, switch_level)
 from hertzmap.study.analytic.paper import TAYLOR_CONTACT_LOSS_PRINTED
 
 
@@ -94,3 +94,95 @@ def test_every_law_matches_the_oracles_own(law, n):
         for q in (level - 1e-9, level - 0.5, level - 7.0):
             assert rhs_force(q, n, law.code) == 0.0 == oracle.force(q, n, law.name)
     assert MODELS[law.name] == law.code
+
+
+@pytest.mark.parametrize("law", LAWS, ids=lambda law: law.name)
+def test_the_kernels_switching_level_is_the_declared_loss_level(law):
+    """switch_level, the level the integrator switches at, is the law's declared loss level
+    (LAWS), to the bit; the Hertz law's is -n exactly (so the integrator's q - level is q + n
+    bit for bit); a law whose level does not depend on n has it in FIXED_LOSS_LEVEL."""
+    for n in (1.0, 10 / 9, 1.5, 2.3, 0.37, 7.0):
+        assert switch_level(n, law.code) == law.loss_level(n)
+        if law.name == "hertz":
+            assert switch_level(n, law.code) == -n
+    if law.loss_slope == 0.0:
+        assert FIXED_LOSS_LEVEL[law.code] == law.loss_offset == law.loss_level(None)
+    else:
+        assert FIXED_LOSS_LEVEL[law.code] != FIXED_LOSS_LEVEL[law.code]     # NaN
+
+
+def _integrate(y0, t1, omega, sigma, zeta, n, model):
+    """Integrate (q, q') from t = 0 to t1 with the orbit measures; returns (status, y, stats)."""
+    from hertzmap.kernels.integrate import N_HARMONICS, N_STATS, integrate
+
+    y = np.array(y0, dtype=float)
+    stats = np.zeros(N_STATS)
+    code = integrate(y, 0.0, t1, omega, sigma, zeta, n, model, 1e-10, 1e-10, 0.1, 100_000,
+                     False, True, False, 1.0, np.zeros((3, N_HARMONICS + 1)), np.empty(0),
+                     np.empty((3, 0)), stats, np.empty(2), np.empty(2), np.empty(2),
+                     np.empty((16, 2)), np.empty((7, 2)))
+    return code, y, stats
+
+
+@pytest.mark.parametrize("law", [law for law in LAWS if law.switches], ids=lambda law: law.name)
+@pytest.mark.parametrize("n", [1.0, 1.5, 10 / 9])
+def test_the_integrator_switches_at_the_declared_loss_level(law, n):
+    """Contact is lost and regained where the law's declaration puts it: the flight the
+    integrator runs after a loss of contact, taken back in closed form by the flight time the
+    measures record, starts on law.loss_level(n), and a flight from below the level ends on it
+    (both to 1e-14), whichever way the integrator approaches the loss (n = 1 in t-steps, the
+    other exponents in w or in x = -sqrt(q - level))."""
+    from hertzmap.kernels import status
+    from hertzmap.kernels.flight import flight_state
+    from hertzmap.kernels.integrate import S_EVENTS, S_FLIGHT_TIME
+
+    level = law.loss_level(n)
+    omega, sigma, zeta = 0.8, 1.5, 0.01
+    # from the static point, the force 1 + 1.5 cos(0.8 t) < 0 pulls the contact open: the first
+    # span end after the loss of contact, in flight
+    for t1 in np.arange(0.05, 8.0, 0.05):
+        code, y, stats = _integrate((0.0, 0.0), t1, omega, sigma, zeta, n, law.code)
+        assert code == status.CONVERGED
+        if stats[S_EVENTS] > 0:
+            break
+    assert stats[S_EVENTS] == 1 and y[0] < level, "no loss of contact"
+    s = stats[S_FLIGHT_TIME]
+    assert 0.0 < s <= 0.05 + 1e-12
+    q_loss, v_loss, _, _ = flight_state(y[0], y[1], t1, -s, omega, sigma, zeta)
+    assert abs(q_loss - level) <= 1e-14, (q_loss, level)
+    assert v_loss < 0.0
+
+    # a flight from below the level, going up: recontact is on the level (the first span end
+    # after it, before the contact can open again)
+    q0, v0 = level - 0.3, 0.4
+    for t1 in np.arange(0.05, 3.0, 0.05):
+        code, y, stats = _integrate((q0, v0), t1, omega, 0.2, zeta, n, law.code)
+        assert code == status.CONVERGED
+        if stats[S_EVENTS] > 0:
+            break
+    assert stats[S_EVENTS] == 1 and y[0] >= level, "no recontact"
+    s = stats[S_FLIGHT_TIME]
+    assert t1 - 0.05 - 1e-12 <= s < t1
+    q_r, v_r, _, _ = flight_state(q0, v0, 0.0, s, omega, 0.2, zeta)
+    assert abs(q_r - level) <= 1e-14, (q_r, level)
+    assert v_r > 0.0
+
+
+def test_the_model_value_reads_options_and_attrs_with_the_declared_defaults():
+    """kernels.model.Model: the defaults are the declared ones, an options dict or a store's
+    attrs fill what they hold (a law without an exponent stores "none" there), and a bad law
+    or exponent is refused by name."""
+    from hertzmap.kernels.model import (DEFAULT_EXPONENT, DEFAULT_LAW, DEFAULT_RTOL, Model,
+                                        contact_loss_level)
+
+    assert Model() == Model.of({}) == Model(DEFAULT_LAW, DEFAULT_EXPONENT, DEFAULT_RTOL)
+    m = Model.of({"model": "hertz", "exponent": 1.0, "rtol": 1e-9, "harmonics": False})
+    assert (m.law, m.exponent, m.rtol, m.code) == ("hertz", 1.0, 1e-9, MODELS["hertz"])
+    assert m.loss_level == -1.0 == contact_loss_level("hertz", 1.0)
+    taylor = Model.of({"model": "taylor", "exponent": "none", "rtol": "1e-8"})
+    assert (taylor.exponent, taylor.rtol) == (DEFAULT_EXPONENT, 1e-8)
+    assert taylor.loss_level == TAYLOR_CONTACT_LOSS
+    with pytest.raises(ValueError, match="model must be one of"):
+        Model("hertzian")
+    with pytest.raises(ValueError, match="exponent must be a finite number > 0"):
+        Model(exponent=-1.0)

@@ -15,21 +15,12 @@ import xarray as xr
 
 import hertzmap
 from hertzmap.scheduler.cli import main
-from tests.helpers import blank_results, done_count, subprocess_env, wait_until, write_results
+from tests.helpers import (blank_results, done_count, small_study_toml, subprocess_env, wait_until,
+                           write_results)
 
-STUDY = """
-[study]
-name = "library"
-[grid]
-omega = {start = 0.6, stop = 2.4, num = 19}
-sigma = [0.1, 0.4, 0.7, 1.0]
-zeta = [0.01, 0.05]
-[search]
-periods = [1, 2]
-attractors = "never"
-[products]
-outputs = ["orbits", "measures"]
-"""
+STUDY = small_study_toml("library", omega={"start": 0.6, "stop": 2.4, "num": 19},
+                         sigma=[0.1, 0.4, 0.7, 1.0], zeta=[0.01, 0.05],
+                         outputs=["orbits", "measures"])
 
 
 def _files(store) -> dict[str, int]:

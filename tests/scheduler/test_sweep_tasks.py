@@ -18,10 +18,12 @@ import xarray as xr
 import hertzmap
 from benchmarks import oracle
 from hertzmap.scheduler.cli import main
-from hertzmap.scheduler.store import list_products, read_product, remove_stage, stage_sweep
-from hertzmap.study.products.stepped_sweeps import JUMP_KIND_CODES, run_sweep, sweep_specs
+from hertzmap.scheduler.store import (list_products, read_product, remove_stage, stage_sweep,
+                                      stage_swept)
+from hertzmap.study.products.stepped_sweeps import (JUMP_KIND_CODES, run_sweep, run_swept,
+                                                    sweep_specs, swept_specs)
 from hertzmap.study.schema import study_from_attrs
-from tests.helpers import RIG_TABLE
+from tests.helpers import RIG_TABLE, assert_rerun_leaves_product, small_study_toml
 
 S, Z = 0.5, 0.01
 #: the fold ending the 2T branch towards low omega at sigma 0.5, zeta 0.01, by continuation
@@ -31,43 +33,18 @@ FOLD_FIG6 = 0.4720910
 #: rtol 1e-11) against the kernels' shooting (rtol 1e-10) and a fold value given to 1e-7
 MARGIN = 1e-7
 
-LINE = """
-[study]
-name = "sweep-stage"
-[grid]
-omega = {start = 0.44, stop = 2.0, num = 157}
-sigma = 0.5
-zeta = 0.01
-[search]
-periods = [1, 2]
-attractors = "never"
-[products]
-outputs = ["orbits", "force_harmonics", "sweeps"]
-""" + RIG_TABLE
+LINE = small_study_toml("sweep-stage", omega={"start": 0.44, "stop": 2.0, "num": 157},
+                        sigma=0.5, zeta=0.01,
+                        outputs=["orbits", "force_harmonics", "sweeps"]) + RIG_TABLE
 
 #: a few omega values across the 1T flip near 1.9776 (the other paths' study)
-FLIP = """
-[study]
-name = "sweep-flip"
-[grid]
-omega = [1.96, 1.97, 1.98, 1.99]
-sigma = 0.5
-zeta = 0.01
-[search]
-periods = [1, 2]
-attractors = "never"
-[products]
-outputs = ["orbits", "sweeps"]
-"""
+FLIP = small_study_toml("sweep-flip", omega=[1.96, 1.97, 1.98, 1.99], sigma=0.5, zeta=0.01,
+                        outputs=["orbits", "sweeps"])
 
 
 def _jumps(sweeps, direction):
     d = {"up": 0, "down": 1}[direction]
     return [j for j in range(sweeps.sizes["jump"]) if int(sweeps["jump_direction"][j]) == d]
-
-
-def _mtime(path):
-    return max(p.stat().st_mtime_ns for p in path.rglob("*"))
 
 
 @pytest.mark.slow
@@ -113,11 +90,8 @@ def test_the_sweeps_stage_finds_the_fold_and_the_flip_through_hertzmap_run(tmp_p
     assert float(sw["jump_frequency_hz"][f]) == pytest.approx(value * sw.attrs["rig_f0_hz"])
 
     # a rerun: nothing pending, nothing computed, the product untouched
-    mtime = _mtime(store / "products" / "sweeps")
-    assert main(["run", str(study), "--store", str(store)]) == 0
-    out = capsys.readouterr().out
-    assert "nothing to compute" in out and "sweeps:" not in out, out
-    assert _mtime(store / "products" / "sweeps") == mtime
+    out = assert_rerun_leaves_product(main, study, store, "sweeps", capsys, "sweeps:")
+    assert "nothing to compute" in out, out
 
     # the product in the store's DataTree (hertzmap.open: xarray.open_datatree)
     tree = hertzmap.open(store)
@@ -169,3 +143,92 @@ def test_the_sweeps_stage_on_the_embedded_local_cluster(tmp_path, capsys):
     assert "sweeps 2 tasks" in next(ln for ln in out.splitlines() if ln.startswith("stages:"))
     sw = read_product(store, "sweeps")
     assert int(sw["jump_kind"][0]) == JUMP_KIND_CODES["flip"] and abs(float(sw["jump_value"][0]) - 1.97757924) < 1e-6
+
+
+#: up in omega from rest at 0.44 (the 1T response in contact) across the fold where that
+#: response ends, near 0.4665 (the bend of the 2:1 superharmonic resonance: VALIDATION.md,
+#: "Stepped sweeps"), stepped and swept at three rates (4.6, 0.46 and 0.046 Hz/s on the rig)
+RATES = small_study_toml("swept-fold", omega=[0.44, 0.45, 0.46, 0.47, 0.48], sigma=0.5,
+                         zeta=0.01, outputs=["orbits", "force_harmonics", "sweeps"],
+                         sweep={"rates": [1e-7, 1e-5, 1e-6]}) + RIG_TABLE
+#: how near the oracle's fold the slowest rate's swept jump must be: the slow passage through
+#: a fold delays it by about c rate^(2/3) (8e-5 at 1e-7 here; 1.9e-4 at the 2T fold,
+#: tests/study/solve/test_sweep.py)
+SLOWEST_TOL = 2e-4
+
+
+@pytest.mark.slow
+def test_swept_sines_jump_later_the_faster_and_tend_to_the_fold(tmp_path, capsys):
+    """Through hertzmap run: the swept sines' readings of the up sweep's fold come after it,
+    the later the faster the rate (the delay shrinking monotonically, about as rate^(2/3) by
+    10^(-2/3) = 0.22 a decade of rate), the slowest within SLOWEST_TOL of the fold that the
+    scipy oracle finds on its own (benchmarks/oracle.py fold_point: scipy root on the period
+    map and its monodromy's det(M - I), started from the stored 1T orbit before the jump); the
+    stepped sweep's fold within its bracket of it. The rates in the rig's Hz/s."""
+    study, store = tmp_path / "rates.toml", tmp_path / "rates.zarr"
+    study.write_text(RATES)
+    assert main(["run", str(study), "--store", str(store)]) == 0
+    out = capsys.readouterr().out
+    line = next(ln for ln in out.splitlines() if ln.startswith("sweeps:"))
+    assert "2 stepped sweeps" in line and "6 swept sines (3 rates x up, down)" in line, out
+    assert "sweeps 8 tasks" in next(ln for ln in out.splitlines() if ln.startswith("stages:"))
+    assert not (store / "sweeps_stage").exists()
+    sw = read_product(store, "sweeps")
+    np.testing.assert_array_equal(sw["rate"], [1e-5, 1e-6, 1e-7])          # fastest first
+    assert np.all(sw["swept_status"] == 0)
+    kinds = {v: k for k, v in JUMP_KIND_CODES.items()}
+    (j,) = _jumps(sw, "up")
+    assert kinds[int(sw["jump_kind"][j])] == "fold" and bool(sw["jump_located"][j])
+    assert (int(sw["jump_from_period"][j]), int(sw["jump_to_period"][j])) == (1, 1)
+    value, accuracy = float(sw["jump_value"][j]), float(sw["jump_accuracy"][j])
+    # the oracle's fold, from the last stored 1T step before it
+    up = sw.isel(line=0, direction=0)
+    k = int(sw["jump_from_step"][j])
+    guess = np.array([float(up["q0"][k]), float(up["v0"][k])]) + 1e-3
+    x_o, w_o, (fixed_res, fold_res) = oracle.fold_point(
+        guess, float(sw["jump_before"][j]) - 1e-5, S, Z, 1, rtol=1e-11)
+    assert fixed_res < 1e-8 * (1.0 + np.abs(x_o).max()) and fold_res < 1e-8
+    assert abs(value - w_o) <= accuracy + MARGIN, (value, w_o)
+    # the swept jumps: later than the fold, the later the faster, tending to it
+    where = sw["swept_jump_value"].values[j]
+    delay = sw["swept_jump_delay"].values[j]
+    np.testing.assert_allclose(delay, where - value, rtol=1e-12)
+    assert np.all(where > w_o) and delay[0] > delay[1] > delay[2] > 0.0, (where, w_o)
+    for faster, slower in zip(delay, delay[1:]):
+        assert 0.1 < slower / faster < 0.4, delay
+    assert abs(where[2] - w_o) < SLOWEST_TOL, (where, w_o)
+    # the rig's units: 1 in omega per unit tau is 2 pi f0^2 Hz/s
+    f0 = sw.attrs["rig_f0_hz"]
+    np.testing.assert_allclose(sw["rate_hz_per_s"], sw["rate"] * 2 * np.pi * f0 ** 2, rtol=1e-12)
+    np.testing.assert_allclose(sw["swept_jump_frequency_hz"].values[j], where * f0, rtol=1e-12)
+    assert 4.5 < float(sw["rate_hz_per_s"][0]) < 4.7
+
+
+def test_a_run_resumes_the_swept_sines_not_staged(tmp_path, capsys):
+    """A run killed after the stepped sweeps and one of the swept runs were staged: the rerun
+    runs only the other swept runs, and the product is the one an undisturbed run writes."""
+    study, store = tmp_path / "flip.toml", tmp_path / "flip.zarr"
+    study.write_text(FLIP + "[sweep]\nrates = [1e-4, 1e-5]\n")
+    assert main(["run", str(study), "--store", str(store)]) == 0
+    out = capsys.readouterr().out
+    assert "4 swept sines" in next(ln for ln in out.splitlines() if ln.startswith("sweeps:"))
+    whole = read_product(store, "sweeps")
+    # as if killed before the product was written: both stepped sweeps and one swept staged
+    shutil.rmtree(store / "products" / "sweeps")
+    study_ = study_from_attrs(xr.open_zarr(store).attrs)
+    records = {(s["line"], s["direction"]): run_sweep(s) for s in sweep_specs(study_)}
+    for (i, direction), rec in records.items():
+        stage_sweep(store, i, direction, rec)
+    spec = next(s for s in swept_specs(study_, records)
+                if (s["direction"], s["rate_index"]) == ("down", 1))
+    stage_swept(store, 0, "down", 1, run_swept(spec))
+    assert main(["run", str(study), "--store", str(store)]) == 0
+    out = capsys.readouterr().out
+    assert "resuming the sweeps" in out and "2/2 staged" in out, out
+    assert "resuming the swept sines" in out and "1/4 staged" in out, out
+    assert "sweeps 3 tasks," in next(ln for ln in out.splitlines() if ln.startswith("stages:"))
+    assert not (store / "sweeps_stage").exists()
+    again = read_product(store, "sweeps")
+    drop = ["sweep_seconds", "swept_seconds"]
+    xr.testing.assert_allclose(again.drop_vars(drop), whole.drop_vars(drop), rtol=1e-12)
+    assert again.sizes["rate"] == 2 and np.all(again["swept_cycles"] > 0)

@@ -12,20 +12,11 @@ import xarray as xr
 from hertzmap.scheduler.cli import main
 from hertzmap.scheduler.store import list_products, read_product
 from hertzmap.study import products as P
+from tests.helpers import assert_rerun_leaves_product, small_study_toml
 
-STUDY = """
-[study]
-name = "thresholds-stage"
-[grid]
-omega = {start = 1.3, stop = 2.1, num = 9}
-sigma = [0.1, 0.2, 0.3, 0.4]
-zeta = [0.008, 0.01]
-[search]
-periods = [1, 2]
-attractors = "never"
-[products]
-outputs = ["orbits", "thresholds"]
-"""
+STUDY = small_study_toml("thresholds-stage", omega={"start": 1.3, "stop": 2.1, "num": 9},
+                         sigma=[0.1, 0.2, 0.3, 0.4], zeta=[0.008, 0.01],
+                         outputs=["orbits", "thresholds"])
 
 
 @pytest.mark.slow
@@ -51,9 +42,4 @@ def test_the_thresholds_stage_writes_its_product_once(tmp_path, capsys):
     xr.testing.assert_allclose(th.reset_coords(drop=True), here.reset_coords(drop=True),
                                rtol=1e-12)
     # a rerun: nothing pending, the product untouched
-    mtime = max(p.stat().st_mtime_ns for p in (store / "products" / "thresholds").rglob("*"))
-    assert main(["run", str(study), "--store", str(store)]) == 0
-    out = capsys.readouterr().out
-    assert not any(ln.startswith("thresholds:") for ln in out.splitlines()), out
-    assert max(p.stat().st_mtime_ns
-               for p in (store / "products" / "thresholds").rglob("*")) == mtime
+    assert_rerun_leaves_product(main, study, store, "thresholds", capsys, "thresholds:")

@@ -186,3 +186,42 @@ def test_no_figure_cuts_off_a_legend_or_a_label(real, tmp_path, monkeypatch):
     legend = checked[-1].legends[0]
     assert len(legend.get_texts()) > style.LEGEND_ROWS and legend._ncols == 2
     assert path.is_file()
+
+
+def test_the_sweeps_figure_draws_the_swept_sines_beside_the_stepped_sweeps(real, tmp_path,
+                                                                           monkeypatch):
+    """With swept-sine runs in the sweeps product ([sweep] rates), each rate's up and down
+    paths are drawn in every panel (thin, their direction's colour, the fastest faintest) and
+    named in the legend with its rate; without, the figure is as before."""
+    from hertzmap.study.plots import line_figures
+    from hertzmap.study.products.stepped_sweeps import (run_sweep, run_swept, sweep_line,
+                                                        sweep_specs, sweeps_dataset,
+                                                        swept_specs)
+    from hertzmap.study.schema import study_from_attrs
+    from hertzmap.study.spec import DEFAULT_SWEEP
+
+    ds, prods = real
+    study = dataclasses.replace(study_from_attrs(ds.attrs), sweep=tuple(sorted(
+        {**DEFAULT_SWEEP, "rates": (1e-3, 1e-4)}.items())))
+    records = {(s["line"], s["direction"]): run_sweep(s) for s in sweep_specs(study)}
+    runs = {(s["line"], s["direction"], s["rate_index"]): run_swept(s)
+            for s in swept_specs(study, records)}
+    swept = sweeps_dataset(ds, records, study, runs)
+    figures = []
+
+    def save(fig, path):
+        figures.append(fig)
+        return path
+
+    monkeypatch.setattr(line_figures, "save", save)
+    line_figures.plot_sweeps(sweep_line(prods["sweeps"], 0), tmp_path / "plain.png")
+    line_figures.plot_sweeps(sweep_line(swept, 0), tmp_path / "swept.png")
+    plain, drawn = figures
+    labels = [t.get_text() for t in drawn.legends[0].get_texts()]
+    assert [t for t in labels if t.startswith("swept sine")] == [
+        "swept sine, 0.001 per unit tau", "swept sine, 0.0001 per unit tau"]
+    assert not any(t.get_text().startswith("swept") for t in plain.legends[0].get_texts())
+    for ax_plain, ax in zip(plain.axes, drawn.axes):
+        thin = [ln for ln in ax.get_lines() if ln.get_linewidth() == 0.7]
+        assert len(ax.get_lines()) - len(ax_plain.get_lines()) == len(thin) == 4
+        assert sorted(ln.get_alpha() for ln in thin) == [0.35, 0.35, 0.9, 0.9]

@@ -42,6 +42,9 @@ def with_grid(omega="[1.0]", sigma="[0.1]", zeta="[0.01]", extra="") -> str:
 
 # -- validation errors name the field and the allowed range ------------------------------------
 
+#: the paper's rig (f0 = 271.01 Hz: a rate of 1 in omega per unit tau is 2 pi f0^2 = 461482 Hz/s)
+RIG = "[rig]\nE = 2.1e11\nnu = 0.29\nR = 0.0127\nm = 7.1\nN = 69.7\n"
+
 BAD = [
     # (text, field in the message, words of the allowed range)
     (with_grid(omega="[0.0]"), "grid.omega[0]", "> 0"),
@@ -115,6 +118,28 @@ BAD = [
     (with_grid(omega="[1.0, 1.1]", extra='[products]\noutputs = ["sweeps"]\n[sweep]\nsettle_periods = 100.5\n'), "sweep.settle_periods", "10..1000000"),
     (with_grid(omega="[1.0, 1.1]", extra='[products]\noutputs = ["sweeps"]\n[sweep]\nrecord_periods = 20000\n'), "sweep.record_periods", "32..10000"),
     (with_grid(omega="[1.0, 1.1]", extra='[products]\noutputs = ["sweeps"]\n[sweep]\nsteps = 10\n'), "sweep.steps", "unknown key"),
+    # [sweep] rates: the swept sines (per unit tau), or rates_hz_per_s on a [rig]
+    *[(with_grid(omega="[1.0, 1.1]", extra='[products]\noutputs = ["sweeps"]\n[sweep]\n'
+                 f"rates = {r}\n"), "sweep.rates", words)
+      for r, words in (("[0.0]", "1e-09 <= rate <= 0.01"), ("[-1e-5]", "1e-09 <= rate <= 0.01"),
+                       ("[0.1]", "1e-09 <= rate <= 0.01"), ("[1e-12]", "1e-09 <= rate <= 0.01"),
+                       ('["fast"]', "expected a number"), ("[nan]", "finite"),
+                       ("[inf]", "finite"), ("1e-5", "expected a list"),
+                       ("[1e-5, 1e-5]", "duplicated"), ("[true]", "expected a number"),
+                       # 1.1^2 - 1^2 over 4 pi rate: 2e7 forcing cycles, over the limit
+                       ("[1e-9]", "at least 1.67e-09"))],
+    (with_grid(omega="[1.0, 1.1]", extra='[products]\noutputs = ["sweeps"]\n[sweep]\n'
+               "rates = [1e-5]\nrates_hz_per_s = [4.6]\n" + RIG), "sweep.rates_hz_per_s",
+     "not both"),
+    (with_grid(omega="[1.0, 1.1]", extra='[products]\noutputs = ["sweeps"]\n[sweep]\n'
+               "rates_hz_per_s = [4.6]\n"), "sweep.rates_hz_per_s", "needs a [rig]"),
+    (with_grid(omega="[1.0, 1.1]", extra='[products]\noutputs = ["sweeps"]\n[sweep]\n'
+               "rates_hz_per_s = [0.0]\n" + RIG), "sweep.rates_hz_per_s", "Hz/s"),
+    (with_grid(omega="[1.0, 1.1]", extra='[products]\noutputs = ["sweeps"]\n[sweep]\n'
+               "rates_hz_per_s = [1e5]\n" + RIG), "sweep.rates_hz_per_s", "<= 4615 Hz/s"),
+    (with_grid(sigma="[0.1, 0.2]", extra='[products]\noutputs = ["sweeps"]\n[sweep]\n'
+               'axis = "sigma"\nrates_hz_per_s = [4.6]\n' + RIG), "sweep.rates_hz_per_s",
+     'only with axis = "omega"'),
     ("[grid\nomega = 1", "toml", "not valid TOML"),
 ]
 
@@ -355,3 +380,36 @@ def test_the_sweeps_output_and_its_sweep_table():
     assert along.sweep_dict == {"axis": "sigma", "jump_tol": 1e-5, "settle_periods": 100,
                                 "record_periods": 64}
     assert along.sweep_lines() == [{"omega": w, "zeta": 0.01} for w in (1.0, 1.1, 1.2)]
+
+
+def test_the_sweep_tables_rates():
+    """[sweep] rates: none by default (the canonical form and hash as before; rates = [] the
+    same), stored per unit tau fastest first, in the canonical form when given (another hash);
+    rates_hz_per_s on the study's [rig] converted with its f0 (d omega / d tau = (d f / d t) /
+    (2 pi f0^2), tau = 2 pi f0 t, omega = f / f0), the same study as those rates given per unit
+    tau."""
+    from hertzmap.study.analytic.rig import Rig
+
+    base = ('[grid]\nomega = {start = 0.44, stop = 2.1, num = 167}\nsigma = 0.5\nzeta = 0.01\n'
+            '[products]\noutputs = ["sweeps"]\n')
+    plain = parse_study(base, default_name="s")
+    assert plain.sweep_rates == () and "rates" not in plain.sweep_dict
+    assert parse_study(base + "[sweep]\nrates = []\n", default_name="s").hash == plain.hash
+    s = parse_study(base + "[sweep]\nrates = [1e-6, 1e-5, 3e-6]\n", default_name="s")
+    assert s.sweep_rates == (1e-5, 3e-6, 1e-6) and s.sweep_dict["rates"] == (1e-5, 3e-6, 1e-6)
+    assert s.hash != plain.hash and s.to_dict()["sweep"]["rates"] == (1e-5, 3e-6, 1e-6)
+    assert parse_study(_toml_of(s.to_dict()), default_name="s").hash == s.hash
+    f0 = Rig.hertz(2.1e11, 0.29, 0.0127, 7.1, 69.7).f0
+    assert f0 == pytest.approx(271.0, abs=0.1)
+    hz = parse_study(base + "[sweep]\nrates_hz_per_s = [0.5, 5.0]\n" + RIG, default_name="s")
+    np.testing.assert_allclose(hz.sweep_rates, [5.0 / (2 * math.pi * f0 ** 2),
+                                                0.5 / (2 * math.pi * f0 ** 2)], rtol=1e-12)
+    same = parse_study(base + f"[sweep]\nrates = {list(hz.sweep_rates)!r}\n" + RIG,
+                       default_name="s")
+    assert same.hash == hz.hash
+    # sigma swept: rates in sigma per unit tau; a study without the sweeps output has none
+    sig = parse_study('[grid]\nomega = 1.98\nsigma = [0.3, 0.5]\nzeta = 0.01\n[products]\n'
+                      'outputs = ["sweeps"]\n[sweep]\naxis = "sigma"\nrates = [1e-4]\n',
+                      default_name="s")
+    assert sig.sweep_rates == (1e-4,)
+    assert parse_study(MINIMAL, default_name="t").sweep_rates == ()

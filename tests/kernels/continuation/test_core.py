@@ -65,3 +65,28 @@ def test_adapt_step():
     assert core.adapt_step(0.1, 5, 1.0, h_min=0.07) == 0.07
     assert core.adapt_step(0.1, 9, 1.0, hard=None) == 0.1
     assert core.adapt_step(0.1, 4, 0.12, easy=4) == 0.12
+    # an effort other than iterations: a predictor's relative miss, a failure infinite
+    assert core.adapt_step(0.1, 5e-5, 1.0, easy=1e-4, hard=1e-3) == 0.15000000000000002
+    assert core.adapt_step(0.1, 5e-4, 1.0, easy=1e-4, hard=1e-3) == 0.1
+    assert core.adapt_step(0.1, float("inf"), 1.0, h_min=0.01, easy=1e-4, hard=1e-3) == 0.06
+
+
+def test_natural_prediction_is_exact_on_polynomials_of_its_degree():
+    """The last vertex alone (a copy), the secant through two (exact on a line), the quadratic
+    through the last three (exact on a parabola, whatever came before)."""
+    def parabola(p):
+        return np.array([1.0 - 2.0 * p + 3.0 * p**2, 0.5 * p**2])
+
+    one = [np.array([1.0, 2.0])]
+    u = core.natural_prediction([0.3], one, 0.7)
+    assert np.array_equal(u, one[0]) and u is not one[0]
+    np.testing.assert_allclose(core.natural_prediction([0.1, 0.3], [np.array([1.0, 5.0]),
+                                                                   np.array([2.0, 4.0])], 0.6),
+                               [3.5, 2.5], rtol=0, atol=1e-14)
+    ps = [0.0, 0.1, 0.25, 0.3]
+    points = [np.array([9.0, 9.0])] + [parabola(p) for p in ps[1:]]
+    np.testing.assert_allclose(core.natural_prediction(ps, points, 0.42), parabola(0.42),
+                               rtol=0, atol=1e-13)
+    # order 1: the secant through the last two, even with more vertices at hand
+    np.testing.assert_allclose(core.natural_prediction(ps, points, 0.35, order=1),
+                               points[-1] + (points[-1] - points[-2]), rtol=0, atol=1e-13)

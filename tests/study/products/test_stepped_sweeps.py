@@ -6,6 +6,8 @@ it. The sweeps' numbers themselves are checked against the scipy oracle in
 tests/study/solve/test_sweep.py and, through a run, in tests/scheduler/test_sweep_tasks.py."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import xarray as xr
@@ -13,23 +15,15 @@ import xarray as xr
 from hertzmap.scheduler.store import write_product
 from hertzmap.study import products as P
 from hertzmap.study.analytic.rig import Rig
-from hertzmap.study.products.stepped_sweeps import (JUMP_KIND_CODES, force_components,
-                                                    run_sweep, sweep_specs, sweeps_dataset)
+from hertzmap.study.products.stepped_sweeps import (JUMP_KIND_CODES, SWEPT_SAMPLES,
+                                                    force_components, run_sweep, run_swept,
+                                                    sweep_specs, sweeps_dataset, swept_specs)
 from hertzmap.study.schema import study_from_attrs
-from tests.helpers import RIG_TABLE, solved_results
+from tests.helpers import RIG_TABLE, small_study_toml, solved_results
 
 #: omega listed downwards (the study's order): the product's steps are increasing all the same
-STUDY = """
-[grid]
-omega = [2.0, 1.99, 1.98, 1.97, 1.96]
-sigma = 0.5
-zeta = 0.01
-[search]
-periods = [1, 2]
-attractors = "never"
-[products]
-outputs = ["orbits", "measures", "force_harmonics", "sweeps"]
-""" + RIG_TABLE
+STUDY = small_study_toml("s", omega=[2.0, 1.99, 1.98, 1.97, 1.96], sigma=0.5, zeta=0.01,
+                         outputs=["orbits", "measures", "force_harmonics", "sweeps"]) + RIG_TABLE
 
 
 @pytest.fixture(scope="module")
@@ -163,3 +157,103 @@ def test_sweeps_along_sigma(tmp_path):
     up, down = rows[0]["value"], rows[1]["value"]
     assert 0.45 < up < 0.5 and 0.3 < down < 0.35 and rows[0]["accuracy"] <= 1e-5
     np.testing.assert_allclose(sw["jump_force_amplitude_N"], [up * 69.7, down * 69.7])
+
+
+@pytest.fixture(scope="module")
+def swept(store):
+    """The product of the same store with two swept-sine rates ([sweep] rates): computed in
+    this process as the run's sweeps stage does on its workers."""
+    ds = P.open_store(store)
+    study = study_from_attrs(ds.attrs)
+    rated = dataclasses.replace(study, sweep=tuple(sorted(
+        {**study.sweep_dict, "rates": (1e-4, 1e-5)}.items())))
+    records = {(s["line"], s["direction"]): run_sweep(s) for s in sweep_specs(rated)}
+    specs = swept_specs(rated, records)
+    assert [(s["line"], s["direction"], s["rate_index"]) for s in specs] == [
+        (0, "up", 0), (0, "up", 1), (0, "down", 0), (0, "down", 1)]
+    runs = {(s["line"], s["direction"], s["rate_index"]): run_swept(s) for s in specs}
+    return sweeps_dataset(ds, records, rated, runs), rated, records, runs
+
+
+def test_the_swept_sines_layout_metadata_and_rig_units(swept, sweeps):
+    """With [sweep] rates the product holds the swept runs on (line, rate, direction, sample)
+    and their readings of the stepped jumps on (jump, rate), every variable with its metadata,
+    the rig's units; the stepped sweeps unchanged. Without rates none of it (the fixture
+    ``sweeps``: the product as before)."""
+    sw, study, _, _ = swept
+    assert dict(sw.sizes) == {**dict(sweeps.sizes), "rate": 2, "sample": SWEPT_SAMPLES}
+    assert "rate" not in sweeps.dims and not any(v.startswith("swept_") for v in sweeps)
+    keep = [v for v in sweeps.data_vars if v != "sweep_seconds"]
+    xr.testing.assert_equal(sw[keep], sweeps[keep])
+    for v in list(sw.data_vars) + list(sw.coords):
+        assert {"long_name", "units", "description"} <= set(sw[v].attrs), v
+    np.testing.assert_array_equal(sw["rate"], [1e-4, 1e-5])          # fastest first
+    assert sw["swept_ptp"].dims == ("line", "rate", "direction", "sample")
+    assert sw["swept_cycles"].dims == ("line", "rate", "direction")
+    assert sw["swept_jump_value"].dims == sw["swept_jump_delay"].dims == ("jump", "rate")
+    assert sw.attrs["sweep_rates"] == [1e-4, 1e-5] and sw.attrs["swept_window"] == 2
+    # the samples: the middles of equal bins of the line's range, each read at the first
+    # cycle at or past it (omega moves by rate T a cycle)
+    lo, hi = 1.96, 2.0
+    middles = lo + (hi - lo) * (np.arange(SWEPT_SAMPLES) + 0.5) / SWEPT_SAMPLES
+    np.testing.assert_allclose(sw["sample_value"], middles, rtol=1e-12)
+    for k, rate in enumerate((1e-4, 1e-5)):
+        for d, sign in ((0, 1.0), (1, -1.0)):
+            got = sw["swept_value"].isel(line=0, rate=k, direction=d).values
+            past = (got - sw["sample_value"].values) * sign
+            assert np.all(past >= 0) and np.all(past <= rate * 2 * np.pi / 1.96 * (1 + 1e-9))
+            # the whole range, in forcing cycles of T = 2 pi / omega: (hi^2 - lo^2) / (4 pi r)
+            n = int(sw["swept_cycles"].isel(line=0, rate=k, direction=d))
+            assert abs(n - (hi ** 2 - lo ** 2) / (4 * np.pi * rate)) < 2
+    assert np.all(sw["swept_status"] == 0) and np.all(sw["swept_seconds"] > 0)
+    # the rig's units: tau = Omega t, omega = f / f0
+    rig = Rig.hertz(2.1e11, 0.29, 0.0127, 7.1, 69.7)
+    np.testing.assert_allclose(sw["rate_hz_per_s"], sw["rate"] * 2 * np.pi * rig.f0 ** 2,
+                               rtol=1e-12)
+    np.testing.assert_allclose(sw["sample_frequency_hz"], sw["sample_value"] * rig.f0,
+                               rtol=1e-12)
+    np.testing.assert_allclose(sw["swept_frequency_hz"], sw["swept_value"] * rig.f0, rtol=1e-12)
+    np.testing.assert_allclose(sw["swept_H1_2_N"], sw["swept_H1_2"] * 69.7, rtol=1e-12)
+    np.testing.assert_allclose(sw["swept_ptp_m"], sw["swept_ptp"] * rig.z_s / 1.5, rtol=1e-12)
+    np.testing.assert_allclose(sw["swept_time_s"], sw["swept_tau"] / rig.Omega, rtol=1e-12)
+    np.testing.assert_allclose(sw["swept_jump_delay_hz"], sw["swept_jump_delay"] * rig.f0,
+                               rtol=1e-12)
+    # one line of it: its runs and its jumps' readings
+    one = P.sweep_line(sw, 0)
+    assert one["swept_H1"].dims == ("rate", "direction", "sample")
+    assert one["swept_jump_value"].dims == ("jump", "rate")
+
+
+def test_the_swept_runs_follow_the_stepped_sweep_away_from_its_jumps(swept):
+    """Down from the 2T orbit at omega 2.0 (the stepped sweep's first step: the swept run
+    starts where it settled), the stepped sweep stays on the 2T response: so does the swept
+    run, its two-cycle H1, H2, H1/2 and amplitude those of the steps' orbits at each step's
+    value, the closer the slower. Each run is the record of study.solve.sweep.swept_sine
+    read at the samples; the down sweep has no jump."""
+    sw, _, records, runs = swept
+    down = sw.isel(line=0, direction=1)
+    at = np.array([int(np.argmin(np.abs(sw["sample_value"].values - v)))
+                   for v in down["value"].values[:-1]])     # each step's sample (not 2.0)
+    err = []
+    for k in range(2):
+        run = down.isel(rate=k)
+        for name in ("H1", "H2", "H1_2", "ptp"):
+            step = down[name].values[:-1]
+            got = run[f"swept_{name}"].values[at]
+            err.append(np.abs(got - step).max() / np.abs(step).max())
+    # within 1 % to 30 % at 1e-4, within 1 % at 1e-5 (the response's lag behind its branch)
+    assert max(err[4:]) < 0.02 and max(err[4:]) < 0.2 * max(err[:4]), err
+    np.testing.assert_array_equal(down["swept_H1_2"].isel(rate=1).values,
+                                  runs[(0, "down", 1)]["H1_2"])
+    assert records[(0, "down")]["jump_value"].size == 0
+
+
+def test_a_swept_run_without_its_record_is_left_empty(swept, store):
+    sw, study, records, runs = swept
+    part = {key: rec for key, rec in runs.items() if key != (0, "up", 1)}
+    empty = sweeps_dataset(P.open_store(store), records, study, part)
+    gone = empty.isel(line=0, rate=1, direction=0)
+    assert np.all(np.isnan(gone["swept_ptp"])) and int(gone["swept_cycles"]) == 0
+    assert int(gone["swept_status"]) == -1 and np.all(np.isnan(empty["swept_jump_value"][:, 1]))
+    xr.testing.assert_identical(empty.isel(rate=0).drop_vars("sweep_seconds"),
+                                sw.isel(rate=0).drop_vars("sweep_seconds"))
