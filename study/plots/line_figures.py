@@ -177,7 +177,8 @@ def plot_sweeps(line, path, *, title=None) -> Path:
     beside it), and the store's orbits along the line in grey behind (linked into branches:
     stable solid, unstable dashed). With swept-sine runs ([sweep] rates), each rate's up and
     down paths drawn thinly beside the stepped ones, in their direction's colour, fainter the
-    faster (their jumps later, the later the faster)."""
+    faster (their jumps later, the later the faster), and a fifth panel below: each jump's
+    delay against the rate, log-log (_plot_swept_delays)."""
     from matplotlib.lines import Line2D
 
     axis = line.attrs.get("sweep_axis", "omega")
@@ -199,7 +200,20 @@ def plot_sweeps(line, path, *, title=None) -> Path:
               ("ptp", "branch_ptp", "amplitude, peak-to-peak " + ("[um]" if rig else "q"),
                # q = n (z - z_s) / z_s (paper Eq. 5): ptp z_s / n in m, in um
               1e6 * float(line.attrs.get("rig_z_s", np.nan)) / _exponent(line) if rig else 1.0))
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7.2), layout="constrained", sharex=True)
+    swept = "rate" in line.dims
+    if swept:
+        # a third row: each swept jump's delay against the rate
+        fig = plt.figure(figsize=(11, 9.8), layout="constrained")
+        grid = fig.add_gridspec(3, 2, height_ratios=(1.0, 1.0, 0.85))
+        first = fig.add_subplot(grid[0, 0])
+        axes = np.array([[first, fig.add_subplot(grid[0, 1], sharex=first)],
+                         [fig.add_subplot(grid[1, 0], sharex=first),
+                          fig.add_subplot(grid[1, 1], sharex=first)]])
+        for ax in axes[0]:
+            ax.tick_params(labelbottom=False)
+        delay_ax = fig.add_subplot(grid[2, :])
+    else:
+        fig, axes = plt.subplots(2, 2, figsize=(11, 7.2), layout="constrained", sharex=True)
     kinds = {int(v): k for v, k in zip(line["jump_kind"].attrs.get("flag_values", []),
                                         line["jump_kind"].attrs.get("flag_meanings", "").split())}
     bx = line["branch_value"].values * xscale
@@ -265,18 +279,52 @@ def plot_sweeps(line, path, *, title=None) -> Path:
     handles += [Line2D([], [], color="k", lw=1.2, ls="--", label="jump (fold, flip, loss)"),
                 Line2D([], [], color="0.6", lw=1.0, label="stored orbits, stable"),
                 Line2D([], [], color="0.75", lw=0.8, ls="--", label="stored orbits, unstable")]
-    if "rate" in line.dims:
+    if swept:
         unit = next(((c, u) for c, u in (("rate_hz_per_s", "Hz/s"), ("rate_N_per_s", "N/s"))
                      if c in line.coords), ("rate", "per unit tau"))
         for k in range(line.sizes["rate"]):
             rate = f"{float(line[unit[0]][k]):.3g} {unit[1]}"
             handles.append(Line2D([], [], color="k", lw=0.6, alpha=_swept_alpha(k, line),
                                   label=f"swept sine, {rate}"))
+        _plot_swept_delays(delay_ax, line, unit, xscale, kinds,
+                           f"delay of the jump in {axis} [{xlabel.split('[')[-1].rstrip(']')}]"
+                           if rig else f"delay of the jump in {axis}")
     fig.legend(handles=handles, loc="outside lower center", ncols=5, fontsize=8)
     fixed = ", ".join(f"{k} = {line.attrs[k]:g}" for k in ("omega", "sigma", "zeta")
                       if k in line.attrs and k != axis)
     fig.suptitle(title or f"Stepped-sine sweeps along {axis}, {fixed}", fontsize=10)
     return save(fig, path)
+
+
+def _plot_swept_delays(ax, line, unit, xscale, kinds, ylabel) -> None:
+    """Each swept jump's delay (how far past the stepped jump the swept run leaves the branch,
+    swept_jump_delay, in the swept parameter's units) against the rate, log-log, one line per
+    stepped jump that some rate reached, in its direction's colour: the delays tend to 0 with
+    the rate (rate^(2/3) at a fold, the slow passage). A rate whose run never left the branch
+    there has no point."""
+    rates = line[unit[0]].values
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    drawn = 0
+    for j in range(line.sizes["jump"]):
+        delay = line["swept_jump_delay"].values[j] * xscale
+        ok = np.isfinite(delay) & (delay > 0.0)
+        if not ok.any():
+            continue
+        d = int(line["jump_direction"].values[j])
+        color, marker, _ = SWEEP_STYLE[d]
+        kind = kinds.get(int(line["jump_kind"].values[j]), "?")
+        stepped = float(line["jump_value"].values[j]) * xscale
+        ax.plot(rates[ok], delay[ok], color=color, marker=marker, ms=4, lw=0.9,
+                  label=f"{('up', 'down')[d]}, {kind} at {stepped:.5g}")
+        drawn += 1
+    ax.set_xlabel(f"rate of the swept sine [{unit[1]}]")
+    ax.set_ylabel(ylabel, fontsize=8)
+    if drawn:
+        ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
+    else:
+        ax.text(0.5, 0.5, "no swept run left its branch at a stepped jump", ha="center",
+                va="center", transform=ax.transAxes, fontsize=8)
 
 
 def _swept_alpha(k: int, line) -> float:

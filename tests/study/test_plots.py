@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 
 import matplotlib
+import numpy as np
 import pytest
 
 from hertzmap.study import plots
@@ -225,3 +226,48 @@ def test_the_sweeps_figure_draws_the_swept_sines_beside_the_stepped_sweeps(real,
         thin = [ln for ln in ax.get_lines() if ln.get_linewidth() == 0.7]
         assert len(ax.get_lines()) - len(ax_plain.get_lines()) == len(thin) == 4
         assert sorted(ln.get_alpha() for ln in thin) == [0.35, 0.35, 0.9, 0.9]
+    # a fifth panel, log-log: each stepped jump's swept delays against the rates that left it
+    assert len(plain.axes) == 4 and len(drawn.axes) == 5
+    delays = drawn.axes[4]
+    assert delays.get_xscale() == delays.get_yscale() == "log"
+    stored = sweep_line(swept, 0)
+    rates = stored["rate"].values
+    expected = [(rates[ok], d[ok]) for d in stored["swept_jump_delay"].values
+                for ok in [np.isfinite(d) & (d > 0)] if ok.any()]
+    got = [(ln.get_xdata(), ln.get_ydata()) for ln in delays.get_lines()]
+    assert len(got) == len(expected)
+    for (gx, gy), (ex, ey) in zip(got, expected):
+        np.testing.assert_array_equal(gx, ex)
+        np.testing.assert_array_equal(gy, ey)
+    if not expected:            # these lines' few steps hold no jump a fast run left
+        assert "no swept run left its branch" in " ".join(t.get_text() for t in delays.texts)
+
+
+def test_the_sweeps_delay_panel_draws_each_jumps_delays_against_the_rate():
+    """The sweeps figure's fifth panel (line_figures._plot_swept_delays) on a hand-made
+    product: one log-log line per stepped jump that some rate's run left, its points the rates
+    with a finite positive delay, named by direction, kind and the stepped jump's value."""
+    import matplotlib.pyplot as plt
+    import xarray as xr
+
+    from hertzmap.study.plots.line_figures import _plot_swept_delays
+
+    nan = float("nan")
+    line = xr.Dataset(
+        {"swept_jump_delay": (("jump", "rate"), [[4.0e-3, 8.6e-4, 1.9e-4], [nan, 3.0e-2, 1.4e-2],
+                                                 [nan, nan, nan]]),
+         "jump_direction": ("jump", [1, 0, 0]), "jump_kind": ("jump", [1, 2, 1]),
+         "jump_value": ("jump", [0.4720908, 1.977579, 0.7535257])},
+        coords={"rate": [1e-5, 1e-6, 1e-7]})
+    fig, ax = plt.subplots()
+    _plot_swept_delays(ax, line, ("rate", "per unit tau"), 1.0, {1: "fold", 2: "flip"},
+                       "delay of the jump in omega")
+    lines = ax.get_lines()
+    assert [ln.get_label() for ln in lines] == ["down, fold at 0.47209", "up, flip at 1.9776"]
+    np.testing.assert_array_equal(lines[0].get_xdata(), [1e-5, 1e-6, 1e-7])
+    np.testing.assert_array_equal(lines[0].get_ydata(), [4.0e-3, 8.6e-4, 1.9e-4])
+    np.testing.assert_array_equal(lines[1].get_xdata(), [1e-6, 1e-7])
+    np.testing.assert_array_equal(lines[1].get_ydata(), [3.0e-2, 1.4e-2])
+    assert ax.get_xscale() == ax.get_yscale() == "log"
+    assert ax.get_ylabel() == "delay of the jump in omega"
+    plt.close(fig)
