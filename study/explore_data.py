@@ -637,7 +637,7 @@ def sweep_settings(ds: xr.Dataset) -> dict[str, Any]:
     model, exponent and solver rtol; its study's ``[sweep]`` jump_tol, settle_periods,
     record_periods (``study.spec.DEFAULT_SWEEP`` when the study has none); started from rest
     (``SWEEP_START``)."""
-    from hertzmap.study.products.stepped_sweeps import SWEEP_START
+    from hertzmap.study.products.stepped_sweeps import sweep_options
     from hertzmap.study.schema import study_from_attrs
     from hertzmap.study.spec import DEFAULT_SWEEP, StudyError
 
@@ -645,18 +645,9 @@ def sweep_settings(ds: xr.Dataset) -> dict[str, Any]:
         study = study_from_attrs(ds.attrs)
     except StudyError:
         study = None
-    if study is not None:
-        kw = study.solver_kwargs()
-        opts = {"exponent": float(kw["exponent"]), "model": kw["model"],
-                "rtol": float(kw["rtol"])}
-        sweep = study.sweep_dict or DEFAULT_SWEEP
-    else:
-        model = Model.of(ds.attrs)
-        opts = {"exponent": model.exponent, "model": model.law, "rtol": model.rtol}
-        sweep = DEFAULT_SWEEP
-    opts.update(jump_tol=float(sweep["jump_tol"]), settle_periods=int(sweep["settle_periods"]),
-                record_periods=int(sweep["record_periods"]), x0=tuple(SWEEP_START))
-    return opts
+    if study is None:
+        return sweep_options(Model.of(ds.attrs), DEFAULT_SWEEP)
+    return sweep_options(study.model_value, study.sweep_dict or DEFAULT_SWEEP)
 
 
 def sweep_values(ds: xr.Dataset, axis: str, omega: float, sigma: float, *,

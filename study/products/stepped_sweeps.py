@@ -39,6 +39,7 @@ from typing import Any, Mapping
 import numpy as np
 import xarray as xr
 
+from hertzmap.kernels.model import Model
 from hertzmap.kernels.records import N_HARMONICS, PERIOD_FLAGS, STATUS_FLAGS
 from hertzmap.study.products.classes import class_flag_attrs, valid_orbits
 from hertzmap.study.products.results import open_store, rig_of, source_attrs, var_attrs
@@ -207,14 +208,21 @@ def sweep_specs(study: Study) -> list[dict[str, Any]]:
         return []
     axis = settings["axis"]
     values = np.sort(study.axis(axis))
-    kw = study.solver_kwargs()
-    options = {"exponent": kw["exponent"], "model": kw["model"], "rtol": kw["rtol"],
-               "jump_tol": settings["jump_tol"], "settle_periods": settings["settle_periods"],
-               "record_periods": settings["record_periods"]}
+    options = sweep_options(study.model_value, settings)
     return [{"line": i, "direction": d,
              "sweep": {"axis": axis, "values": values, "fixed": fixed, "direction": d,
-                       "x0": SWEEP_START, **options}}
+                       **options}}
             for i, fixed in enumerate(study.sweep_lines()) for d in DIRECTIONS]
+
+
+def sweep_options(model: Model, settings: Mapping[str, Any]) -> dict[str, Any]:
+    """The keyword arguments of study.solve.sweep.stepped_sweep that a sweep of the ``sweeps``
+    output takes besides its line: the contact law, exponent and rtol of ``model``, the
+    [sweep] table's jump_tol, settle_periods and record_periods (``settings``), and the start
+    from rest (SWEEP_START). The explore page's sweeps take the same (study.explore_data)."""
+    return {"exponent": model.exponent, "model": model.law, "rtol": model.rtol,
+            "jump_tol": settings["jump_tol"], "settle_periods": settings["settle_periods"],
+            "record_periods": settings["record_periods"], "x0": SWEEP_START}
 
 
 def run_sweep(spec: Mapping[str, Any]) -> dict[str, np.ndarray]:
@@ -284,7 +292,7 @@ def swept_specs(study: Study, records: Mapping[tuple[int, str], Mapping[str, Any
         return []
     axis = settings["axis"]
     values = np.sort(study.axis(axis))
-    kw = study.solver_kwargs()
+    model = study.model_value
     samples = sample_values(study)
     out = []
     for i, fixed in enumerate(study.sweep_lines()):
@@ -301,7 +309,7 @@ def swept_specs(study: Study, records: Mapping[tuple[int, str], Mapping[str, Any
                             "swept": {"axis": axis, "start": float(ends[0]),
                                       "stop": float(ends[1]), "rate": float(rate),
                                       "fixed": dict(fixed), "x0": x0,
-                                      "exponent": kw["exponent"], "model": kw["model"]},
+                                      "exponent": model.exponent, "model": model.law},
                             "jumps": jumps, "samples": samples})
     return out
 
