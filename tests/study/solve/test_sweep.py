@@ -319,3 +319,33 @@ def test_bad_swept_sine_arguments_raise(kwargs, message):
         args["fixed"] = {"omega": 0.5, "sigma": S}
     with pytest.raises(ValueError, match=message):
         swept_sine(**args)
+
+
+def test_the_quasi_static_sweep_follows_by_shooting_and_locates_the_same_jumps():
+    """follow_first (the fit's forward model, study.identify): the steps on a branch are its
+    orbits continued by shooting (no transient), the jumps the branch's ends located by
+    shooting alone; the same steps and jumps as the default sweep's transients, and its flip
+    at the oracle's own (brentq on 1 + tr M + det M, scipy root on its period map)."""
+    values = np.round(np.arange(1.90, 2.0001, 0.01), 10)
+    fixed = {"sigma": S, "zeta": Z}
+    # 4000 periods: the step 2.4e-3 past the flip needs ~2000 to reach the 2T response
+    quasi = stepped_sweep("omega", values, fixed, "up", settle_periods=4000, follow_first=True)
+    rig = stepped_sweep("omega", values, fixed, "up", settle_periods=4000)
+    assert quasi.settings["follow_first"] and not rig.settings["follow_first"]
+    (jump,), (rig_jump,) = quasi.jumps, rig.jumps
+    assert jump.kind == rig_jump.kind == "flip" and (jump.from_period, jump.to_period) == (1, 2)
+    # bisected by shooting alone: every probe a shot (status converged or not), no transient
+    assert jump.probes >= 10 and set(jump.probe_log[:, 1]) <= {status.CONVERGED,
+                                                               status.NOT_CONVERGED}
+    assert abs(jump.value - rig_jump.value) <= jump.accuracy + rig_jump.accuracy
+    w_o, _ = oracle.flip_omega((1.965, 1.985), S, Z, quasi.steps[0].orbit.x0, rtol=1e-11,
+                               xtol=1e-10)
+    assert abs(jump.value - w_o) <= jump.accuracy + MARGIN, (jump.value, w_o)
+    # the steps on the 1T branch ran no transient; each is the default sweep's orbit
+    on_branch = quasi.steps[1:jump.step_index]
+    assert on_branch and all(s.periods_run == 0 and s.attractor is None and s.settled
+                             for s in on_branch)
+    a, b = quasi.arrays(), rig.arrays()
+    assert np.array_equal(a["period"], b["period"]) and np.array_equal(a["branch"], b["branch"])
+    assert np.allclose(a["force_harmonics"], b["force_harmonics"], rtol=1e-6, atol=1e-9)
+    assert a["periods_run"][1:jump.step_index].sum() == 0 < b["periods_run"][1:jump.step_index].min()
