@@ -1,5 +1,5 @@
 """The ``hertzmap`` command line: ``run``, ``scenes``, ``status``, ``plot``, ``basins``,
-``bench``, ``explore``. The only place that parses arguments.
+``fit``, ``bench``, ``explore``. The only place that parses arguments.
 
 Subcommands register themselves in :data:`SUBCOMMANDS` (name -> (add_arguments, handler)),
 so ``plot``, ``bench``... can be added without touching the others.
@@ -338,6 +338,61 @@ def cmd_basins(args: argparse.Namespace) -> int:
           f"{result['boundary_basin_entropy']:.4f} nats, uncertainty fraction "
           f"{result['uncertainty_fraction']:.4f}")
     print(f"{result['figure']}\nproduct: {result['group']} in {args.store}")
+    return EXIT_OK
+
+
+# -- fit (scheduler/fit_tasks.py) ---------------------------------------------------------------
+
+def _fit_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("measured", type=Path,
+                   help="the measured sweeps: a CSV file (columns frequency_hz, direction "
+                   "up/down, H1_N, H2_N, optional H1_2_N and phases; # comments), or a netCDF "
+                   "file or zarr store of an xarray Dataset with the same variables")
+    p.add_argument("--rig", type=Path, required=True, metavar="RIG.toml",
+                   help="the rig table: [rig] N (the preload, N) and f0 or m, E, nu, R; "
+                   "[excitation] force_N or sigma (docs/identify.md)")
+    p.add_argument("--out", type=Path, default=None, metavar="DIR",
+                   help="folder for NAME_fit.nc (the result) and NAME_fit.png (its figure); "
+                   "default: print the result, write nothing")
+    p.add_argument("--name", default=None,
+                   help="the files' stem (default: the measurement file's)")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                       help="run the fit's tasks on an existing Dask scheduler "
+                       "(e.g. tcp://host:8786)")
+    where.add_argument("--workers", type=int, default=None, metavar="N",
+                       help="worker processes of the embedded local cluster (default one "
+                       "per core)")
+    where.add_argument("--in-process", action="store_true",
+                       help="run the tasks in this process, no Dask (a small measurement, "
+                       "debugging)")
+
+
+@subcommand("fit", "identify f0, zeta and sigma from measured stepped-sine sweeps, with 95 % "
+            "profile-likelihood intervals")(_fit_args)
+def cmd_fit(args: argparse.Namespace) -> int:
+    """Read and check the measurement and the rig table (a bad row, column or field: exit 2,
+    nothing written), run the fit on the cluster (scheduler.fit_tasks), print the parameters
+    with their intervals, and with --out write the result and its figure."""
+    from hertzmap.scheduler.cluster import ClusterError, ClusterSpec
+    from hertzmap.scheduler.errors import RefusedError
+    from hertzmap.scheduler.fit_tasks import run_fit
+    from hertzmap.study.identify.measurement import FitInputError
+
+    try:
+        spec = (ClusterSpec(kind="address", address=args.scheduler) if args.scheduler
+                else ClusterSpec(kind="local", workers=args.workers))
+        if not args.in_process:
+            spec.check()
+        run_fit(args.measured, args.rig, out=args.out, name=args.name, cluster=spec,
+                in_process=args.in_process)
+    except FitInputError as exc:
+        return _error(f"fit: {exc}")
+    except (RefusedError, ClusterError) as exc:
+        return _error(f"fit: {exc}")
+    except KeyboardInterrupt:
+        print("\nhertzmap: interrupted; nothing written", file=sys.stderr)
+        return EXIT_INTERRUPTED
     return EXIT_OK
 
 

@@ -1,7 +1,7 @@
 """hertzmap as a library: what ``import hertzmap`` offers, the command line's ways in as Python
 functions (``hertzmap run`` -> :func:`run`, ``plot`` -> :func:`products` and :func:`plot`,
-``basins`` -> :func:`basins`, ``scenes`` -> :func:`scene_paths`), and the store opened as one
-xarray DataTree (:func:`open`).
+``basins`` -> :func:`basins`, ``scenes`` -> :func:`scene_paths`, ``fit`` -> :func:`fit`), and
+the store opened as one xarray DataTree (:func:`open`).
 
 Every function takes a study as a path, a shipped scene's name, TOML text or a dict, and a
 store as a path. Bad input raises before anything is written: :class:`StudyError` (its
@@ -21,10 +21,11 @@ from typing import Any, TextIO
 import xarray as xr
 
 from hertzmap.scheduler.errors import RefusedError, StoreError
+from hertzmap.study.identify.measurement import FitInputError
 from hertzmap.study.spec import Study, StudyError
 
-__all__ = ["run", "open", "load_study", "scene_paths", "products", "plot", "basins", "Study",
-           "StudyError", "RefusedError", "IncompleteRun"]
+__all__ = ["run", "open", "load_study", "scene_paths", "products", "plot", "basins", "fit",
+           "Study", "StudyError", "RefusedError", "FitInputError", "IncompleteRun"]
 
 
 class IncompleteRun(UserWarning):
@@ -212,3 +213,39 @@ def basins(store: str | Path, omega: float, sigma: float, zeta: float | None = N
     result = run_basins(req, spec, Path(out) if out is not None else Path(store).resolve().parent,
                         client=client)
     return read_product(store, result["group"].removeprefix("products/"))
+
+
+def fit(measured, rig, *, out: str | Path | None = None, name: str | None = None, client=None,
+        workers: int | None = None, in_process: bool = False,
+        quiet: bool = False) -> xr.Dataset:
+    """f0, zeta and sigma (and n when the rig table asks) identified from measured stepped-sine
+    sweeps, with 95 % profile-likelihood intervals (``hertzmap fit``, docs/identify.md).
+
+    ``measured``: a CSV file's path (columns frequency_hz, direction, H1_N, H2_N, optional
+    H1_2_N and phases), a netCDF file or zarr store of an xarray Dataset with the same
+    variables, or such a Dataset. ``rig``: the rig table: a TOML file's path, its text or a
+    dict of its tables (the preload N; f0 or m, E, nu, R; the excitation set point). The
+    fit's tasks run on ``client`` (a Dask client of your own), else on a local cluster of
+    ``workers`` processes (default one per core) that it starts and closes, or, with
+    ``in_process``, in this process. ``out``: a folder for ``<name>_fit.nc`` and its figure
+    ``<name>_fit.png`` (default: nothing written). ``quiet``: no progress lines.
+
+    Returns the result as an xarray Dataset: the parameters (``estimate``, ``lower``,
+    ``upper``, ``identified`` on dim ``parameter``), the noise model, each measured point
+    beside the model (``model``, ``residual``, ``model_period``), the measured and model
+    jumps (dim ``jump``), the model's sweeps at the estimate, the profiles. Bad input raises
+    :class:`FitInputError` (naming the row and column, or the rig table's field) before
+    anything is computed or written.
+    """
+    from hertzmap.scheduler.cluster import ClusterSpec
+    from hertzmap.scheduler.fit_tasks import run_fit
+
+    if client is not None and (workers is not None or in_process):
+        raise RefusedError("workers: give a client, workers or in_process, not two of them")
+    spec = None
+    if client is None and not in_process:
+        spec = ClusterSpec(kind="local", workers=workers)
+        spec.check()
+    return run_fit(measured, rig, out=out, name=name, client=client, cluster=spec,
+                   in_process=in_process,
+                   report=(lambda line: None) if quiet else None)

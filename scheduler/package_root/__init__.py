@@ -10,6 +10,7 @@ functions live in hertzmap.scheduler.library and hertzmap.kernels.api)::
     tree = hertzmap.open("results/default.zarr")                            # lazily
     hertzmap.plot("results/default.zarr", ["map"])                          # PNGs
     bm = hertzmap.basins("results/default.zarr", omega=1.95, sigma=2.0)     # a basin map
+    fit = hertzmap.fit("measured.csv", "rig.toml", out="results")          # f0, zeta, sigma
     orbit = hertzmap.shoot(1.9, 0.5, 0.01, period=2)                        # one orbit
 
 Studies: a path, a scene's name (``hertzmap.scene_paths()``), TOML text or a dict
@@ -24,8 +25,8 @@ import importlib
 #: loads neither numba nor Dask)
 _WHERE = {
     **{name: "hertzmap.scheduler.library" for name in (
-        "run", "open", "load_study", "scene_paths", "products", "plot", "basins", "Study",
-        "StudyError", "RefusedError", "IncompleteRun")},
+        "run", "open", "load_study", "scene_paths", "products", "plot", "basins", "fit",
+        "Study", "StudyError", "RefusedError", "FitInputError", "IncompleteRun")},
     **{name: "hertzmap.kernels.api" for name in (
         "shoot", "shoot_batch", "simulate", "attractor", "attractor_batch", "lyapunov",
         "Orbit")},

@@ -38,7 +38,8 @@ from scipy.optimize import least_squares
 from hertzmap.study.identify.forward_model import ForwardModel, forward_model
 from hertzmap.study.identify.likelihood import Readings, best_f0
 from hertzmap.study.identify.problem import FitProblem
-from hertzmap.study.identify.profile_likelihood import (Coordinates, best_local_f0, column,
+from hertzmap.study.identify.profile_likelihood import (CLIFF, CLIFF_BISECTIONS, Coordinates,
+                                                        best_local_f0, column, crossings,
                                                         interval, profile_point, residuals)
 
 __all__ = ["GLOBAL_SIGMA", "GLOBAL_ZETA_RATIO", "GLOBAL_EXPONENT", "GLOBAL_STEP_FACTOR",
@@ -71,22 +72,24 @@ Mapper = Callable[[str, list], list]
 def cell_task(spec: dict[str, Any]) -> dict[str, Any]:
     """One cell of the global stage: the forward model at spec["theta"] = (sigma, zeta, n) over
     spec["problem"].omega, its log-likelihood maximised over f0 and the noise model."""
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     problem: FitProblem = spec["problem"]
     sigma, zeta, n = spec["theta"]
     fm = forward_model(sigma, zeta, problem.omega, exponent=n, directions=problem.directions)
     f0, fit, _, _ = best_f0(problem, fm)
     return {"theta": (sigma, zeta, n), "f0": f0, "loglik": fit.loglik, "a": fit.a,
-            "b": fit.b, "steps": fm.steps, "seconds": time.perf_counter() - t0}
+            "b": fit.b, "steps": fm.steps, "seconds": time.perf_counter() - t0,
+            "cpu_seconds": time.process_time() - c0}
 
 
 def forward_task(spec: dict[str, Any]) -> dict[str, Any]:
     """One forward model (study.identify.forward_model) at spec["theta"] = (sigma, zeta, n)."""
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     problem: FitProblem = spec["problem"]
     sigma, zeta, n = spec["theta"]
     fm = forward_model(sigma, zeta, problem.omega, exponent=n, directions=problem.directions)
-    return {"model": fm, "seconds": time.perf_counter() - t0}
+    return {"model": fm, "seconds": time.perf_counter() - t0,
+            "cpu_seconds": time.process_time() - c0}
 
 
 def profile_task(spec: dict[str, Any]) -> dict[str, Any]:
@@ -119,7 +122,7 @@ class FitResult:
     high, low_closed, high_closed). profiles: name -> (values, profile log-likelihoods, the
     other parameters at each: (k, names)). cells: the global stage's (theta (k, 3), f0 (k,),
     log-likelihood (k,)). model: the forward model at the estimate. stages: name -> (wall
-    seconds, task seconds, tasks). restarts: local stages started again from a better
+    seconds, the tasks' seconds, their CPU seconds, tasks). restarts: local stages started again from a better
     profile point. forward_models: computed in all.
     """
 
@@ -135,7 +138,7 @@ class FitResult:
     profiles: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
     cells: tuple[np.ndarray, np.ndarray, np.ndarray]
     model: ForwardModel
-    stages: dict[str, tuple[float, float, int]] = field(default_factory=dict)
+    stages: dict[str, tuple[float, float, float, int]] = field(default_factory=dict)
     restarts: int = 0
     forward_models: int = 0
 
@@ -177,10 +180,11 @@ class _Fit:
     def run(self, label: str, stage: str, specs: list) -> list:
         t0 = time.perf_counter()
         out = self.mapper(label, specs) if specs else []
-        cost = self.stages.setdefault(stage, [0.0, 0.0, 0])
+        cost = self.stages.setdefault(stage, [0.0, 0.0, 0.0, 0])
         cost[0] += time.perf_counter() - t0
         cost[1] += sum(float(r.get("seconds", 0.0)) for r in out)
-        cost[2] += len(out)
+        cost[2] += sum(float(r.get("cpu_seconds", 0.0)) for r in out)
+        cost[3] += len(out)
         return out
 
     def theta(self, u) -> tuple[float, float, float]:
@@ -301,8 +305,11 @@ class _Fit:
                         out.append(x)
             return out
 
-        todo = {j: wanted(j, PROFILE_STEPS) for j in points}
+        # first the nearest points (a better point there restarts the local stage cheaply)
+        todo = {j: wanted(j, PROFILE_STEPS[:1]) for j in points}
+        later = list(PROFILE_STEPS[1:])
         extend = list(PROFILE_EXTEND)
+        bisected: dict[int, dict[bool, int]] = {j: {} for j in points}
         better = None
         while any(todo.values()):
             specs = [dict(base, index=j, value=x) for j, xs in todo.items() for x in xs]
@@ -314,6 +321,10 @@ class _Fit:
                     better = r
             if better is not None:
                 return {}, points, better
+            if later:
+                todo = {j: wanted(j, later) for j in points}
+                later = []
+                continue
             todo = {}
             step = extend.pop(0) if extend else None
             for j in points:
@@ -332,6 +343,12 @@ class _Fit:
                     if need[-1] <= xs[-1]:
                         need[-1] = min(self.coords.upper[j],
                                        u_hat[j] + 2.0 * (xs[-1] - u_hat[j]))
+                # an end on a cliff of the profile: its bracket halved
+                for x_in, x_out, r_in, r_out in crossings(xs, vals, u_hat[j], fit.loglik):
+                    halved = bisected[j].get(x_out < u_hat[j], 0)
+                    if abs(r_out - r_in) > CLIFF and halved < CLIFF_BISECTIONS:
+                        bisected[j][x_out < u_hat[j]] = halved + 1
+                        need.append(0.5 * (x_in + x_out))
                 need = [x for x in need if x not in points[j]]
                 if need:
                     todo[j] = need
@@ -403,9 +420,10 @@ def fit(problem: FitProblem, mapper: Mapper = in_process,
         profiles[name] = (to(rows)[order, j], ll[order], to(rows)[order])
     (model,) = state.forward([u_hat], "local")
     values = state.coords.to_values(u_hat)
-    stages = {k: (v[0], v[1], int(v[2])) for k, v in state.stages.items()}
+    stages = {k: (v[0], v[1], v[2], int(v[3])) for k, v in state.stages.items()}
     stages["total"] = (time.perf_counter() - t0, sum(v[1] for v in state.stages.values()),
-                       sum(int(v[2]) for v in state.stages.values()))
+                       sum(v[2] for v in state.stages.values()),
+                       sum(int(v[3]) for v in state.stages.values()))
     return FitResult(problem=problem, names=names,
                      estimate={n: float(v) for n, v in zip(names, values)},
                      loglik=best.loglik, a=best.a, b=best.b, se=se, cov=cov,

@@ -312,10 +312,11 @@ def measurement_from_columns(columns: Mapping[str, Any], *, source: str = "<colu
         sign = 1.0 if name == "up" else -1.0
         for a, b in zip(idx[:-1], idx[1:]):
             if not (frequency[b] - frequency[a]) * sign > 0.0:
-                raise err(int(b), "frequency_hz", f"{frequency[b]!r} Hz does not "
+                raise err(int(b), "frequency_hz", f"{float(frequency[b])!r} Hz does not "
                           f"{'increase' if name == 'up' else 'decrease'} from "
-                          f"{frequency[a]!r} Hz at row {rows[a]}: the rows of a {name} sweep "
-                          f"are in the order measured, their frequencies "
+                          f"{float(frequency[a])!r} Hz at row {rows[a]}: the rows of "
+                          f"{'an up' if name == 'up' else 'a down'} sweep are in the order "
+                          f"measured, their frequencies "
                           f"{'increasing' if name == 'up' else 'decreasing'} strictly")
     return Measurement(frequency=frequency, direction=direction, amplitude=amplitude,
                        phase=phase, row=np.asarray(rows, int), line=np.asarray(lines, int),

@@ -8,7 +8,10 @@ r = -1.96 and +1.96 (linear interpolation between the profile's points). Where P
 the threshold up to a parameter's bound, the interval is open there (it runs to the bound);
 open at both bounds, the data do not determine the parameter: the fit says "not identified"
 instead of printing a number (a measurement that never leaves the 1T response cannot
-separate sigma from zeta).
+separate sigma from zeta). Where the profile drops by a cliff (a model jump passing a measured
+point moves it onto another branch: the jump's frequency is known only to the measured
+steps around it), the interval's end is the cliff's, its bracket halved until it is a
+CLIFF_BISECTIONS-th power of 2 of the points' spacing.
 
 A profile point (:func:`profile_point`, one task each) maximises over the other parameters by
 Gauss-Newton iterations with the Jacobian of the fit's optimum (a chord method: each iteration
@@ -34,7 +37,8 @@ from hertzmap.study.identify.forward_model import forward_model
 from hertzmap.study.identify.problem import FitProblem
 
 __all__ = ["THRESHOLD", "R_CRITICAL", "PROFILE_ITERATIONS", "Coordinates", "residuals",
-           "column", "best_local_f0", "profile_point", "interval", "signed_root"]
+           "column", "best_local_f0", "profile_point", "interval", "crossings", "signed_root",
+           "CLIFF", "CLIFF_BISECTIONS"]
 
 #: chi-square(1) 0.95 quantile / 2: a profile within this of the maximum is inside the interval
 THRESHOLD = 1.920729410347062
@@ -42,6 +46,10 @@ THRESHOLD = 1.920729410347062
 R_CRITICAL = 1.959963984540054
 #: Gauss-Newton iterations (forward models) of one profile point at most
 PROFILE_ITERATIONS = 4
+#: an interval's end whose bracket's signed roots differ by more than CLIFF (where a quadratic
+#: profile's differ by about a standard error's worth, ~1) lies on a cliff of the profile (a
+#: model jump passing a measured point): the bracket is halved, at most CLIFF_BISECTIONS times
+CLIFF, CLIFF_BISECTIONS = 1.5, 3
 
 
 class Coordinates:
@@ -120,7 +128,7 @@ def profile_point(spec: dict[str, Any]) -> dict[str, Any]:
     index (the parameter held), value (its value, in u), se (u's standard errors).
     Returns the profile's log-likelihood at the point, where the other parameters went, the
     noise model, the forward models computed and the seconds."""
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     problem: FitProblem = spec["problem"]
     coords = Coordinates(problem)
     r = Readings.of(problem)
@@ -171,7 +179,7 @@ def profile_point(spec: dict[str, Any]) -> dict[str, Any]:
         u = nxt
     return {"index": j, "value": value, "loglik": best["loglik"], "u": best["u"],
             "a": best["a"], "b": best["b"], "models": models,
-            "seconds": time.perf_counter() - t0}
+            "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0}
 
 
 def signed_root(x, values, x_hat: float, l_max: float) -> np.ndarray:
@@ -179,6 +187,28 @@ def signed_root(x, values, x_hat: float, l_max: float) -> np.ndarray:
     x = np.asarray(x, float)
     d = 2.0 * np.maximum(l_max - np.asarray(values, float), 0.0)
     return np.sign(x - x_hat) * np.sqrt(d)
+
+
+def crossings(x, values, x_hat: float, l_max: float) -> list[tuple[float, float, float, float]]:
+    """The brackets (x_in, x_out, r_in, r_out) of a profile's points where its signed root
+    first crosses -R_CRITICAL below x_hat and +R_CRITICAL above (one per side found)."""
+    x = np.asarray(x, float)
+    order = np.argsort(x)
+    x, p = x[order], np.asarray(values, float)[order]
+    xs = np.r_[x[x < x_hat], x_hat, x[x > x_hat]]
+    ps = np.r_[p[x < x_hat], l_max, p[x > x_hat]]
+    rs = signed_root(xs, ps, x_hat, l_max)
+    k = int(np.flatnonzero(xs == x_hat)[0])
+    out = []
+    for i in range(k, 0, -1):
+        if rs[i - 1] <= -R_CRITICAL:
+            out.append((xs[i], xs[i - 1], rs[i], rs[i - 1]))
+            break
+    for i in range(k, xs.size - 1):
+        if rs[i + 1] >= R_CRITICAL:
+            out.append((xs[i], xs[i + 1], rs[i], rs[i + 1]))
+            break
+    return out
 
 
 def interval(x, values, x_hat: float, l_max: float, lower: float,

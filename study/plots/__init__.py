@@ -7,7 +7,8 @@
 * ``plane_figures`` (the (omega, sigma) plane: maps, measures, Lyapunov, bifurcation set),
   ``line_figures`` (along a line: response, harmonics, stroboscopic diagram, histories,
   stepped sweeps),
-  ``damping_figures`` (over zeta), ``basin_figures`` (a point's basin map),
+  ``damping_figures`` (over zeta), ``basin_figures`` (a point's basin map), ``fit_figures``
+  (a fit of measured sweeps: ``hertzmap fit``),
   ``paper_figures`` (the paper's analytic figures: ``hertzmap plot --paper fig02 ...``), and
   ``style`` (colours, labels, curve styles, saving), each figure a function of products and a
   path.
@@ -39,6 +40,7 @@ _LAZY = {
     "plot_paper": "paper_figures", "plot_bifurcation_set": "plane_figures",
     "plot_loss_of_contact_map": "plane_figures", "plot_lyapunov_map": "plane_figures",
     "plot_map_measures": "plane_figures", "plot_zeta_maps": "plane_figures",
+    "plot_fit": "fit_figures",
 }
 
 
