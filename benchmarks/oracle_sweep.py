@@ -6,8 +6,8 @@ step until the response has settled, and the transmitted force's harmonics it re
 Used to make the synthetic measurements the fit (study.identify) is tested and benchmarked on:
 
     from benchmarks.oracle_sweep import measured_sweeps
-    rows = measured_sweeps(freqs_hz, f0=271.0, sigma=0.3, zeta=0.005, N=69.7, a=0.03, b=0.05,
-                           seed=7)          # noisy readings, as a lab exports them
+    rows, clean = measured_sweeps(freqs_hz, f0=271.0, sigma=0.3, zeta=0.005, N=69.7, a=0.03,
+                                  b=0.05, seed=7)    # noisy readings, as a lab exports them
 
 The sweep (:func:`quasi_static_sweep`), its own rule written from the physics, not from
 study.solve.sweep: each step's orbit is the last one's continued by the oracle's Newton
@@ -156,26 +156,48 @@ def quasi_static_sweep(omegas, sigma, zeta, direction="up", *, n=1.5, x0=(0.0, 0
     return out
 
 
-def measured_sweeps(freqs_hz, *, f0, sigma, zeta, N, a, b, seed, n=1.5,
-                    directions=("up", "down")):
-    """A synthetic measurement: the oracle's quasi-static sweeps at omega = f / f0 over the
-    frequencies ``freqs_hz`` up and down, each harmonic in N (N x that of F/N) read with the
-    fit's noise model: |m + sd e|, sd = sqrt((a m)^2 + b^2), e standard normal from
-    numpy's default_rng(seed) (the absolute value: a measured amplitude; its second moment is
-    the normal model's). Returns (rows, clean): rows a list of dicts with the CSV's columns
-    (frequency_hz, direction, H1_N, H2_N, H1_2_N) in the order measured; clean: the same
-    without noise, with each step's period."""
-    rng = np.random.default_rng(seed)
-    rows, clean = [], []
+def clean_sweeps(freqs_hz, *, f0, sigma, zeta, N, n=1.5, directions=("up", "down")):
+    """The oracle's quasi-static sweeps at omega = f / f0 over the frequencies ``freqs_hz``,
+    up then down: a list of dicts per step in the order measured, with the CSV's columns
+    (frequency_hz, direction, H1_N, H2_N, H1_2_N: N x the harmonics of F/N, no noise) and the
+    period of the step's response."""
+    clean = []
     freqs = np.sort(np.asarray(freqs_hz, float))
     for d in directions:
         steps = quasi_static_sweep(freqs / f0, sigma, zeta, d, n=n)
         for f, s in zip(freqs if d == "up" else freqs[::-1], steps):
             m = np.array([s["H1"], s["H2"], s["H1_2"]]) * N
-            sd = np.sqrt((a * m) ** 2 + b * b)
-            y = np.abs(m + sd * rng.standard_normal(3))
-            rows.append({"frequency_hz": f, "direction": d, "H1_N": y[0], "H2_N": y[1],
-                         "H1_2_N": y[2]})
             clean.append({"frequency_hz": f, "direction": d, "H1_N": m[0], "H2_N": m[1],
                           "H1_2_N": m[2], "period": s["period"]})
-    return rows, clean
+    return clean
+
+
+def with_noise(clean, *, a, b, seed):
+    """The readings of :func:`clean_sweeps` with the fit's noise model: |m + sd e|, sd =
+    sqrt((a m)^2 + b^2), e standard normal from numpy's default_rng(seed), three a step (H1,
+    H2, H1/2) in the order measured (the absolute value: a measured amplitude; its second
+    moment is the normal model's)."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for c in clean:
+        m = np.array([c["H1_N"], c["H2_N"], c["H1_2_N"]])
+        sd = np.sqrt((a * m) ** 2 + b * b)
+        y = np.abs(m + sd * rng.standard_normal(3))
+        rows.append({"frequency_hz": c["frequency_hz"], "direction": c["direction"],
+                     "H1_N": y[0], "H2_N": y[1], "H1_2_N": y[2]})
+    return rows
+
+
+def measured_sweeps(freqs_hz, *, f0, sigma, zeta, N, a, b, seed, n=1.5,
+                    directions=("up", "down")):
+    """A synthetic measurement: (rows, clean), :func:`with_noise` of :func:`clean_sweeps`."""
+    clean = clean_sweeps(freqs_hz, f0=f0, sigma=sigma, zeta=zeta, N=N, n=n,
+                         directions=directions)
+    return with_noise(clean, a=a, b=b, seed=seed), clean
+
+
+def columns(rows) -> dict[str, list]:
+    """Rows (dicts of the CSV's columns) as columns (study.identify.measurement.
+    measurement_from_columns takes them)."""
+    names = ("frequency_hz", "direction", "H1_N", "H2_N", "H1_2_N")
+    return {k: [r[k] for r in rows] for k in names}

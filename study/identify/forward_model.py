@@ -40,7 +40,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from hertzmap.kernels import api
-from hertzmap.kernels.model import DEFAULT_LAW
+from hertzmap.kernels import continuation as cont
+from hertzmap.kernels.model import DEFAULT_LAW, DEFAULT_RTOL
 from hertzmap.study.products.stepped_sweeps import JUMP_KIND_CODES
 from hertzmap.study.solve.sweep import stepped_sweep
 
@@ -101,8 +102,14 @@ class ModelSweep:
     H2, H1/2 of F/N there; period: (k,) of the response (0: not periodic); segment: (k,) the
     run of one branch each node is on (interpolation stays within one); gap_jump: (k,) for a
     node followed by another segment, the omega where the sweep leaves its segment (NaN
-    else). jumps: (j, 6) rows (value, accuracy, kind as study.products.stepped_sweeps.
-    JUMP_KIND_CODES, from_period, to_period, located). direction: "up" or "down".
+    else). root_end, root_start: (k,) the omega of the fold that ends the node's segment, of
+    the flip its segment's branch (of twice the period) is born at (NaN: none): there the
+    branch's harmonics go as the square root of the distance, and the segment is interpolated
+    linearly in that square root (exact for the normal form's leading terms; linear in omega
+    is 1 % of H1 off on the 2T branch a few steps from its fold at sigma 0.3, zeta 0.005).
+    jumps: (j, 6) rows (value, accuracy, kind as study.products.stepped_sweeps.
+    JUMP_KIND_CODES, from_period, to_period: the period landed on, after a landing the sweep
+    did not settle on itself; located). direction: "up" or "down".
     """
 
     direction: str
@@ -111,6 +118,8 @@ class ModelSweep:
     period: np.ndarray
     segment: np.ndarray
     gap_jump: np.ndarray
+    root_end: np.ndarray
+    root_start: np.ndarray
     jumps: np.ndarray
 
     def at(self, omega) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -129,8 +138,25 @@ class ModelSweep:
         i = np.clip(np.searchsorted(x, q, side="right") - 1, 0, k - 2)
         j = i + 1
         same = seg[i] == seg[j]
-        slope_in = (v[j] - v[i]) / (x[j] - x[i])[:, None]
-        inside = v[i] + (q - x[i])[:, None] * slope_in
+        # within a segment: linear in the square root of the distance to the nearer of its
+        # fold (end) and its branch's birth (start), else in x
+        end, start = s * self.root_end[i], s * self.root_start[i]
+        to_end = np.where(np.isfinite(end), end - q, np.inf)
+        to_start = np.where(np.isfinite(start), q - start, np.inf)
+        use_end = np.isfinite(to_end) & (to_end <= to_start)
+        use_start = np.isfinite(to_start) & ~use_end
+
+        def coord(y):
+            return np.where(use_end, -np.sqrt(np.maximum(end - y, 0.0)),
+                            np.where(use_start, np.sqrt(np.maximum(y - start, 0.0)), y))
+
+        cq, ci, cj = coord(q), coord(x[i]), coord(x[j])
+        dc = np.where(cj != ci, cj - ci, 1.0)
+        dc_dq = np.where(use_end, 0.5 / np.maximum(-cq, 1e-12),
+                         np.where(use_start, 0.5 / np.maximum(cq, 1e-12), 1.0))
+        per_c = (v[j] - v[i]) / dc[:, None]
+        inside = v[i] + (cq - ci)[:, None] * per_c
+        slope_in = per_c * dc_dq[:, None]
         jump = s * self.gap_jump[i]
         left = q < np.where(np.isfinite(jump), jump, 0.5 * (x[i] + x[j]))
         # a segment's end nodes extrapolated over less than a step: from the node and its
@@ -221,7 +247,17 @@ def _model_sweep(sweep, sigma: float, zeta: float, exponent: float, model: str) 
     harm = np.full((k, 3), np.nan)
     for idx, s in enumerate(steps):
         if orbits[idx] is None:
-            orbits[idx] = _landing(s, steps, idx, exponent, model)
+            # a step whose transient did not settle: the last step's orbit continued (its
+            # branch, when it is stable here: the quasi-static rule, after a landing the sweep
+            # itself did not make), else the orbit its transient was approaching
+            last = orbits[idx - 1] if idx > 0 else None
+            o = None
+            if last is not None:
+                o = api.shoot(s.omega, s.sigma, s.zeta, last.period, last.x0,
+                              exponent=exponent, model=model)
+                if not (o.converged and o.stable and o.minimal_period == last.period):
+                    o = None
+            orbits[idx] = o or _landing(s, steps, idx, last, exponent, model)
         o = orbits[idx]
         if o is not None:
             period[idx] = o.period
@@ -236,6 +272,8 @@ def _model_sweep(sweep, sigma: float, zeta: float, exponent: float, model: str) 
     for idx in range(1, k):
         segment[idx] = segment[idx - 1] + int(idx in located or period[idx] != period[idx - 1])
     w_, h_, p_, s_, g_ = [], [], [], [], []
+    root_end: dict[int, float] = {}
+    root_start: dict[int, float] = {}
 
     def node(w, h, p, seg):
         w_.append(float(w))
@@ -249,9 +287,15 @@ def _model_sweep(sweep, sigma: float, zeta: float, exponent: float, model: str) 
         j = located.get(idx) if new else None
         if new and orbits[idx] is not None and j is not None:
             # the branch landed on, continued back towards the jump
-            for w, h in reversed(_refined(orbits[idx], s.value, j.value, sigma, zeta,
-                                          exponent, model)):
+            back = _refined(orbits[idx], s.value, j.value, sigma, zeta, exponent, model)
+            for w, h in reversed(back):
                 node(w, h, period[idx], segment[idx])
+            # a branch born at the flip (its subharmonic -> 0 there as the square root of the
+            # distance: the nearest refined node's is ~0.18 of the step's), not one landed on
+            # across a subcritical flip
+            if (j.kind == "flip" and period[idx] == 2 * j.from_period and back
+                    and back[-1][1][2] < 0.5 * harm[idx][2]):
+                root_start[segment[idx]] = j.value
         node(s.value, harm[idx], period[idx], segment[idx])
         if idx + 1 < k and segment[idx + 1] != segment[idx]:
             jn = located.get(idx + 1)
@@ -265,10 +309,16 @@ def _model_sweep(sweep, sigma: float, zeta: float, exponent: float, model: str) 
                     node(jn.before, _harmonics(fo, sigma, zeta, exponent, model), period[idx],
                          segment[idx])
                 g_[-1] = jn.value
+                if jn.kind == "fold":
+                    root_end[segment[idx]] = jn.value
             else:
                 g_[-1] = 0.5 * (s.value + steps[idx + 1].value)
-    rows = [(j.value, j.accuracy, JUMP_KIND_CODES[j.kind], j.from_period, j.to_period,
-             j.located) for j in sweep.jumps]
+    # the jumps between two segments (an unlocated jump across a step that did not settle,
+    # which the landing found on the branch of the steps around it, is not one)
+    rows = [(j.value, j.accuracy, JUMP_KIND_CODES[j.kind], j.from_period,
+             int(period[j.step_index]), j.located)
+            for j in sweep.jumps
+            if j.located or segment[j.step_index] != segment[j.step_index - 1]]
     # strictly along the sweep: a refined node at a step's own value (a jump bracketed at
     # the step itself) is dropped, keeping its gap's jump
     x = np.array(w_) * (1.0 if sweep.direction == "up" else -1.0)
@@ -277,37 +327,47 @@ def _model_sweep(sweep, sigma: float, zeta: float, exponent: float, model: str) 
     for i in np.flatnonzero(~keep):
         if np.isfinite(gap[i]):
             gap[i - 1] = gap[i]
+    segs = np.array(s_)[keep]
     return ModelSweep(direction=sweep.direction, omega=np.array(w_)[keep],
                       harmonics=np.array(h_).reshape(-1, 3)[keep], period=np.array(p_)[keep],
-                      segment=np.array(s_)[keep], gap_jump=gap[keep],
+                      segment=segs, gap_jump=gap[keep],
+                      root_end=np.array([root_end.get(g, np.nan) for g in segs]),
+                      root_start=np.array([root_start.get(g, np.nan) for g in segs]),
                       jumps=np.array(rows, float).reshape(-1, 6))
 
 
-def _landing(step, steps, idx: int, exponent: float, model: str):
+def _landing(step, steps, idx: int, last, exponent: float, model: str):
     """The stable orbit a step that did not settle was approaching, or None: shot from where
-    its transient ended, of the period of the next periodic step, twice the last one's, the
-    last one's, 1 or 2. Just past a flip of the last step's orbit (period m) the transient
-    leaves the now unstable m T orbit along the flip's eigenvector towards the 2m T orbit born
-    there, a distance ~ sqrt(past the flip) away, which Newton from the transient's end may
-    miss for the m T orbit: the 2m T solve also starts from points along that direction."""
-    guesses = {}
-    prev = steps[idx - 1] if idx > 0 else None
+    its transient ended, of the period of the next periodic step, twice the last one's
+    (``last``: the orbit of the step before, or None), the last one's, 1 or 2. Just past a
+    flip of the last step's orbit (period m) the transient leaves the now unstable m T orbit
+    along the flip's eigenvector towards the 2m T orbit born there, a distance ~ sqrt(past the
+    flip) away, which Newton from the transient's end may miss for the m T orbit: the 2m T
+    solve also starts from points along that eigenvector and that departure."""
+    guesses: dict[int, list] = {}
     if idx + 1 < len(steps) and steps[idx + 1].period:
-        guesses.setdefault(steps[idx + 1].period, [step.end])
-    if prev is not None and prev.orbit is not None:
-        m = prev.orbit.period
+        guesses.setdefault(steps[idx + 1].period, []).append(step.end)
+    if last is not None:
+        m = last.period
         starts = [step.end]
-        base = api.shoot(step.omega, step.sigma, step.zeta, m, prev.orbit.x0,
+        base = api.shoot(step.omega, step.sigma, step.zeta, m, last.x0,
                          exponent=exponent, model=model)
-        away = step.end - base.x0
-        size = float(np.hypot(*away))
-        if base.converged and size > 0.0:
-            starts += [base.x0 + sign * r * away / size for r in (0.01, 0.03, 0.1, 0.3, 1.0)
-                       for sign in (1.0, -1.0)]
-        guesses.setdefault(2 * m, starts)
-        guesses.setdefault(m, [step.end])
+        if base.converged:
+            # along the flip's eigenvector (the monodromy's, kernels.continuation), and along
+            # the transient's departure
+            _, M, code = cont.System(step.zeta, exponent, model, DEFAULT_RTOL,
+                                     api.DEFAULT_MAX_STEPS).map(base.x0, step.omega,
+                                                                step.sigma, m)
+            away = step.end - base.x0
+            size = float(np.hypot(*away))
+            directions = [cont.flip_eigenvector(M)] if code == 0 else []
+            directions += [away / size] if size > 0.0 else []
+            starts += [base.x0 + sign * r * e for e in directions
+                       for r in (0.003, 0.01, 0.03, 0.1, 0.3, 1.0) for sign in (1.0, -1.0)]
+        guesses.setdefault(2 * m, []).extend(starts)
+        guesses.setdefault(m, []).append(step.end)
     for m in (1, 2):
-        guesses.setdefault(m, [step.end])
+        guesses.setdefault(m, []).append(step.end)
     for m, starts in guesses.items():
         if m > 16:
             continue

@@ -91,7 +91,9 @@ def plot_fit(ds, path: Path, *, title: str | None = None) -> Path:
                           label=f"noise: a = {float(ds['noise_multiplicative']):.3g}, "
                                 f"b = {float(ds['noise_floor']):.3g} N"))
     fig.legend(handles=handles, fontsize=8, loc="outside upper center", ncol=3,
-               handlelength=1.6, frameon=False)
+               handlelength=1.6, frameon=False,
+               title=title or f"hertzmap fit: {ds.attrs.get('measurement_source', '')}",
+               title_fontsize=10)
     # the profiles
     thr = 2.0 * float(ds.attrs.get("threshold", 1.920729410347062))
     for i, name in enumerate(names):
@@ -116,6 +118,4 @@ def plot_fit(ds, path: Path, *, title: str | None = None) -> Path:
         ax.grid(alpha=0.3)
         if i == 0:
             ax.legend(fontsize=7.5)
-    fig.suptitle(title or f"hertzmap fit: {ds.attrs.get('measurement_source', '')}",
-                 fontsize=10)
     return save(fig, path)
