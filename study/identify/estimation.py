@@ -60,8 +60,11 @@ MAX_RESTARTS = 2
 #: the finite-difference steps of the Jacobian in the coordinates (log f0, sigma, log zeta, n)
 FD_STEP = {"f0": 1e-6, "sigma": 1e-4, "zeta": 1e-4, "exponent": 1e-4}
 #: least-squares rounds of the local stage (the noise model re-estimated between), each of at
-#: most LOCAL_EVALUATIONS residual evaluations
-LOCAL_ROUNDS, LOCAL_EVALUATIONS = 4, 25
+#: most LOCAL_EVALUATIONS residual evaluations, stopped when a step gains less than LOCAL_GAIN
+#: in log L
+LOCAL_ROUNDS, LOCAL_EVALUATIONS, LOCAL_GAIN = 4, 25, 0.05
+#: least_squares' verbosity in the local stage (2: each iteration)
+VERBOSE = 0
 
 #: (label, task specs) -> their results in order: how a stage's batch of tasks runs
 Mapper = Callable[[str, list], list]
@@ -268,20 +271,24 @@ class _Fit:
             lower = self.coords.lower
             upper = self.coords.upper
             x0 = np.clip(u, lower + 1e-12 * np.abs(lower), upper - 1e-12 * np.abs(upper))
-            # ftol: stop once a step gains less than ~0.01 in log L (the sum of squares is
-            # -2 log L + const, ~2 r); xtol: 1e-4 of a coordinate's scale
+            # ftol: stop once a step gains less than LOCAL_GAIN in log L (least_squares' cost
+            # is half the sum of squares, -log L + const); xtol: 1e-4 of a coordinate's
+            # scale. The profiles find a better point left (a restart from it)
+            cost = 0.5 * float(np.sum(fun(x0) ** 2))
             res = least_squares(fun, x0, jac=jac, bounds=(lower, upper), method="trf",
                                 x_scale="jac", max_nfev=LOCAL_EVALUATIONS,
-                                ftol=0.01 / max(1.0, float(np.sum(fun(x0) ** 2))),
-                                xtol=1e-4, gtol=1e-8)
+                                ftol=LOCAL_GAIN / max(1.0, cost), xtol=1e-4, gtol=1e-8,
+                                verbose=VERBOSE)
             self.report(f"  round: {res.nfev} evaluations, {res.njev} Jacobians, "
                         f"{res.message}")
             v, new = self.exact(res.x, "local")
             if not new.loglik > fit.loglik:
                 break
             gain = new.loglik - fit.loglik
+            moved = max(abs(new.a / fit.a - 1.0), abs(new.b / fit.b - 1.0))
             u, fit = v, new
-            if gain < 0.05:
+            # another round with the noise model re-estimated, unless it hardly changed
+            if gain < LOCAL_GAIN or moved < 0.05:
                 break
         return u, fit
 
@@ -293,7 +300,7 @@ class _Fit:
         names = self.problem.free
         points: dict[int, dict[float, dict]] = {j: {} for j in range(len(names))}
         base = {"kind": "profile", "problem": self.problem, "u_hat": u_hat, "J": J,
-                "cov": cov, "se": se}
+                "cov": cov, "se": se, "l_max": fit.loglik}
 
         def wanted(j: int, multiples) -> list[float]:
             out = []
@@ -362,13 +369,18 @@ class _Fit:
 
 
 def _covariance(J: np.ndarray, width: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(cov, se) of the coordinates from the Jacobian of the standardised residuals (Gauss-
-    Newton: (J^T J)^-1); a direction the data do not determine gets the bounds' width."""
-    JtJ = J.T @ J
-    cov = np.linalg.pinv(JtJ, rcond=1e-12)
+    """(cov, se) of the coordinates from the Jacobian of the pseudo-residuals: Gauss-Newton's
+    (J^T J)^-1 with the bounds as a weak prior, (J^T J + diag(1 / width^2))^-1: a parameter
+    the data hardly determine (a small column of J) then has a standard error of about its
+    bounds' width instead of an unbounded one, and does not inflate those of the parameters
+    it is correlated with beyond what its bounds allow (the columns scaled to unit norm for
+    the inversion). A standard error above the width is the width."""
+    prior = 1.0 / np.maximum(width, 1e-300) ** 2
+    A = J.T @ J + np.diag(prior)
+    scale = np.sqrt(np.diag(A))
+    cov = np.linalg.inv(A / np.outer(scale, scale)) / np.outer(scale, scale)
     se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    bad = ~np.isfinite(se) | (se <= 0.0) | (se > width)
-    se = np.where(bad, width, se)
+    se = np.where(np.isfinite(se) & (se > 0.0) & (se < width), se, width)
     return cov, se
 
 

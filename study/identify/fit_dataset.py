@@ -126,9 +126,9 @@ VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
 
 def measured_jumps(meas: Measurement, a: float, b: float) -> list[dict[str, Any]]:
     """The jumps a measurement shows by itself (JUMP_SIGMAS, JUMP_RELATIVE), per sweep in the
-    order measured: dicts of direction, before, after (Hz), harmonic, the row indices.
-    Changes at consecutive steps are one jump (a steep change over two steps, as the
-    subharmonic's onset past a flip), its bracket the first step before to the last after."""
+    order measured: dicts of direction, before, after (Hz), harmonic, the row indices (a
+    steep stretch of a branch, as the subharmonic's onset past a flip, can show too: the
+    table beside the model's jumps says which the model has)."""
     out = []
     for d in range(len(DIRECTIONS)):
         idx = np.flatnonzero(meas.direction == d)
@@ -141,18 +141,10 @@ def measured_jumps(meas: Measurement, a: float, b: float) -> list[dict[str, Any]
                        (change > JUMP_RELATIVE * np.fmax(y0, y1)))
             big &= np.isfinite(change)
             if np.any(big):
-                score = np.where(big, change / sd, -np.inf)
-                c = int(np.nanargmax(score))
-                last = out[-1] if out else None
-                if last is not None and last["direction"] == d and last["rows"][1] == i:
-                    last["after"] = float(meas.frequency[k])
-                    last["rows"] = (last["rows"][0], int(k))
-                    if score[c] > last["score"]:
-                        last["harmonic"], last["score"] = c, float(score[c])
-                    continue
+                c = int(np.nanargmax(np.where(big, change / sd, -np.inf)))
                 out.append({"direction": d, "before": float(meas.frequency[i]),
                             "after": float(meas.frequency[k]), "harmonic": c,
-                            "rows": (int(i), int(k)), "score": float(score[c])})
+                            "rows": (int(i), int(k))})
     return out
 
 
@@ -171,15 +163,16 @@ def _side_by_side(result: FitResult, meas: Measurement, f0: float) -> list[dict[
             f = value * f0
             if not lo <= f <= hi:
                 continue            # outside the measured range
-            # the measured jump of this direction whose bracket holds f, else the nearest
-            # within its own width
+            # the measured jump of this direction whose bracket meets the model jump's own
+            # (its location -+ half its accuracy: a step for an unlocated jump)
             match, nearest = None, math.inf
+            half = 0.5 * acc * f0
             for k, mj in enumerate(measured):
                 if k in used or mj["direction"] != d:
                     continue
                 lo_b, hi_b = sorted((mj["before"], mj["after"]))
                 away = max(lo_b - f, f - hi_b, 0.0)
-                if away <= hi_b - lo_b and away < nearest:
+                if away <= half and away < nearest:
                     match, nearest = k, away
             row = {"direction": d, "model": f, "accuracy": acc * f0, "kind": int(kind),
                    "from": int(p_from), "to": int(p_to), "before": math.nan,
@@ -285,15 +278,16 @@ def fit_dataset(result: FitResult, meas: Measurement, rig: RigTable,
                                {"long_name": long_name, "units": unit,
                                 "description": description})
     ds = ds.assign_coords(
-        parameter=("parameter", names, {"long_name": "parameter"}),
-        parameter_at=("parameter_at", names, {"long_name": "parameter"}),
-        parameter_units=("parameter", units, {"long_name": "units of the parameter"}),
+        parameter=("parameter", names, {"long_name": "parameter", "units": "1"}),
+        parameter_at=("parameter_at", names, {"long_name": "parameter", "units": "1"}),
+        parameter_units=("parameter", units, {"long_name": "units of the parameter",
+                                              "units": "1"}),
         harmonic=("harmonic", list(CHANNELS),
-                  {"long_name": "harmonic of the transmitted force",
+                  {"long_name": "harmonic of the transmitted force", "units": "1",
                    "description": "H1 at the excitation frequency, H2 at twice it, H1_2 at "
                                   "half of it"}),
         direction_name=("direction_name", [d for d in DIRECTIONS if d in result.model.sweeps],
-                        {"long_name": "sweep direction"}))
+                        {"long_name": "sweep direction", "units": "1"}))
     stages = {f"stage_{k}_seconds": float(v[0]) for k, v in result.stages.items()}
     stages.update({f"stage_{k}_task_seconds": float(v[1]) for k, v in result.stages.items()})
     stages.update({f"stage_{k}_task_cpu_seconds": float(v[2])

@@ -245,19 +245,23 @@ def _model_sweep(sweep, sigma: float, zeta: float, exponent: float, model: str) 
     period = np.array([s.period for s in steps], int)
     orbits = [s.orbit for s in steps]
     harm = np.full((k, 3), np.nan)
+    located = {j.step_index: j for j in sweep.jumps if j.located}
     for idx, s in enumerate(steps):
         if orbits[idx] is None:
             # a step whose transient did not settle: the last step's orbit continued (its
             # branch, when it is stable here: the quasi-static rule, after a landing the sweep
-            # itself did not make), else the orbit its transient was approaching
+            # itself did not make), else the orbit its transient was approaching; right after
+            # a located jump the branch left is not landed on again (the step can lie within
+            # the jump's bracket of a fold, where Newton still finds its orbit)
             last = orbits[idx - 1] if idx > 0 else None
             o = None
-            if last is not None:
+            if last is not None and idx not in located:
                 o = api.shoot(s.omega, s.sigma, s.zeta, last.period, last.x0,
                               exponent=exponent, model=model)
                 if not (o.converged and o.stable and o.minimal_period == last.period):
                     o = None
-            orbits[idx] = o or _landing(s, steps, idx, last, exponent, model)
+            orbits[idx] = o or _landing(s, steps, idx, last, exponent, model,
+                                        left=idx in located)
         o = orbits[idx]
         if o is not None:
             period[idx] = o.period
@@ -267,7 +271,6 @@ def _model_sweep(sweep, sigma: float, zeta: float, exponent: float, model: str) 
             harm[idx] = window_harmonics(s.omega, sigma, zeta, s.end, WINDOW_PERIODS,
                                          exponent=exponent, model=model)
     # segments: a located jump starts a new one; so does a change of period
-    located = {j.step_index: j for j in sweep.jumps if j.located}
     segment = np.zeros(k, int)
     for idx in range(1, k):
         segment[idx] = segment[idx - 1] + int(idx in located or period[idx] != period[idx - 1])
@@ -336,17 +339,23 @@ def _model_sweep(sweep, sigma: float, zeta: float, exponent: float, model: str) 
                       jumps=np.array(rows, float).reshape(-1, 6))
 
 
-def _landing(step, steps, idx: int, last, exponent: float, model: str):
+def _landing(step, steps, idx: int, last, exponent: float, model: str, left: bool = False):
     """The stable orbit a step that did not settle was approaching, or None: shot from where
-    its transient ended, of the period of the next periodic step, twice the last one's
+    its transient ended (and from the next step's orbit), of the period of the next periodic
+    step, twice the last one's
     (``last``: the orbit of the step before, or None), the last one's, 1 or 2. Just past a
     flip of the last step's orbit (period m) the transient leaves the now unstable m T orbit
     along the flip's eigenvector towards the 2m T orbit born there, a distance ~ sqrt(past the
     flip) away, which Newton from the transient's end may miss for the m T orbit: the 2m T
-    solve also starts from points along that eigenvector and that departure."""
+    solve also starts from points along that eigenvector and that departure. ``left``: the
+    last step's branch was left at a located jump: its orbit here (Newton from the last one)
+    is not a landing."""
     guesses: dict[int, list] = {}
-    if idx + 1 < len(steps) and steps[idx + 1].period:
-        guesses.setdefault(steps[idx + 1].period, []).append(step.end)
+    nxt = steps[idx + 1] if idx + 1 < len(steps) else None
+    if nxt is not None and nxt.period:
+        guesses.setdefault(nxt.period, []).append(step.end)
+        if nxt.orbit is not None:       # the next step's orbit, continued back a step
+            guesses[nxt.period].append(nxt.orbit.x0)
     if last is not None:
         m = last.period
         starts = [step.end]
@@ -368,14 +377,23 @@ def _landing(step, steps, idx: int, last, exponent: float, model: str):
         guesses.setdefault(m, []).append(step.end)
     for m in (1, 2):
         guesses.setdefault(m, []).append(step.end)
+    branch = None
+    if left and last is not None:
+        branch = api.shoot(step.omega, step.sigma, step.zeta, last.period, last.x0,
+                           exponent=exponent, model=model)
+        branch = branch if branch.converged else None
     for m, starts in guesses.items():
         if m > 16:
             continue
         for x in starts:
             o = api.shoot(step.omega, step.sigma, step.zeta, m, x, exponent=exponent,
                           model=model)
-            if o.converged and o.stable and o.minimal_period == m:
-                return o
+            if not (o.converged and o.stable and o.minimal_period == m):
+                continue
+            if (branch is not None and m == branch.period
+                    and np.hypot(*(o.x0 - branch.x0)) <= 1e-3 * (1.0 + np.hypot(*o.x0))):
+                continue            # the branch left at the jump
+            return o
     return None
 
 

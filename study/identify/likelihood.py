@@ -143,35 +143,37 @@ def noise_fit(y: np.ndarray, m: np.ndarray, scale: float) -> NoiseFit:
     the noise model (a, b) (module docstring). A non-finite model gives -inf."""
     if not np.all(np.isfinite(m)):
         return NoiseFit(-math.inf, math.nan, math.nan)
-    angles = np.arctan(NOISE_RATIOS)
-    lls = [_loglik_at(y, m, scale, t)[0] for t in angles]
+    lls = _coarse_loglik(y, m[None, :], scale, per_angle=True)[0]
     k = int(np.argmax(lls))
-    lo = angles[k - 1] if k > 0 else 0.0
-    hi = angles[k + 1] if k + 1 < angles.size else 0.5 * math.pi
-    res = minimize_scalar(lambda t: -_loglik_at(y, m, scale, t)[0], bounds=(lo, hi),
-                          method="bounded", options={"xatol": 1e-9})
-    t = float(res.x) if -res.fun >= lls[k] else float(angles[k])
+    # refined in the log of the ratio b / (a s) (the coarse grid's spacing), to 1e-6 of it
+    logs = np.log(NOISE_RATIOS)
+    step = logs[1] - logs[0]
+    res = minimize_scalar(lambda v: -_loglik_at(y, m, scale, math.atan(math.exp(v)))[0],
+                          bounds=(logs[k] - step, logs[k] + step), method="bounded",
+                          options={"xatol": 1e-6})
+    t = math.atan(math.exp(float(res.x))) if -res.fun >= lls[k] else math.atan(
+        NOISE_RATIOS[k])
     ll, a, b = _loglik_at(y, m, scale, t)
     return NoiseFit(ll, a, b)
 
 
-def _coarse_loglik(y: np.ndarray, m: np.ndarray, scale: float) -> np.ndarray:
+def _coarse_loglik(y: np.ndarray, m: np.ndarray, scale: float,
+                   per_angle: bool = False) -> np.ndarray:
     """The log-likelihood of each row of m (F, r) maximised over the coarse angles only
-    (NOISE_RATIOS): a scan's ranking."""
+    (NOISE_RATIOS): a scan's ranking; ``per_angle``: (F, angles), each angle's."""
     angles = np.arctan(NOISE_RATIOS)
     c2, s2 = np.cos(angles) ** 2, np.sin(angles) ** 2
     n = y.size
-    out = np.full(m.shape[0], -np.inf)
     ok = np.all(np.isfinite(m), axis=1)
     r2 = (y[None, :] - m) ** 2
     q = (m / scale) ** 2
-    for k in range(angles.size):
-        w = c2[k] * q + s2[k]
-        rho2 = np.mean(r2 / w, axis=1)
-        with np.errstate(divide="ignore"):
-            ll = -0.5 * n * np.log(rho2) - 0.5 * np.sum(np.log(w), axis=1)
-        out = np.maximum(out, np.where(ok, ll, -np.inf))
-    return out - 0.5 * n - n * _HALF_LOG_2PI
+    # all the angles at once: (F, angles, r)
+    w = c2[None, :, None] * q[:, None, :] + s2[None, :, None]
+    rho2 = np.mean(r2[:, None, :] / w, axis=2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = -0.5 * n * np.log(rho2) - 0.5 * np.sum(np.log(w), axis=2)
+    out = np.where(ok[:, None], out, -np.inf) - (0.5 * n + n * _HALF_LOG_2PI)
+    return out if per_angle else out.max(axis=1)
 
 
 def loglik(problem: FitProblem, fm: ForwardModel, f0: float,
@@ -199,7 +201,7 @@ def f0_scan_step(problem: FitProblem) -> float:
 
 def best_f0(problem: FitProblem, fm: ForwardModel, bounds: tuple[float, float] | None = None,
             readings: Readings | None = None, candidates: int = 3,
-            block: int = 32) -> tuple[float, NoiseFit, np.ndarray, np.ndarray]:
+            block: int = 8) -> tuple[float, NoiseFit, np.ndarray, np.ndarray]:
     """(f0, NoiseFit, scanned f0, their coarse log-likelihoods): the log-likelihood of the
     forward model ``fm`` maximised over f0 within ``bounds`` (default the problem's): the
     scan (:func:`f0_scan_step`, geometric), then Brent's bounded search within one scan step

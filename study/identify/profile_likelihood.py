@@ -15,9 +15,12 @@ CLIFF_BISECTIONS-th power of 2 of the points' spacing.
 
 A profile point (:func:`profile_point`, one task each) maximises over the other parameters by
 Gauss-Newton iterations with the Jacobian of the fit's optimum (a chord method: each iteration
-one forward model, the f0 column of the Jacobian evaluated afresh at every iterate for free),
-the noise model re-estimated at every iterate, and f0, when free, finally maximised exactly
-(it only stretches the frequency axis: no forward model). Every iterate's log-likelihood is a
+one forward model, the f0 column of the Jacobian evaluated afresh at every iterate for free,
+each step at most a standard error per coordinate and halved back from the best point when
+it does not gain), the noise model re-estimated at every iterate, and f0, when free,
+maximised exactly at each (it only stretches the frequency axis: no forward model). It starts
+from the optimum moved along the covariance (the quadratic model's conditional optimum) in
+the directions the data determine. Every iterate's log-likelihood is a
 lower bound of the profile, and the profile is the best of them.
 
 Pure numpy; the forward models are the tasks' own (study.identify.forward_model).
@@ -45,7 +48,7 @@ THRESHOLD = 1.920729410347062
 #: the signed root deviance at the 95 % interval's ends (standard normal 0.975 quantile)
 R_CRITICAL = 1.959963984540054
 #: Gauss-Newton iterations (forward models) of one profile point at most
-PROFILE_ITERATIONS = 4
+PROFILE_ITERATIONS = 6
 #: an interval's end whose bracket's signed roots differ by more than CLIFF (where a quadratic
 #: profile's differ by about a standard error's worth, ~1) lies on a cliff of the profile (a
 #: model jump passing a measured point): the bracket is halved, at most CLIFF_BISECTIONS times
@@ -116,16 +119,19 @@ def best_local_f0(problem: FitProblem, fm, f0: float, width: float,
     here = loglik(problem, fm, f0, readings)
     if not a < b:
         return f0, here
+    # to 1e-7 of f0 (its standard error is ~1e-4 of it on 400 steps)
     res = minimize_scalar(lambda x: -loglik(problem, fm, x, readings).loglik, bounds=(a, b),
-                          method="bounded", options={"xatol": 1e-9 * f0})
+                          method="bounded", options={"xatol": 1e-7 * f0})
     fit = loglik(problem, fm, float(res.x), readings)
     return (float(res.x), fit) if fit.loglik > here.loglik else (f0, here)
 
 
 def profile_point(spec: dict[str, Any]) -> dict[str, Any]:
-    """One point of a profile (module docstring). spec: problem, u_hat (the optimum), J (the
-    Jacobian d residuals / du at it, f0 column first), cov (the covariance of u there),
-    index (the parameter held), value (its value, in u), se (u's standard errors).
+    """One point of a profile (module docstring). spec: problem, u_hat (the optimum), l_max
+    (its log-likelihood), J (the Jacobian d residuals / du at it, f0 column first), cov (the
+    covariance of u there), index (the parameter held), value (its value, in u), se (u's
+    standard errors). A point that stays 5 thresholds below l_max even with twice the gain
+    its next step promises stops there (it is outside the interval whatever the rest).
     Returns the profile's log-likelihood at the point, where the other parameters went, the
     noise model, the forward models computed and the seconds."""
     t0, c0 = time.perf_counter(), time.process_time()
@@ -139,14 +145,20 @@ def profile_point(spec: dict[str, Any]) -> dict[str, Any]:
     j = int(spec["index"])
     value = float(spec["value"])
     free = [k for k in range(u_hat.size) if k != j]
-    # the start: the conditional optimum of the quadratic model
+    width = coords.upper - coords.lower
+    determined = se < width                 # the directions the data determine at all
+    # the start: the conditional optimum of the quadratic model, in the determined directions
     u = u_hat.copy()
     if cov[j, j] > 0.0 and np.all(np.isfinite(cov[:, j])):
-        u = u_hat + cov[:, j] / cov[j, j] * (value - u_hat[j])
+        shift = cov[:, j] / cov[j, j] * (value - u_hat[j])
+        u = u_hat + np.where(determined, shift, 0.0)
     u[j] = value
     u = coords.clip(u)
+    l_max = float(spec.get("l_max", math.inf))
     best: dict[str, Any] | None = None
+    step = np.zeros(len(free))
     models = 0
+    halvings = 0
     for _ in range(PROFILE_ITERATIONS):
         sigma, zeta, n = coords.theta(u, problem)
         fm = forward_model(sigma, zeta, problem.omega, exponent=n,
@@ -157,26 +169,50 @@ def profile_point(spec: dict[str, Any]) -> dict[str, Any]:
         if j != 0:      # f0 free: maximised exactly (no forward model)
             f0, fit = best_local_f0(problem, fm, f0, 5.0 * max(se[0], 1e-6), r)
             u[0] = math.log(f0)
-        improved = best is None or fit.loglik > best["loglik"] + 1e-2
-        if best is None or fit.loglik > best["loglik"]:
-            best = {"loglik": fit.loglik, "u": u.copy(), "a": fit.a, "b": fit.b}
-        if not improved or not np.isfinite(fit.loglik):
+        if not np.isfinite(fit.loglik):
+            if best is None:
+                best = {"loglik": fit.loglik, "u": u.copy(), "a": fit.a, "b": fit.b}
+            break
+        if best is not None and fit.loglik <= best["loglik"]:
+            # no better: back from the best point by half the step, twice at most (a cliff
+            # of the profile next to the best point: a model jump passing a measured point)
+            step = 0.5 * step
+            halvings += 1
+            if halvings > 2 or np.all(np.abs(step) <= 1e-3 * se[free]):
+                break
+            u = best["u"].copy()
+            u[free] += step
+            u = coords.clip(u)
+            continue
+        gain = math.inf if best is None else fit.loglik - best["loglik"]
+        best = {"loglik": fit.loglik, "u": u.copy(), "a": fit.a, "b": fit.b}
+        halvings = 0
+        if gain < 1e-2:
             break
         # a Gauss-Newton step in the free coordinates with the optimum's Jacobian (its f0
-        # column afresh), the weights of the noise model here
+        # column afresh) and the noise model here, its columns scaled, at most a standard
+        # error per coordinate (a chord method's trust region)
         eps, _, d_f0 = residuals(problem, fm, f0, fit.a, fit.b, r)
         Jf = J[:, free].copy()
         if j != 0:
             Jf[:, 0] = d_f0
-        step, *_ = np.linalg.lstsq(Jf, -eps, rcond=None)
+        norms = np.linalg.norm(Jf, axis=0)
+        norms = np.where(norms > 0.0, norms, 1.0)
+        scaled, *_ = np.linalg.lstsq(Jf / norms, -eps, rcond=1e-8)
+        step = scaled / norms
         if not np.all(np.isfinite(step)):
             break
-        nxt = u.copy()
-        nxt[free] += step
-        nxt = coords.clip(nxt)
-        if np.all(np.abs(nxt[free] - u[free]) <= 1e-3 * np.maximum(se[free], 1e-12)):
+        step = np.clip(step, -se[free], se[free])
+        if np.all(np.abs(step) <= 1e-3 * se[free]):
             break
-        u = nxt
+        # far outside the interval, even with twice the gain the step promises (the sum of
+        # squares is -2 log L): the profile there is below the threshold whatever the rest
+        predicted = 0.5 * (float(eps @ eps) - float(np.sum((eps + Jf @ step) ** 2)))
+        if fit.loglik + 2.0 * max(predicted, 0.0) < l_max - 5.0 * THRESHOLD:
+            break
+        u = u.copy()
+        u[free] += step
+        u = coords.clip(u)
     return {"index": j, "value": value, "loglik": best["loglik"], "u": best["u"],
             "a": best["a"], "b": best["b"], "models": models,
             "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0}

@@ -101,7 +101,17 @@ def plot_fit(ds, path: Path, *, title: str | None = None) -> Path:
         x = ds["profile_value"].values[i]
         dev = ds["profile_deviance"].values[i]
         ok = np.isfinite(x) & np.isfinite(dev)
-        ax.plot(x[ok], dev[ok], "o-", color="k", ms=3.5, lw=1.0)
+        # a cliff (a model jump passing a measured point) can drop the profile by 1000s:
+        # the axis stops at 5 thresholds, the points beyond drawn on its edge
+        top = 5.0 * thr
+        shown = np.minimum(dev, top)
+        ax.plot(x[ok], shown[ok], "-", color="k", lw=1.0)
+        ax.plot(x[ok & (dev <= top)], dev[ok & (dev <= top)], "o", color="k", ms=3.5)
+        beyond = ok & (dev > top)
+        if beyond.any():
+            ax.plot(x[beyond], np.full(beyond.sum(), top), "^", color="k", ms=4.5,
+                    label="beyond the axis")
+        ax.set_ylim(-0.05 * thr, 1.05 * top)
         ax.axhline(thr, color="tab:red", lw=0.9, ls="--", label="95 % threshold")
         lo, hi = float(ds["lower"][i]), float(ds["upper"][i])
         ax.axvspan(lo, hi, color="tab:green", alpha=0.12, label="95 % interval")
@@ -109,7 +119,6 @@ def plot_fit(ds, path: Path, *, title: str | None = None) -> Path:
         unit = str(ds["parameter_units"].values[i])
         ax.set_xlabel(f"{_LABELS.get(name, name)}" + ("" if unit == "1" else f" [{unit}]"))
         ax.set_ylabel("profile deviance 2 (log L max - log L)")
-        ax.set_ylim(bottom=-0.05 * thr)
         if not bool(ds["identified"][i]):
             ax.text(0.5, 0.9, "not identified" if not (bool(ds["lower_closed"][i]) or
                                                        bool(ds["upper_closed"][i]))
