@@ -3,7 +3,7 @@ their 95 % intervals and whether the data identify them, the noise model, every 
 point beside the model (its residuals and the period of the response the model's sweep is on
 there), the measured and the model's jumps side by side, the model's sweeps at the estimate
 (in Hz and N), the profiles and the global stage's grid. Every variable carries long_name,
-units and a description (declared once in VARIABLES); integers and flags as int8/int32 so
+units and a description (declared once in FIT_VARIABLES); integers and flags as int8/int32 so
 that it writes to netCDF 3 (scipy's writer) as it is.
 
 Pure: numpy and xarray.
@@ -23,7 +23,7 @@ from hertzmap.study.identify.profile_likelihood import THRESHOLD
 from hertzmap.study.identify.rig_table import RigTable, table_attrs
 from hertzmap.study.products.stepped_sweeps import JUMP_KIND_CODES
 
-__all__ = ["VARIABLES", "JUMP_SIGMAS", "JUMP_RELATIVE", "fit_dataset", "measured_jumps",
+__all__ = ["FIT_VARIABLES", "JUMP_SIGMAS", "JUMP_RELATIVE", "fit_dataset", "measured_jumps",
            "summary_lines"]
 
 #: a measured jump: consecutive steps of a sweep where a harmonic changes by more than
@@ -32,7 +32,7 @@ JUMP_SIGMAS, JUMP_RELATIVE = 5.0, 0.3
 _KINDS = {code: kind for kind, code in JUMP_KIND_CODES.items()}
 
 #: the Dataset's variables, declared once: name -> (dims, long_name, units, description)
-VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
+FIT_VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
     "estimate": (("parameter",), "estimate", "see parameter_units",
                  "the maximum-likelihood value (NaN where not identified: see identified)"),
     "best": (("parameter",), "value at the maximum likelihood", "see parameter_units",
@@ -273,7 +273,7 @@ def fit_dataset(result: FitResult, meas: Measurement, rig: RigTable,
                  "cell_exponent": thetas[:, 2], "cell_f0": cell_f0, "cell_loglik": cell_ll})
     ds = xr.Dataset()
     for name, value in data.items():
-        dims, long_name, unit, description = VARIABLES[name]
+        dims, long_name, unit, description = FIT_VARIABLES[name]
         ds[name] = xr.Variable(dims, np.asarray(value),
                                {"long_name": long_name, "units": unit,
                                 "description": description})
