@@ -322,12 +322,14 @@ def summary_lines(ds: xr.Dataset) -> list[str]:
             out.append(f"  {name:9s} not identified: the profile stays within 1.92 of its "
                        f"maximum over the whole bounds [{lo:.6g}, {hi:.6g}]{unit}")
             continue
-        best = float(ds["best"][i])
-        text = (f"  {name:9s} {best:.6g}{unit}  95 % interval [{'' if lo_c else '<= '}"
-                f"{lo:.6g}, {'' if hi_c else '>= '}{hi:.6g}]{unit}")
         if not (lo_c and hi_c):
-            text += " (open: reaches the bound)"
-        out.append(text)
+            side, edge, end = (("<=", "lower", lo) if hi_c else (">=", "upper", hi))
+            out.append(f"  {name:9s} {side} {hi if hi_c else lo:.6g}{unit} (95 %; bounded "
+                       f"{'above' if hi_c else 'below'} only: the profile stays within 1.92 "
+                       f"of its maximum up to the {edge} bound {end:.6g}{unit}, open there)")
+            continue
+        best = float(ds["best"][i])
+        out.append(f"  {name:9s} {best:.6g}{unit}  95 % interval [{lo:.6g}, {hi:.6g}]{unit}")
     out.append(f"  noise     a = {float(ds['noise_multiplicative']):.3g} (multiplicative), "
                f"b = {float(ds['noise_floor']):.3g} N (floor); {ds.attrs['readings']} readings")
     return out
