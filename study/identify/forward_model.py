@@ -17,10 +17,10 @@ end, JUMP_TOL from it), a point after it the branch landed on (extrapolated back
 first steps over less than a step, floored at 0).
 
 Measured (benchmarks/identify_fit_time.py): at sigma 0.3, zeta 0.005 a step on a branch costs
-~0.1 ms (two shots) against ~4 ms with a transient of ~500 forcing periods, so a pair of
-sweeps of 650 steps takes ~0.3-0.5 s, half of it at the jumps (the landing transients); with
-FORWARD_STEP 0.0025 the linear interpolation is within 0.1 % of H1 (0.3 % of H2 where it
-matters) of a model 5 times finer.
+~0.2 ms (two shots) against ~4 ms with a transient of ~500 forcing periods, so a pair of
+sweeps of 617 steps each takes ~0.4 s of CPU; with FORWARD_STEP 0.0025 the readings at the
+worked example's 400 frequencies are within 2.8e-3 of H1 of a model 5 times finer (7.4e-3 at
+0.005, 3.8e-2 at 0.01: ``--resolution``).
 
 Steps the kernels' records do not give the three harmonics of directly: an orbit of period
 m > 2 (its stored harmonics stop at 4 omega / m) reads them over 2 m forcing periods of its
