@@ -134,13 +134,14 @@ def run_fit(measured, rig, *, out: str | Path | None = None, name: str | None = 
            f"over omega {problem.omega[0]:.4g}..{problem.omega[-1]:.4g} "
            f"({problem.omega.size} steps a direction)")
     t0 = time.perf_counter()
-    own = None
+    own, made = None, False
     if in_process:
         mapper, where = run_here, "in this process"
     else:
         if client is None:
             spec = cluster or ClusterSpec(kind="local")
             client, own = make_client(spec)
+            made = True
         mapper = DaskMapper(client, err)
         workers = len(client.scheduler_info(n_workers=-1)["workers"])
         where = f"on {workers} Dask worker{'s' if workers != 1 else ''}"
@@ -148,7 +149,7 @@ def run_fit(measured, rig, *, out: str | Path | None = None, name: str | None = 
     try:
         result = fit_problem_(problem, mapper, report=lambda s: report("fit: " + s))
     finally:
-        if own is not None:
+        if made:                # the client (and the cluster) this call made: closed
             close_quietly(client, own)
     wall = time.perf_counter() - t0
     ds = fit_dataset(result, meas, table, {"fit_wall_seconds": wall,
