@@ -16,8 +16,10 @@ written; scheduler.fit_tasks ships the work to a cluster and writes the result):
   stretches the frequency axis), on the branch the sweep is on there;
 * ``likelihood.py``: the noise model (multiplicative plus an additive floor, its two
   parameters estimated by maximum likelihood) and the log-likelihood, maximised over f0;
+* ``profile_likelihood.py``: one point of a parameter's profile (the others re-optimised), the
+  95 % interval read off a profile, open to a bound where it does not cross;
 * ``estimation.py``: the fit: a global grid over (sigma, zeta[, n]), a Gauss-Newton
-  refinement, the profiles and their 95 % intervals (the work handed out in batches through
-  a ``map`` callable: scheduler.fit_tasks gives Dask's);
+  refinement, the profiles until each interval is found (the work handed out in batches
+  through a mapper: scheduler.fit_tasks gives Dask's);
 * ``fit_dataset.py``: the result as an xarray Dataset (every variable with long_name, units).
 """

@@ -113,7 +113,7 @@ def in_process(label: str, specs: list) -> list:
     return [run_task(s) for s in specs]
 
 
-# ---- the result -----------------------------------------------------------------------------------
+# ---- the result -------------------------------------------------------------------------------
 
 @dataclass
 class FitResult:
@@ -125,8 +125,8 @@ class FitResult:
     high, low_closed, high_closed). profiles: name -> (values, profile log-likelihoods, the
     other parameters at each: (k, names)). cells: the global stage's (theta (k, 3), f0 (k,),
     log-likelihood (k,)). model: the forward model at the estimate. stages: name -> (wall
-    seconds, the tasks' seconds, their CPU seconds, tasks). restarts: local stages started again from a better
-    profile point. forward_models: computed in all.
+    seconds, the tasks' seconds, their CPU seconds, tasks). restarts: local stages started
+    again from a better profile point. forward_models: computed in all.
     """
 
     problem: FitProblem
@@ -151,7 +151,7 @@ class FitResult:
         return lo and hi
 
 
-# ---- the stages -----------------------------------------------------------------------------------
+# ---- the stages -------------------------------------------------------------------------------
 
 def global_grid(problem: FitProblem) -> list[tuple[float, float, float]]:
     """The global stage's cells (sigma, zeta, n) (module docstring)."""

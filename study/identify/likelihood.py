@@ -15,7 +15,8 @@ model the log-likelihood
     log L = -sum(log sd_i) - sum((y_i - m_i)^2 / sd_i^2) / 2 - (n / 2) log(2 pi)
 
 is maximised over (a, b) exactly (:func:`noise_fit`: with b / a = s tan(t), s the readings'
-rms, the best overall scale is closed-form for each angle t, and t is searched in (0, pi/2)),
+rms, the best overall scale is closed-form for each angle t, and t is searched over the
+ratios NOISE_RATIOS, then by Brent's method in the log of the ratio),
 so every log-likelihood a fit compares is profiled over the noise. f0 only stretches the
 model's frequency axis, so for one forward model :func:`best_f0` maximises over f0 within its
 bounds by a scan fine enough that no jump of the model passes more than one measured point

@@ -11,7 +11,6 @@ OMEGA_COVERED) is refused, naming its row and column.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -98,12 +97,3 @@ def fit_problem(measurement: Measurement, rig: RigTable) -> FitProblem:
                       bounds={p: bounds[p] for p in free}, nominal=nominal,
                       exponent=rig.exponent, omega=grid)
 
-
-def default_start(problem: FitProblem, name: str) -> float:
-    """A parameter's starting value: its nominal value, else the middle of its bounds
-    (geometric for zeta)."""
-    v = problem.nominal.get(name, math.nan)
-    if math.isfinite(v):
-        return v
-    lo, hi = problem.bounds[name]
-    return math.sqrt(lo * hi) if name == "zeta" else 0.5 * (lo + hi)
