@@ -2,6 +2,8 @@
 every bad input refused with its row, line and column named."""
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import xarray as xr
@@ -60,6 +62,12 @@ def test_a_dataset_with_the_same_variables_reads_the_same(tmp_path):
     ds.to_netcdf(tmp_path / "m.nc", engine="scipy")
     assert np.array_equal(read_measurement(tmp_path / "m.nc").amplitude, m.amplitude,
                           equal_nan=True)
+    with warnings.catch_warnings():     # zarr's own, on writing a string variable
+        warnings.simplefilter("ignore")
+        ds.to_zarr(tmp_path / "m.zarr")
+    z = read_measurement(tmp_path / "m.zarr")
+    assert np.array_equal(z.amplitude, m.amplitude, equal_nan=True) and z.directions == (
+        "up", "down")
     bad = ds.assign(H2_N=("other", m.amplitude[:, 1]))
     with pytest.raises(FitInputError, match="one and the same dimension"):
         measurement_from_dataset(bad)
