@@ -10,8 +10,8 @@ and each worker has computed a forward model (the kernels compiled or loaded fro
 cache) before the clock starts; the fit then runs as ``hertzmap fit`` runs it
 (scheduler.fit_tasks.run_fit on that client). Prints the wall time, each stage's wall time,
 its tasks' wall and CPU seconds and count, the client's CPU, the machine's load before and
-after, and inside one forward model (cProfile of a pair of sweeps at the estimate) the shares
-of the kernels' shooting, the transients, the harmonics of the refined nodes and the rest.
+after, and inside one forward model (a pair of sweeps at the estimate) the shares of the
+kernels' Newton shots, the transients, the histories' harmonics and the Python around them.
 
 ``--resolution``: the forward model's interpolation error at the worked example's 400
 frequencies against a model 5 times finer (steps of 0.0005 in omega), for steps of 0.0025
@@ -20,10 +20,8 @@ frequencies against a model 5 times finer (steps of 0.0005 in omega), for steps 
 from __future__ import annotations
 
 import argparse
-import cProfile
 import datetime
 import os
-import pstats
 import sys
 import time
 
@@ -59,27 +57,47 @@ def resolution() -> None:
 
 
 def where_forward_time(sigma: float, zeta: float, problem) -> None:
+    """The shares of one forward model's time: the kernels' Newton shots
+    (kernels.shooting.shoot_into), its transients (kernels.attractors.attractor_batch_into),
+    the integrations of history harmonics and the rest (the Python around them), timed by
+    wrapping the kernels' entry points (a profiler's own cost would swamp the Python's)."""
+    import hertzmap.kernels.api as api
+    import hertzmap.kernels.periodic_orbit as po
+    from hertzmap.kernels import attractors
     from hertzmap.study.identify.forward_model import forward_model
 
-    pr = cProfile.Profile()
-    c = time.process_time()
-    pr.enable()
-    fm = forward_model(sigma, zeta, problem.omega, exponent=problem.exponent)
-    pr.disable()
-    total = time.process_time() - c
-    st = pstats.Stats(pr)
-    own = {f"{k[0].split('/')[-1]}:{k[2]}": v[2] for k, v in st.stats.items()}
-    cum = {f"{k[0].split('/')[-1]}:{k[2]}": v[3] for k, v in st.stats.items()}
-    shots = own.get("shooting.py:shoot_into", 0.0)
-    transients = own.get("attractors.py:attractor_batch_into", 0.0)
-    refine = cum.get("forward_model.py:_refined", 0.0) + cum.get("forward_model.py:_landing", 0.0)
-    window = cum.get("forward_model.py:window_harmonics", 0.0)
-    print(f"one forward model at the estimate ({fm.steps} steps, both sweeps): {total:.2f} s "
-          f"CPU: Newton shots (the kernels) {shots / total:.0%}, transients (at the jumps, "
-          f"from rest) {transients / total:.0%}, refined nodes and landings "
-          f"{refine / total:.0%} (their shots included), history harmonics "
-          f"{window / total:.0%}, the rest (Python around them) "
-          f"{max(0.0, 1 - (shots + transients + window) / total):.0%}")
+    spent = {"shots": 0.0, "transients": 0.0, "histories": 0.0}
+    calls = {k: 0 for k in spent}
+
+    def timed(name, fn):
+        def run(*args, **kw):
+            t = time.perf_counter()
+            try:
+                return fn(*args, **kw)
+            finally:
+                spent[name] += time.perf_counter() - t
+                calls[name] += 1
+        return run
+
+    saved = (po.shoot_into, attractors.attractor_batch_into, api.integrate)
+    po.shoot_into = timed("shots", saved[0])
+    attractors.attractor_batch_into = timed("transients", saved[1])
+    api.integrate = timed("histories", saved[2])
+    try:
+        forward_model(sigma, zeta, problem.omega, exponent=problem.exponent)  # warm
+        for k in spent:
+            spent[k], calls[k] = 0.0, 0
+        t = time.perf_counter()
+        fm = forward_model(sigma, zeta, problem.omega, exponent=problem.exponent)
+        total = time.perf_counter() - t
+    finally:
+        po.shoot_into, attractors.attractor_batch_into, api.integrate = saved
+    rest = total - sum(spent.values())
+    print(f"one forward model at the estimate ({fm.steps} steps, both sweeps): {total:.2f} s: "
+          f"Newton shots {spent['shots'] / total:.0%} ({calls['shots']} shots), transients "
+          f"{spent['transients'] / total:.0%} ({calls['transients']}: from rest, after the "
+          f"jumps), histories' harmonics {spent['histories'] / total:.0%} "
+          f"({calls['histories']}), the Python around them {rest / total:.0%}")
 
 
 def main() -> None:
