@@ -46,8 +46,9 @@ def plot_fit(ds, path: Path, *, title: str | None = None) -> Path:
     names = [str(p) for p in ds["parameter"].values]
     ncols = max(3, len(names))
     fig = plt.figure(figsize=(4.2 * ncols, 8.0), layout="constrained")
-    grid = fig.add_gridspec(2, ncols, height_ratios=(1.25, 1.0))
-    top = [fig.add_subplot(grid[0, k]) for k in range(3)]
+    grid = fig.add_gridspec(2, 1, height_ratios=(1.25, 1.0))
+    top_row, bottom_row = grid[0].subgridspec(1, 3), grid[1].subgridspec(1, ncols)
+    top = [fig.add_subplot(top_row[0, k]) for k in range(3)]
     f = ds["frequency_hz"].values
     direction = ds["direction"].values
     dnames = [str(d) for d in ds["direction_name"].values]
@@ -97,7 +98,7 @@ def plot_fit(ds, path: Path, *, title: str | None = None) -> Path:
     # the profiles
     thr = 2.0 * float(ds.attrs.get("threshold", 1.920729410347062))
     for i, name in enumerate(names):
-        ax = fig.add_subplot(grid[1, i])
+        ax = fig.add_subplot(bottom_row[0, i])
         x = ds["profile_value"].values[i]
         dev = ds["profile_deviance"].values[i]
         ok = np.isfinite(x) & np.isfinite(dev)

@@ -68,3 +68,15 @@ def test_window_harmonics_of_a_2t_orbit_against_the_oracles_quadrature():
     mine = window_harmonics(2.0, SIGMA, ZETA, o.x0, 4, exponent=1.5)
     theirs = orbit_harmonics(o.x0, 2.0, SIGMA, ZETA, 2)
     assert np.allclose(mine, theirs, rtol=1e-6, atol=1e-9), (mine, theirs)
+
+
+def test_another_contact_exponent_reads_as_the_oracle_does():
+    """n = 1.2 (the fit's exponent on request): the model's readings at three frequencies of
+    an up sweep against the oracle's own sweep with its own force law (1 + q/n)^n."""
+    omegas = np.array([1.5, 1.6, 1.7])
+    steps = quasi_static_sweep(omegas, 0.2, 0.01, "up", n=1.2)
+    model = forward_model(0.2, 0.01, omega_grid(1.45, 1.75), exponent=1.2)
+    h, period, _, _ = model.at(omegas, "up")
+    expected = np.array([[s["H1"], s["H2"], s["H1_2"]] for s in steps])
+    assert np.array_equal(period, [s["period"] for s in steps])
+    assert np.allclose(h, expected, rtol=1e-6, atol=1e-9 * expected[:, :1].max())
