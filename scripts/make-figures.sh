@@ -3,7 +3,8 @@
 # results/make-figures/<scene>.zarr (git ignores results/; a rerun resumes there, delete the
 # folder to run afresh) and the figures the README and docs/gallery.md show are drawn into docs/figures/;
 # then the paper's analytic figures, the explore page's screenshots (the browser test, when
-# chromium is there) and a basin map of the default scene (hertzmap basins). Prints the wall time of each scene's run and plot.
+# chromium is there), a basin map of the default scene (hertzmap basins) and the fit of the
+# worked example of docs/identify.md (hertzmap fit). Prints the wall time of each scene's run and plot.
 #
 #   bash scripts/make-figures.sh              # everything (about 10 minutes on 2 cores, and
 #                                             # the damping scene's 13 on one worker)
@@ -35,7 +36,7 @@ declare -A FIGURES=(
     [sweeps]="sweeps"
 )
 ORDER="default fig03 fig06 fig07 fig08 fig09 fig10 fig12 fig13 fig14 fig15 vibro_impact damping sweeps"
-SCENES="${*:-$ORDER paper explore basins}"
+SCENES="${*:-$ORDER paper explore basins fit}"
 
 ms() { date +%s%3N; }
 STORES=results/make-figures
@@ -47,6 +48,10 @@ for scene in $SCENES; do
         # a basin map on the default scene's store (run above): README and docs/gallery.md
         "$HM" basins "$STORES/default.zarr" --omega 1.95 --sigma 0.5 --grid 200x200 \
             --workers "${WORKERS:-2}" --out "$OUT" ;;
+    fit)
+        # docs/identify.md's worked example: its result and figure (paper_rig_sweeps_fit.*)
+        "$HM" fit docs/examples/paper_rig_sweeps.csv --rig docs/examples/paper_rig.toml \
+            --out "$OUT" --workers "${WORKERS:-2}" ;;
     explore)
         HERTZMAP_SCREENSHOTS="$OUT/explore" .venv/bin/python -m pytest -q -p no:cacheprovider \
             tests/end_to_end/test_explore.py -k click_gives_the_orbits ;;

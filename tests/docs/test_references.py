@@ -167,7 +167,10 @@ def test_shipped_figures_are_shown_and_remade_by_the_script():
             continue
         m = re.fullmatch(r"paper_(fig\d\d)\.png", rel)
         basin = re.fullmatch(r"(\w+)_basin_map_omega([\d.]+)_sigma([\d.]+)_zeta[\d.]+\.png", rel)
-        if basin:                               # hertzmap basins STORE --omega W --sigma S
+        fit = re.fullmatch(r"(\w+)_fit\.png", rel)
+        if fit:                                 # hertzmap fit docs/examples/NAME.csv --out OUT
+            ok = re.search(rf"fit docs/examples/{fit.group(1)}\.csv [^;]*--out", script)
+        elif basin:                             # hertzmap basins STORE --omega W --sigma S
             scene, w, s = basin.groups()
             ok = re.search(rf'basins "\$STORES/{scene}\.zarr" --omega {re.escape(w)} '
                            rf'--sigma {re.escape(s)}', script)
