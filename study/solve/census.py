@@ -138,6 +138,10 @@ NEIGHBOUR_STARTS = True
 #: (study.solve.certificate), contracting there; off, only on the points of periodic attractors
 #: the census's own runs found (benchmarks compare both)
 CERTIFIED = True
+#: a certificate's ladder starts at the rung nearest the last grid point's level of the same
+#: orbit (study.solve.certificate.LevelHints: the same certificates for half the ring
+#: evaluations); off, at rung 0 (benchmarks compare both)
+LEVEL_HINTS = True
 #: a stable orbit a run of the census finds is certified when more than this many of the
 #: point's own runs are still to come
 CERTIFY_AHEAD = 2
@@ -232,6 +236,10 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
     # neighbourhood (study.solve.certificate): a transient that reaches one stops there
     recognised = KnownAttractors()
     certificates: dict[int, np.ndarray] = {}        # periodic attractor index -> its row
+
+    def hint(orbit: dict) -> float | None:
+        return levels.start(orbit) if levels is not None and LEVEL_HINTS else None
+
     first_run: dict[int, int] = {}                  # periodic attractor index -> a run on it
     if RECOGNITION and CERTIFIED:
         for orbit in (o for o in orbits if o["status"] == st.CONVERGED and o.get("stable")
@@ -241,7 +249,7 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
                 continue
             row = certify(orbit, omega, sigma, zeta, options,
                           _other_points(orbits, orbit, pts, omega, sigma, zeta, options),
-                          levels.start(orbit) if levels is not None else None)
+                          hint(orbit))
             if row is None:
                 continue
             periodic.append(Attractor("periodic", orbit=orbit, strobe=pts))
@@ -297,7 +305,7 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
                     # enough of the point's own runs are left for the certificate to pay
                     row = certify(match, omega, sigma, zeta, options, _other_points(
                         known, match, a.strobe[-m:], omega, sigma, zeta, options),
-                        levels.start(match) if levels is not None else None)
+                        hint(match))
                     if row is not None:
                         certificates[len(periodic) - 1] = row
                         recognised.add_certified(periodic_label(len(periodic) - 1), row)
