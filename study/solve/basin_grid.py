@@ -74,6 +74,9 @@ class BasinMap:
     box: int
     transient_periods: int
     record_periods: int
+    #: per cell, how its label was obtained (study.solve.cell_basins.METHODS); None: every
+    #: cell ran its own census transient (this module's map)
+    method: np.ndarray | None = None
 
 
 def grid_axes(q_range, v_range, grid: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:

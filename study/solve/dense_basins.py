@@ -1,0 +1,347 @@
+"""Dense basin maps by label reuse on the stroboscopic map: 1000 x 1000 initial states in
+about a minute on 2 cores, every state's label its own trajectory's fate (the issue-52 method;
+study.solve.basin_grid runs one whole census transient per state: the brute force).
+
+The grid of initial states (q, q') at tau = 0 is cut into cells whose centres are the map's
+states (as in basin_grid). Five steps, each a pure function so that the scheduler runs the
+costly ones as tiles on a cluster (scheduler.basin_tasks):
+
+1. **The attractors** (:func:`known_orbits`, :func:`certificates`): the stable orbits the
+   caller knows (a store's, at the point) and those the census's transients from a coarse probe
+   grid reach (basin_grid.basin_block), each with a certified neighbourhood at every phase of
+   its orbit (study.solve.certificate; the level taken at SEED_SHARE of the certified one: a
+   factor 2 in radius held in reserve). A state in one is on that orbit for good: the seeds.
+2. **One period of every state** (:func:`image_rows`): each cell's centre integrated over one
+   forcing period (kernels.cell_mapping.settle_into, budget one period): 4-5 us a state.
+3. **The order** (:func:`levels`): the functional graph "cell -> the cell its image lands in",
+   each cell's level its number of images to a seed (kernels.cell_mapping.chain_levels_into).
+4. **Labels, level by level** (:func:`sweep_levels`): a cell's image that lands in a uniform
+   block of already labelled cells (REUSE_RADIUS cells each side, all one label:
+   kernels.cell_mapping.uniform_label) takes that label: the image point is surrounded, a cell
+   or more away on every side, by states known to reach that attractor. Otherwise (near a
+   basin boundary, or where the block is not yet labelled) the trajectory goes on from its image,
+   integrated period by period, until its point lies in a uniform block or a certified
+   neighbourhood (SETTLE_PERIODS at most). No label is taken from a mixed neighbourhood: a
+   state near a boundary is integrated until its own fate is plain. The cells whose chain of
+   images leaves the grid or never meets a seed follow, the same way.
+5. **What that did not settle** (:func:`resolve_open`): the census's own transient
+   (study.solve.census.run_transients: period detection, shooting, recognition on the
+   certified neighbourhoods) for transient_periods + record_periods: a stable orbit the probe
+   missed becomes a new attractor; transients that never settle are ``unsettled`` (or
+   ``non_periodic``, the census's Lyapunov test, where no stable orbit exists), failures
+   ``failed``, as in basin_grid.
+
+Why not Hsu's cell mapping with set-valued images (a cell certain when its whole widened image
+lies in certain cells): at zeta = 0.01 the stable orbits are weakly contracting foci (|mu| =
+0.87-0.95 per period at omega 1.35, sigma 0.7625), so a cell's widened image reaches cells
+farther from the orbit than itself out to about 25 cells from it: at 1000 x 1000 only 0.2 % of
+the cells came out certain (6 % with the full certified level and no dilation), the rest left
+to whole transients (docs/basins.md has the measurements).
+
+The outcome is a basin_grid.BasinMap (labels, attractors, entropies as the brute force's),
+with ``method``: per cell SEED (in a certified neighbourhood), IMAGE (its one-period image
+landed in a uniform block), SETTLED (its trajectory ran on to one) or CENSUS (step 5).
+Exactness is measured, not assumed: benchmarks/basins_agreement.py integrates random states of
+a map directly (the census's transients and the scipy oracle) and compares.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from hertzmap.kernels import status as st
+from hertzmap.kernels.attractors import A, N_ATTRACTOR_FIELDS, C_LEVEL
+from hertzmap.kernels.label_reuse import (CONFLICT, FAILED, OPEN, UNSEEN,
+                                         inside_certified_into, reuse_into)
+from hertzmap.kernels.records import STROBE_POINTS
+from hertzmap.kernels.shooting import N_FIELDS
+from hertzmap.study.basin_entropy import BOX_SIDE
+from hertzmap.study.orbit_rules import same_orbit
+from hertzmap.study.solve import basin_grid
+from hertzmap.study.solve.basin_grid import BasinBlock, BasinMap, basin_block, grid_axes, merge_blocks
+from hertzmap.study.solve.census import run_transients, strobe_points, transient_settings
+from hertzmap.study.solve.certificate import certify, orbit_points
+from hertzmap.study.solve.point import solutions_from_rows
+from hertzmap.study.solve.recognition import KnownAttractors
+from hertzmap.study.solve.seeds import TRANSIENT_BOX
+
+#: the probe grid of census transients that finds the attractors (cells along q, along q')
+PROBE_GRID = (16, 16)
+#: the share of a certified level V <= c taken (a factor 2 in radius held in reserve)
+SEED_SHARE = 0.25
+#: cells each side of the block of uniform evidence a transient stops in
+REUSE_RADIUS = 1
+#: consecutive periods in such blocks before it stops
+VISITS = 1
+#: coarse-to-fine rounds: round r computes every 2^(ROUNDS - 1 - r)-th cell along each axis
+ROUNDS = 4
+#: the most periods a state's own trajectory is followed to a certain cell (step 4)
+SETTLE_PERIODS = 300
+#: the integrator's steps per period at most (as the census's)
+MAX_STEPS = 200_000
+#: per-cell method codes (``BasinMap.method``)
+SEED, REUSED, CENSUS = 0, 1, 2
+METHODS = {SEED: "seed", REUSED: "reused", CENSUS: "census"}
+
+
+def _model(options: dict) -> tuple[float, int, float]:
+    """(exponent, law code, the transients' rtol) of the solver's options."""
+    n, code, t_rtol, _ = transient_settings(options)
+    return float(n), int(code), float(t_rtol)
+
+
+def box_of(q_range, v_range, grid) -> np.ndarray:
+    """The kernels' grid geometry (kernels.cell_mapping B_* columns)."""
+    (q0, q1), (v0, v1), (nq, nv) = q_range, v_range, grid
+    return np.array([q0, v0, (q1 - q0) / nq, (v1 - v0) / nv], float)
+
+
+def known_orbits(omega: float, sigma: float, zeta: float, options: dict, orbits=(),
+                 q_range=TRANSIENT_BOX[0], v_range=TRANSIENT_BOX[1], probe=PROBE_GRID,
+                 transient_periods: int = 500, record_periods: int = 128) -> list[dict]:
+    """The stable orbits the map starts from: ``orbits`` (solution dicts with period, x0,
+    stable; a store's at the point) and those the census's transients from a ``probe`` grid
+    over the box reach (basin_grid.basin_block), each once (the identity rule), with ``strobe``
+    (its stroboscopic points) and ``count`` 0."""
+    found: list[dict] = []
+    for sol in orbits:
+        if sol.get("stable") and sol.get("status", st.CONVERGED) == st.CONVERGED \
+                and not any(same_orbit(sol, s) for s in found):
+            pts = orbit_points(sol, omega, sigma, zeta, options)
+            if pts is not None:
+                found.append(dict(sol, strobe=pts, count=0))
+    if probe and min(probe) > 0:
+        q, v = grid_axes(q_range, v_range, probe)
+        block = basin_block(omega, sigma, zeta, q, v, options, transient_periods,
+                            record_periods)
+        for sol in block.orbits:
+            if not any(same_orbit(sol, s) for s in found):
+                found.append(dict(sol, count=0))
+    return found
+
+
+def certificates(orbits: list[dict], omega: float, sigma: float, zeta: float, options: dict
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """The certified neighbourhoods of every phase of each orbit (rows of kernels.attractors'
+    C_* columns, the level at SEED_SHARE of the certified one) and each row's label (the
+    orbit's index in ``orbits``). An orbit whose neighbourhood cannot be certified has none:
+    its cells are integrated."""
+    phases = []
+    for sol in orbits:
+        pts = orbit_points(sol, omega, sigma, zeta, options)
+        phases.append(np.empty((0, 2)) if pts is None else pts)
+    rows, labels = [], []
+    for label, (sol, pts) in enumerate(zip(orbits, phases)):
+        others = np.concatenate([p for k, p in enumerate(phases) if k != label] + [pts])
+        for phase, x in enumerate(pts):
+            keep = np.ones(len(others), bool)
+            keep[len(others) - len(pts) + phase] = False          # not its own point
+            row = certify({"x0": x, "period": int(sol["period"]), "stable": True},
+                          omega, sigma, zeta, options, others[keep])
+            if row is not None:
+                row = row.copy()
+                row[C_LEVEL] *= SEED_SHARE
+                rows.append(row)
+                labels.append(label)
+    return (np.ascontiguousarray(np.array(rows, float).reshape(-1, 8)),
+            np.ascontiguousarray(np.array(labels, np.int64)))
+
+
+def round_cells(grid, round_: int, rounds: int = ROUNDS) -> np.ndarray:
+    """The flat indices (row-major, rows along q') of the cells first computed in round
+    ``round_`` (0-based) of ``rounds``: every 2^(rounds - 1 - round_)-th cell along each axis,
+    less those of the earlier rounds (coarse to fine)."""
+    nq, nv = grid
+    stride = 1 << (rounds - 1 - round_)
+    ii, jj = np.meshgrid(np.arange(nv), np.arange(nq), indexing="ij")
+    mine = (ii % stride == 0) & (jj % stride == 0)
+    if round_ > 0:
+        coarser = stride * 2
+        mine &= ~((ii % coarser == 0) & (jj % coarser == 0))
+    return np.flatnonzero(mine.reshape(-1))
+
+
+def seed_labels(q_range, v_range, grid, cert: np.ndarray, cert_label: np.ndarray
+                ) -> np.ndarray:
+    """The label of each cell (flat, nv nq) whose centre lies in a certified neighbourhood,
+    -1 elsewhere: the evidence every round starts from."""
+    q, v = grid_axes(q_range, v_range, grid)
+    qq, vv = np.meshgrid(q, v)
+    out = np.empty(qq.size, np.int64)
+    inside_certified_into(np.ascontiguousarray(qq.reshape(-1, 1)),
+                          np.ascontiguousarray(vv.reshape(-1, 1)), cert, cert_label, out)
+    return out
+
+
+def reuse_cells(omega: float, sigma: float, zeta: float, options: dict, q_range, v_range,
+                grid, evidence: np.ndarray, cells: np.ndarray, cert: np.ndarray,
+                cert_label: np.ndarray, radius: int = REUSE_RADIUS, visits: int = VISITS,
+                budget: int = SETTLE_PERIODS) -> dict:
+    """The transients of the cells ``cells`` (flat indices, in that order) stopping on the
+    evidence (kernels.label_reuse.reuse_into), on a copy of ``evidence`` (nv, nq): a tile of a
+    round. Returns ``label`` (OPEN, FAILED or an orbit's index), ``periods`` and the evidence
+    it added (``changed``: flat indices, ``values``)."""
+    nq, nv = grid
+    q, v = grid_axes(q_range, v_range, grid)
+    cells = np.asarray(cells, np.int64)
+    own = np.array(evidence, np.int16, copy=True).reshape(nv, nq)
+    n, code, rtol = _model(options)
+    k = len(cells)
+    label = np.empty(k, np.int64)
+    periods = np.empty(k, np.int64)
+    reuse_into(float(omega), float(sigma), float(zeta), n, code, rtol, MAX_STEPS,
+               np.ascontiguousarray(q[cells % nq]), np.ascontiguousarray(v[cells // nq]),
+               int(budget), own, box_of(q_range, v_range, grid), int(radius), int(visits),
+               np.ascontiguousarray(cert, float).reshape(-1, 8),
+               np.ascontiguousarray(cert_label, np.int64), label, periods, np.empty((k, 2)))
+    changed = np.flatnonzero(own.reshape(-1) != np.asarray(evidence).reshape(-1))
+    return {"label": label, "periods": periods, "changed": changed,
+            "values": own.reshape(-1)[changed]}
+
+
+def merge_evidence(evidence: np.ndarray, tiles: list[dict]) -> np.ndarray:
+    """The evidence (flat int16) after a round: each tile's additions joined (a cell given two
+    labels by two tiles, or one against what it held, is CONFLICT)."""
+    out = np.array(evidence, np.int16, copy=True).reshape(-1)
+    before = out.copy()
+    for t in tiles:
+        idx, val = t["changed"], t["values"].astype(np.int16)
+        held = out[idx]
+        fresh = before[idx] == UNSEEN
+        take = fresh & ((held == UNSEEN) | (held == val))
+        out[idx] = np.where(take, val, CONFLICT)
+    return out
+
+
+def round_tiles(grid, round_: int, rows_per_tile: int, rounds: int = ROUNDS
+                ) -> list[np.ndarray]:
+    """The tiles of a round: its cells (round_cells) cut into blocks of ``rows_per_tile`` rows
+    along q' (the tasks of the scheduler; a fixed cut, so that the map does not depend on how
+    many workers run it)."""
+    nq, _ = grid
+    cells = round_cells(grid, round_, rounds)
+    rows = cells // nq
+    return [cells[(rows >= s.start) & (rows < s.stop)]
+            for s in basin_grid.row_blocks(grid[1], rows_per_tile)
+            if np.any((rows >= s.start) & (rows < s.stop))]
+
+
+def resolve_open(omega: float, sigma: float, zeta: float, options: dict, orbits: list[dict],
+                 cert: np.ndarray, cert_label: np.ndarray, q0: np.ndarray, v0: np.ndarray,
+                 transient_periods: int, record_periods: int) -> BasinBlock:
+    """Step 5: the census's transients from the states (q0, v0), recognised on the certified
+    neighbourhoods, as a basin_grid.BasinBlock whose outcome indexes ``orbits`` first, then
+    the stable orbits found here (its ``orbits``: the given ones, count 0, then the new)."""
+    k = len(q0)
+    known = KnownAttractors()
+    for i, row in enumerate(cert):
+        # one recognition label per certified phase (negative: periodic, as the census's)
+        known.add_certified(-1 - i, row)
+    label_of = {-1 - i: int(lab) for i, lab in enumerate(cert_label)}
+    rows = np.empty((k, N_ATTRACTOR_FIELDS))
+    orbit_rows = np.empty((k, N_FIELDS))
+    strobes = np.empty((k, STROBE_POINTS, 2))
+    run_transients(omega, sigma, zeta, np.asarray(q0, float), np.asarray(v0, float),
+                   dict(options, harmonics=False), transient_periods, record_periods, rows,
+                   orbit_rows, strobes, known=known)
+    block = BasinBlock(np.full(k, basin_grid.FAILED, np.int32),
+                       [dict(o, count=0) for o in orbits])
+    for r in range(k):
+        status = int(rows[r, A["status"]])
+        if status == st.RECOGNISED:
+            block.outcome[r] = label_of[int(rows[r, A["recognised_as"]])]
+        elif status == st.CONVERGED:
+            sol = solutions_from_rows(orbit_rows[r:r + 1], int(rows[r, A["period"]]))[0]
+            if sol["status"] != st.CONVERGED:
+                block.outcome[r] = basin_grid.OPEN
+                continue
+            idx = next((i for i, s in enumerate(block.orbits) if same_orbit(sol, s)), None)
+            if idx is None:
+                idx = len(block.orbits)
+                block.orbits.append(dict(sol, count=0, strobe=strobe_points(strobes[r],
+                                                                            rows[r])))
+            block.outcome[r] = idx
+        elif status in (st.UNSETTLED, st.UNCONFIRMED):
+            block.outcome[r] = basin_grid.OPEN
+            window = float(np.nan_to_num(rows[r, A["window_periods"]]))
+            if window > block.open_window:
+                block.open_window = window
+                block.open_end = (float(rows[r, A["q_end"]]), float(rows[r, A["v_end"]]))
+                block.open_strobe = strobe_points(strobes[r], rows[r])
+    return block
+
+
+def assemble(omega: float, sigma: float, zeta: float, options: dict, q_range, v_range, grid,
+             orbits: list[dict], outcome: np.ndarray, method: np.ndarray,
+             resolved: BasinBlock | None, open_cells: np.ndarray, transient_periods: int,
+             record_periods: int, box: int = BOX_SIDE) -> BasinMap:
+    """The BasinMap of the steps' outcomes: ``outcome`` (flat) step 4's labels (indices into
+    ``orbits``, OPEN, FAILED) and ``method`` (flat), ``resolved`` step 5's block for the flat
+    indices ``open_cells`` (in that order; its orbits: ``orbits`` then the new ones). Orbits
+    no cell reached are left out (a store's orbit whose basin misses the box)."""
+    nq, nv = grid
+    q, v = grid_axes(q_range, v_range, grid)
+    outcome = np.array(outcome, np.int64).reshape(-1)
+    method = np.array(method, np.int8).reshape(-1)
+    block = BasinBlock(outcome, [dict(o) for o in orbits])
+    if resolved is not None and len(open_cells):
+        block.orbits = [dict(o) for o in resolved.orbits]
+        outcome[open_cells] = resolved.outcome
+        method[open_cells] = CENSUS
+        block.open_end, block.open_window = resolved.open_end, resolved.open_window
+        block.open_strobe = resolved.open_strobe
+    counts = np.bincount(outcome[outcome >= 0], minlength=len(block.orbits))
+    used = [i for i in range(len(block.orbits)) if counts[i] > 0]
+    remap = np.full(len(block.orbits) + 2, -99, np.int64)
+    remap[used] = np.arange(len(used))
+    remap[basin_grid.OPEN], remap[basin_grid.FAILED] = basin_grid.OPEN, basin_grid.FAILED
+    block.outcome = remap[np.where(outcome == FAILED, basin_grid.FAILED,
+                                   np.where(outcome == OPEN, basin_grid.OPEN, outcome))
+                          ].reshape(nv, nq)
+    block.orbits = [dict(block.orbits[i], count=int(counts[i])) for i in used]
+    bm = merge_blocks(omega, sigma, zeta, q, v, [block], options, transient_periods,
+                      record_periods, box)
+    bm.method = method.reshape(nv, nq)
+    return bm
+
+
+def cell_basin_map(omega: float, sigma: float, zeta: float, q_range=TRANSIENT_BOX[0],
+                   v_range=TRANSIENT_BOX[1], grid: tuple[int, int] = (1000, 1000), *,
+                   options: dict | None = None, orbits=(), transient_periods: int = 500,
+                   record_periods: int = 128, box: int = BOX_SIDE, rows_per_tile: int = 100,
+                   probe=PROBE_GRID, radius: int = REUSE_RADIUS, visits: int = VISITS,
+                   rounds: int = ROUNDS, stats: dict | None = None) -> BasinMap:
+    """The basin map at (omega, sigma, zeta) on ``grid`` = (cells along q, along q') over
+    q_range x v_range by label reuse (module docstring), in this process. ``orbits``: stable
+    orbits known at the point (solution dicts; the probe finds them otherwise); ``options``:
+    the solver's (exponent, model, rtol); ``stats``: a dict that receives the steps' counts."""
+    options = dict(options or {})
+    known = known_orbits(omega, sigma, zeta, options, orbits, q_range, v_range, probe,
+                         transient_periods, record_periods)
+    cert, cert_label = certificates(known, omega, sigma, zeta, options)
+    seeds = seed_labels(q_range, v_range, grid, cert, cert_label)
+    evidence = np.where(seeds >= 0, seeds, UNSEEN).astype(np.int16)
+    outcome = np.where(seeds >= 0, seeds, OPEN).astype(np.int64)
+    method = np.full(outcome.size, SEED, np.int8)
+    periods = np.zeros(outcome.size, np.int64)
+    for r in range(rounds):
+        tiles = [c[seeds[c] < 0] for c in round_tiles(grid, r, rows_per_tile, rounds)]
+        done = [reuse_cells(omega, sigma, zeta, options, q_range, v_range, grid, evidence, c,
+                            cert, cert_label, radius, visits) for c in tiles]
+        for c, t in zip(tiles, done):
+            outcome[c], periods[c], method[c] = t["label"], t["periods"], REUSED
+        evidence = merge_evidence(evidence, done)
+    counts = {"periods": int(periods.sum()), "mean_periods": float(periods.mean())}
+    open_cells = np.flatnonzero(outcome < 0)
+    resolved = None
+    if len(open_cells):
+        q, v = grid_axes(q_range, v_range, grid)
+        qq, vv = np.meshgrid(q, v)
+        resolved = resolve_open(omega, sigma, zeta, options, known, cert, cert_label,
+                                qq.reshape(-1)[open_cells], vv.reshape(-1)[open_cells],
+                                transient_periods, record_periods)
+    if stats is not None:
+        stats.update(counts, orbits=len(known), certified=len(cert),
+                     seeds=int((seeds >= 0).sum()), census=len(open_cells),
+                     conflict=int((evidence == CONFLICT).sum()))
+    return assemble(omega, sigma, zeta, options, q_range, v_range, grid, known, outcome,
+                    method, resolved, open_cells, transient_periods, record_periods, box)
