@@ -55,7 +55,6 @@ from hertzmap.kernels.label_reuse import (CONFLICT, FAILED, OPEN, UNSEEN,
 from hertzmap.kernels.records import STROBE_POINTS
 from hertzmap.kernels.shooting import N_FIELDS
 from hertzmap.study.basin_entropy import BOX_SIDE
-from hertzmap.study.orbit_rules import same_orbit
 from hertzmap.study.solve import basin_grid
 from hertzmap.study.solve.basin_grid import BasinBlock, BasinMap, basin_block, grid_axes, merge_blocks
 from hertzmap.study.solve.census import run_transients, strobe_points, transient_settings
@@ -72,6 +71,10 @@ SEED_SHARE = 0.25
 REUSE_RADIUS = 1
 #: consecutive periods in such blocks before it stops
 VISITS = 1
+#: rows of cells per tile of a round (a task)
+ROWS_PER_TILE = 100
+#: states per task of step 5
+CENSUS_CHUNK = 256
 #: coarse-to-fine rounds: round r computes every 2^(ROUNDS - 1 - r)-th cell along each axis
 ROUNDS = 4
 #: the most periods a state's own trajectory is followed to a certain cell (step 4)
@@ -95,28 +98,40 @@ def box_of(q_range, v_range, grid) -> np.ndarray:
     return np.array([q0, v0, (q1 - q0) / nq, (v1 - v0) / nv], float)
 
 
+def same_cycle(sol: dict, orbit: dict, tol: float = 1e-6) -> bool:
+    """Whether the stable orbit ``sol`` (period, x0) is ``orbit`` (period, ``phases``: its m
+    stroboscopic points): the same period and x0 within tol (1 + |x0|) of one of its points
+    (any phase: shooting may start an orbit at any of its points)."""
+    x0 = np.asarray(sol["x0"], float)
+    return int(sol["period"]) == int(orbit["period"]) and bool(
+        np.min(np.hypot(*(np.asarray(orbit["phases"]) - x0).T)) <= tol * (1 + np.hypot(*x0)))
+
+
 def known_orbits(omega: float, sigma: float, zeta: float, options: dict, orbits=(),
-                 q_range=TRANSIENT_BOX[0], v_range=TRANSIENT_BOX[1], probe=PROBE_GRID,
-                 transient_periods: int = 500, record_periods: int = 128) -> list[dict]:
-    """The stable orbits the map starts from: ``orbits`` (solution dicts with period, x0,
-    stable; a store's at the point) and those the census's transients from a ``probe`` grid
-    over the box reach (basin_grid.basin_block), each once (the identity rule), with ``strobe``
-    (its stroboscopic points) and ``count`` 0."""
+                 probes=()) -> list[dict]:
+    """The stable orbits the map starts from, each once (same_cycle), with ``phases`` (its m
+    stroboscopic points), ``strobe`` and ``count`` 0: ``orbits`` (solution dicts with period,
+    x0, stable; a store's at the point) and those of the probe blocks ``probes`` (the census's
+    transients from a coarse grid over the box: :func:`probe_tile`)."""
     found: list[dict] = []
-    for sol in orbits:
-        if sol.get("stable") and sol.get("status", st.CONVERGED) == st.CONVERGED \
-                and not any(same_orbit(sol, s) for s in found):
-            pts = orbit_points(sol, omega, sigma, zeta, options)
-            if pts is not None:
-                found.append(dict(sol, strobe=pts, count=0))
-    if probe and min(probe) > 0:
-        q, v = grid_axes(q_range, v_range, probe)
-        block = basin_block(omega, sigma, zeta, q, v, options, transient_periods,
-                            record_periods)
-        for sol in block.orbits:
-            if not any(same_orbit(sol, s) for s in found):
-                found.append(dict(sol, count=0))
+    candidates = [s for s in orbits if s.get("stable")
+                  and s.get("status", st.CONVERGED) == st.CONVERGED]
+    candidates += [s for b in probes for s in b.orbits]
+    for sol in candidates:
+        if any(same_cycle(sol, o) for o in found):
+            continue
+        pts = orbit_points(sol, omega, sigma, zeta, options)
+        if pts is not None and np.all(np.isfinite(pts)):
+            found.append(dict(sol, phases=pts, strobe=sol.get("strobe", pts), count=0))
     return found
+
+
+def probe_tile(spec: dict) -> dict:
+    """A block of the probe grid (a task): basin_grid.basin_block of the spec's point, states
+    and options."""
+    w, s, z = spec["point"]
+    return {"block": basin_block(w, s, z, spec["q"], spec["v"], spec["options"],
+                                 spec["transient_periods"], spec["record_periods"])}
 
 
 def certificates(orbits: list[dict], omega: float, sigma: float, zeta: float, options: dict
@@ -125,10 +140,7 @@ def certificates(orbits: list[dict], omega: float, sigma: float, zeta: float, op
     C_* columns, the level at SEED_SHARE of the certified one) and each row's label (the
     orbit's index in ``orbits``). An orbit whose neighbourhood cannot be certified has none:
     its cells are integrated."""
-    phases = []
-    for sol in orbits:
-        pts = orbit_points(sol, omega, sigma, zeta, options)
-        phases.append(np.empty((0, 2)) if pts is None else pts)
+    phases = [np.asarray(o["phases"], float) for o in orbits]
     rows, labels = [], []
     for label, (sol, pts) in enumerate(zip(orbits, phases)):
         others = np.concatenate([p for k, p in enumerate(phases) if k != label] + [pts])
@@ -254,11 +266,15 @@ def resolve_open(omega: float, sigma: float, zeta: float, options: dict, orbits:
             if sol["status"] != st.CONVERGED:
                 block.outcome[r] = basin_grid.OPEN
                 continue
-            idx = next((i for i, s in enumerate(block.orbits) if same_orbit(sol, s)), None)
+            idx = next((i for i, o in enumerate(block.orbits) if same_cycle(sol, o)), None)
             if idx is None:
+                pts = orbit_points(sol, omega, sigma, zeta, options)
+                if pts is None:
+                    block.outcome[r] = basin_grid.OPEN
+                    continue
                 idx = len(block.orbits)
-                block.orbits.append(dict(sol, count=0, strobe=strobe_points(strobes[r],
-                                                                            rows[r])))
+                block.orbits.append(dict(sol, count=0, phases=pts,
+                                         strobe=strobe_points(strobes[r], rows[r])))
             block.outcome[r] = idx
         elif status in (st.UNSETTLED, st.UNCONFIRMED):
             block.outcome[r] = basin_grid.OPEN
@@ -268,6 +284,50 @@ def resolve_open(omega: float, sigma: float, zeta: float, options: dict, orbits:
                 block.open_end = (float(rows[r, A["q_end"]]), float(rows[r, A["v_end"]]))
                 block.open_strobe = strobe_points(strobes[r], rows[r])
     return block
+
+
+def join_resolved(orbits: list[dict], blocks: list[BasinBlock]) -> BasinBlock | None:
+    """Step 5's blocks (each on ``orbits`` then its own new orbits) as one block on ``orbits``
+    then every new orbit once (same_cycle), the open runs' representative the one with the
+    longest window."""
+    if not blocks:
+        return None
+    joined = [dict(o) for o in orbits]
+    parts = []
+    for b in blocks:
+        local = np.empty(len(b.orbits) + 2, np.int64)
+        for i, o in enumerate(b.orbits):
+            g = i if i < len(orbits) else next(
+                (j for j, p in enumerate(joined) if same_cycle(o, p)), None)
+            if g is None:
+                g = len(joined)
+                joined.append(dict(o))
+            local[i] = g
+        local[basin_grid.OPEN], local[basin_grid.FAILED] = basin_grid.OPEN, basin_grid.FAILED
+        parts.append(local[b.outcome])
+    rep = max(blocks, key=lambda b: b.open_window)
+    out = BasinBlock(np.concatenate(parts), joined)
+    out.open_end, out.open_window, out.open_strobe = rep.open_end, rep.open_window, rep.open_strobe
+    return out
+
+
+def reuse_tile(spec: dict) -> dict:
+    """A tile of a round (a task): reuse_cells of the spec."""
+    return reuse_cells(*spec["point"], spec["options"], spec["q_range"], spec["v_range"],
+                       spec["grid"], spec["evidence"], spec["cells"], spec["cert"],
+                       spec["cert_label"], spec["radius"], spec["visits"])
+
+
+def census_tile(spec: dict) -> dict:
+    """A block of step 5 (a task): resolve_open of the spec's states."""
+    return {"block": resolve_open(*spec["point"], spec["options"], spec["orbits"], spec["cert"],
+                                  spec["cert_label"], spec["q"], spec["v"],
+                                  spec["transient_periods"], spec["record_periods"])}
+
+
+def run_here(name: str, function, specs: list[dict], sizes=None) -> list[dict]:
+    """Tasks run in this process, in order (cell_basin_map's default ``run``)."""
+    return [function(s) for s in specs]
 
 
 def assemble(omega: float, sigma: float, zeta: float, options: dict, q_range, v_range, grid,
@@ -307,41 +367,56 @@ def assemble(omega: float, sigma: float, zeta: float, options: dict, q_range, v_
 def cell_basin_map(omega: float, sigma: float, zeta: float, q_range=TRANSIENT_BOX[0],
                    v_range=TRANSIENT_BOX[1], grid: tuple[int, int] = (1000, 1000), *,
                    options: dict | None = None, orbits=(), transient_periods: int = 500,
-                   record_periods: int = 128, box: int = BOX_SIDE, rows_per_tile: int = 100,
-                   probe=PROBE_GRID, radius: int = REUSE_RADIUS, visits: int = VISITS,
-                   rounds: int = ROUNDS, stats: dict | None = None) -> BasinMap:
+                   record_periods: int = 128, box: int = BOX_SIDE,
+                   rows_per_tile: int = ROWS_PER_TILE, probe=PROBE_GRID,
+                   radius: int = REUSE_RADIUS, visits: int = VISITS, rounds: int = ROUNDS,
+                   census_chunk: int = CENSUS_CHUNK, stats: dict | None = None,
+                   run=run_here) -> BasinMap:
     """The basin map at (omega, sigma, zeta) on ``grid`` = (cells along q, along q') over
-    q_range x v_range by label reuse (module docstring), in this process. ``orbits``: stable
-    orbits known at the point (solution dicts; the probe finds them otherwise); ``options``:
-    the solver's (exponent, model, rtol); ``stats``: a dict that receives the steps' counts."""
+    q_range x v_range by label reuse (module docstring). ``orbits``: stable orbits known at the
+    point (solution dicts; the probe finds them otherwise); ``options``: the solver's
+    (exponent, model, rtol); ``stats``: a dict that receives the steps' counts. ``run(name,
+    function, specs)``: runs a list of tasks and returns their results in order (default: in
+    this process; scheduler.basin_tasks runs them on a Dask cluster, the same specs, so the map
+    does not depend on where it ran)."""
     options = dict(options or {})
-    known = known_orbits(omega, sigma, zeta, options, orbits, q_range, v_range, probe,
-                         transient_periods, record_periods)
+    point = (float(omega), float(sigma), float(zeta))
+    nq, nv = grid
+    budget = dict(transient_periods=int(transient_periods), record_periods=int(record_periods))
+    probes = []
+    if probe and min(probe) > 0:
+        pq, pv = grid_axes(q_range, v_range, probe)
+        probes = [r["block"] for r in run("probe", probe_tile, [
+            dict(point=point, q=pq, v=pv[s], options=options, **budget)
+            for s in basin_grid.row_blocks(len(pv), max(1, len(pv) // 2))])]
+    known = known_orbits(omega, sigma, zeta, options, orbits, probes)
     cert, cert_label = certificates(known, omega, sigma, zeta, options)
     seeds = seed_labels(q_range, v_range, grid, cert, cert_label)
-    evidence = np.where(seeds >= 0, seeds, UNSEEN).astype(np.int16)
+    evidence = np.where(seeds >= 0, seeds, UNSEEN).astype(np.int16).reshape(nv, nq)
     outcome = np.where(seeds >= 0, seeds, OPEN).astype(np.int64)
     method = np.full(outcome.size, SEED, np.int8)
     periods = np.zeros(outcome.size, np.int64)
+    common = dict(point=point, options=options, q_range=tuple(q_range), v_range=tuple(v_range),
+                  grid=tuple(grid), cert=cert, cert_label=cert_label, radius=int(radius),
+                  visits=int(visits))
     for r in range(rounds):
         tiles = [c[seeds[c] < 0] for c in round_tiles(grid, r, rows_per_tile, rounds)]
-        done = [reuse_cells(omega, sigma, zeta, options, q_range, v_range, grid, evidence, c,
-                            cert, cert_label, radius, visits) for c in tiles]
+        tiles = [c for c in tiles if len(c)]
+        done = run(f"round {r + 1}/{rounds}", reuse_tile,
+                   [dict(common, evidence=evidence, cells=c) for c in tiles])
         for c, t in zip(tiles, done):
             outcome[c], periods[c], method[c] = t["label"], t["periods"], REUSED
-        evidence = merge_evidence(evidence, done)
-    counts = {"periods": int(periods.sum()), "mean_periods": float(periods.mean())}
+        evidence = merge_evidence(evidence, done).reshape(nv, nq)
     open_cells = np.flatnonzero(outcome < 0)
-    resolved = None
-    if len(open_cells):
-        q, v = grid_axes(q_range, v_range, grid)
-        qq, vv = np.meshgrid(q, v)
-        resolved = resolve_open(omega, sigma, zeta, options, known, cert, cert_label,
-                                qq.reshape(-1)[open_cells], vv.reshape(-1)[open_cells],
-                                transient_periods, record_periods)
+    q, v = grid_axes(q_range, v_range, grid)
+    chunks = [open_cells[i:i + census_chunk] for i in range(0, len(open_cells), census_chunk)]
+    blocks = [r["block"] for r in run("census", census_tile, [
+        dict(point=point, options=options, orbits=known, cert=cert, cert_label=cert_label,
+             q=q[c % nq], v=v[c // nq], **budget) for c in chunks])]
+    resolved = join_resolved(known, blocks)
     if stats is not None:
-        stats.update(counts, orbits=len(known), certified=len(cert),
-                     seeds=int((seeds >= 0).sum()), census=len(open_cells),
-                     conflict=int((evidence == CONFLICT).sum()))
+        stats.update(periods=int(periods.sum()), mean_periods=float(periods.mean()),
+                     orbits=len(known), certified=len(cert), seeds=int((seeds >= 0).sum()),
+                     census=len(open_cells), conflict=int((evidence == CONFLICT).sum()))
     return assemble(omega, sigma, zeta, options, q_range, v_range, grid, known, outcome,
                     method, resolved, open_cells, transient_periods, record_periods, box)
