@@ -186,7 +186,8 @@ def run_basins(req: BasinRequest, cluster: ClusterSpec, out: Path, *,
     """Compute the basin map of ``req`` on the cluster (row blocks as tasks; ``client``: an
     existing one, else one is made from ``cluster`` and closed), write the product group and
     draw the figure into ``out``. Returns the group, the figure's path, the seconds the map
-    took, the map's Dataset and its measures. ``on_tile(step, spec, result)``: called as each
+    took (``seconds``, with the cluster's start; ``map_seconds``, without), the map's Dataset
+    and its measures. ``on_tile(step, spec, result)``: called as each
     task of the reuse method returns (the explore page draws the tiles as they come)."""
     with Lock(req.store):       # refused while a run writes the store; nothing computed then
         pass
@@ -197,6 +198,7 @@ def run_basins(req: BasinRequest, cluster: ClusterSpec, out: Path, *,
     cluster_obj = None
     if own:
         client, cluster_obj = make_client(cluster)
+    t_map = time.perf_counter()
     try:
         if req.method == "reuse":
             bm = _reuse_map(req, client, on_tile)
@@ -209,8 +211,8 @@ def run_basins(req: BasinRequest, cluster: ClusterSpec, out: Path, *,
     if blocks is not None:
         bm = merge_blocks(omega, sigma, zeta, q, v, blocks, req.options,
                           req.transient_periods, req.record_periods)
-    seconds = time.perf_counter() - t0
-    return _write(req, bm, seconds, out)
+    now = time.perf_counter()
+    return dict(_write(req, bm, now - t0, out), map_seconds=now - t_map)
 
 
 def _transient_blocks(req: BasinRequest, client, q, v, rows_per_task: int) -> list:
@@ -245,8 +247,8 @@ def _reuse_map(req: BasinRequest, client, on_tile=None):
             return []
         shared = specs[0].get("evidence")
         if shared is not None and all(sp.get("evidence") is shared for sp in specs):
-            # one copy of the round's evidence per worker, not one per task
-            shared = client.scatter(shared, broadcast=True, hash=False)
+            # the round's evidence sent once (workers fetch it from one another), not per task
+            shared = client.scatter(shared, hash=False)
         sized = [dict(sp, step=step, **({"evidence": shared} if shared is not None else {}))
                  for sp in specs]
         tag = name.replace(" ", "").replace("/", "of")

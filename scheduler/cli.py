@@ -335,7 +335,8 @@ def cmd_basins(args: argparse.Namespace) -> int:
         return EXIT_INTERRUPTED
     print(f"basin map at omega = {req.point[0]:g}, sigma = {req.point[1]:g}, zeta = "
           f"{req.point[2]:g} on {req.grid[0]}x{req.grid[1]} initial states: "
-          f"{result['seconds']:.1f} s")
+          f"{result['seconds']:.1f} s ({result['map_seconds']:.1f} s after the cluster's "
+          f"start; {req.method})")
     for kind, period, count in result["attractors"]:
         print(f"  {kind}{f' {period}T' if period else ''}: {count} cells")
     ds = result["dataset"]
