@@ -13,7 +13,10 @@ force of study.solve.basin_grid) and, for the first ``--oracle`` of them, the sc
 kernels) over ORACLE_PERIODS forcing periods, the end point named by the nearest stroboscopic
 point of the map's periodic attractors (within ORACLE_TOL).
 
-Printed: the agreement (share of the states whose direct label is the map's), each
+Printed: the agreement (share of the states whose direct label is the map's), the floor (the
+same direct transients at rtol 1e-11 against 1e-8: where they differ, the attractor hangs on the
+integration's error, as it does at omega 1.95, sigma 2.0, and the agreement among the states
+whose two direct labels agree), each
 disagreement's distance to the map's basin boundary (cells to the nearest cell of another
 label), the basin fractions of the map against those of the random states (the brute force's
 estimate, with its binomial standard error: |z| <= 3 asked), and the oracle's agreement.
@@ -33,7 +36,10 @@ from hertzmap.kernels import status as st
 from hertzmap.kernels.attractors import A, N_ATTRACTOR_FIELDS
 from hertzmap.kernels.records import STROBE_POINTS
 from hertzmap.kernels.shooting import N_FIELDS
-from hertzmap.study.solve.census import run_transients
+from hertzmap.kernels.attractors import NO_LABEL, attractor_batch_into
+from hertzmap.study.solve.census import (CYCLE_REPEATS, CYCLE_TOL, run_transients,
+                                         transient_settings)
+from hertzmap.study.solve.recognition import NOTHING_KNOWN
 from hertzmap.study.solve.certificate import orbit_points
 from hertzmap.study.solve.dense_basins import cell_basin_map
 from hertzmap.study.solve.point import solutions_from_rows
@@ -45,18 +51,30 @@ TRANSIENT, RECORD = 500, 128
 #: the oracle's transient: exp(-zeta T)^600 < 1e-10 at zeta 0.01 and T > 4
 ORACLE_PERIODS = 600
 ORACLE_TOL = 1e-3
+#: the tighter tolerance of the floor's transients (the census's are at 1e-8)
+TIGHT_RTOL = 1e-11
 
 
-def direct_labels(bm, states: np.ndarray) -> np.ndarray:
+def direct_labels(bm, states: np.ndarray, rtol: float | None = None) -> np.ndarray:
     """The census transient's attractor of each state, as an index into the map's attractors
-    (periodic ones by the identity rule, open runs the map's unsettled / non-periodic label);
-    -1: an attractor the map does not have."""
+    (periodic ones by their stroboscopic points, open runs the map's unsettled / non-periodic
+    label); -1: an attractor the map does not have. ``rtol``: the transients' integrator
+    tolerance (default the census's, TRANSIENT_RTOL; shooting at the study's)."""
     k = len(states)
     rows = np.empty((k, N_ATTRACTOR_FIELDS))
     orbit_rows = np.empty((k, N_FIELDS))
     strobes = np.empty((k, STROBE_POINTS, 2))
-    run_transients(bm.omega, bm.sigma, bm.zeta, states[:, 0].copy(), states[:, 1].copy(),
-                   dict(OPTIONS, harmonics=False), TRANSIENT, RECORD, rows, orbit_rows, strobes)
+    if rtol is None:
+        run_transients(bm.omega, bm.sigma, bm.zeta, states[:, 0].copy(), states[:, 1].copy(),
+                       dict(OPTIONS, harmonics=False), TRANSIENT, RECORD, rows, orbit_rows,
+                       strobes)
+    else:
+        n, code, _, _ = transient_settings(OPTIONS)
+        attractor_batch_into(bm.omega, bm.sigma, bm.zeta, states[:, 0].copy(),
+                             states[:, 1].copy(), n, code, TRANSIENT, RECORD, False, 0, 0,
+                             CYCLE_TOL, CYCLE_REPEATS, rtol, rtol, OPTIONS["rtol"], 200_000,
+                             False, *NOTHING_KNOWN.arrays(), NO_LABEL, rows, orbit_rows,
+                             strobes)
     kinds = [a["kind"] for a in bm.attractors]
     out = np.full(k, -1)
     for r in range(k):
@@ -173,7 +191,21 @@ def main(argv=None) -> dict:
         print(f"  [{i}] fraction map {p_map:.4f}  brute force {p_bf:.4f} +- {se:.4f}  z {z:+.2f}")
     print(f"largest |z| {worst:.2f} (<= 3 asked); states the map has no attractor for: "
           f"{int((direct < 0).sum())}")
-    out = {"agreement": share, "worst_z": worst, "map_seconds": t_map, "stats": stats}
+    # the floor: the same transients at a tolerance 1000 times tighter. Where the two direct
+    # integrations disagree, the attractor hangs on the integration's error (final-state
+    # sensitivity), and no map can agree with either better than they agree with each other
+    t3 = time.perf_counter()
+    tight = direct_labels(bm, states, rtol=TIGHT_RTOL)
+    same = tight == direct
+    print(f"the census's transients at rtol 1e-8 against rtol {TIGHT_RTOL:g}: "
+          f"{same.sum()} / {a.states} = {100 * same.mean():.2f} % agree "
+          f"({time.perf_counter() - t3:.1f} s); the map against rtol {TIGHT_RTOL:g}: "
+          f"{100 * (mapped == tight).mean():.2f} %; where the two tolerances agree, the map "
+          f"agrees with them in {(agree & same).sum()} / {same.sum()} = "
+          f"{100 * (agree & same).sum() / max(same.sum(), 1):.2f} %")
+    out = {"agreement": share, "worst_z": worst, "map_seconds": t_map, "stats": stats,
+           "tolerance_floor": float(same.mean()),
+           "agreement_where_settled": float((agree & same).sum() / max(same.sum(), 1))}
     if a.oracle:
         t2 = time.perf_counter()
         lab = np.array([oracle_label(bm, states[r]) for r in range(a.oracle)])

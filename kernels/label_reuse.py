@@ -9,8 +9,10 @@ way (one label; -2 once two transients through the cell reached different attrac
 boundary crosses it, and it is never evidence again). A transient stops (``reuse_into``) when
 its stroboscopic point lies
 
-* in a certified neighbourhood of a stable orbit (V(x) <= level: study.solve.certificate):
-  it is on that orbit for good; or
+* in a certified neighbourhood of a stable orbit (V(x) <= level: study.solve.certificate)
+  and, m periods later, in it again with V decreased by the certificate's factor kappa (the
+  contraction the certificate predicts, seen on the transient itself, as the census's
+  transients are recognised): it is on that orbit for good; or
 * in a cell whose (2 r + 1)^2 block of cells around it all hold one label as evidence, for
   ``visits`` consecutive periods (``uniform_label``): the point is surrounded, a cell or more
   away on every side, by states known to reach that attractor.
@@ -25,7 +27,8 @@ import numpy as np
 
 from hertzmap.kernels import status as st
 from hertzmap.kernels._jit import kernel
-from hertzmap.kernels.attractors import C_LEVEL, C_P11, C_P12, C_P22, C_Q, C_V
+from hertzmap.kernels.attractors import (C_KAPPA, C_LEVEL, C_P11, C_P12, C_P22, C_PERIOD, C_Q,
+                                         C_V)
 from hertzmap.kernels.integrate import S_H_FIRST, integrate, integrator_scratch
 
 #: The grid's geometry (the ``box`` argument): the lower left corner (q, q') and the cell sides
@@ -87,8 +90,9 @@ def reuse_into(omega, sigma, zeta, n, model, rtol, max_steps, q0, v0, budget, ev
     """The stroboscopic transient of paper Eq. 7 from each state (q0[i], v0[i]) at tau = 0 in
     turn, one forcing period at a time, for at most ``budget`` periods, stopping when its point
     has lain in a uniform block of ``evidence`` (uniform_label; ``radius`` cells each side) for
-    ``visits`` consecutive periods, or lies in a certified neighbourhood (``cert``: rows of
-    kernels.attractors' C_* columns; ``cert_label``: its attractor's label). Once a state's
+    ``visits`` consecutive periods, or lies in a certified neighbourhood and shows its
+    contraction m periods later (``cert``: rows of kernels.attractors' C_* columns;
+    ``cert_label``: its attractor's label). Once a state's
     label is known, its own cell and every cell its points passed through get it as evidence
     (CONFLICT where a cell held another), so later states in the list reuse it.
 
@@ -104,7 +108,11 @@ def reuse_into(omega, sigma, zeta, n, model, rtol, max_steps, q0, v0, budget, ev
     out_none = np.empty((3, 0))
     n_cert = cert.shape[0]
     path = np.empty(budget + 1, np.int64)
+    entered = np.empty(max(n_cert, 1), np.int64)
+    entered_v = np.empty(max(n_cert, 1))
     for i in range(q0.shape[0]):
+        for e in range(n_cert):
+            entered[e] = -1
         y[0] = q0[i]
         y[1] = v0[i]
         h = min(0.1, T / 16.0)
@@ -129,12 +137,23 @@ def reuse_into(omega, sigma, zeta, n, model, rtol, max_steps, q0, v0, budget, ev
             if stats[S_H_FIRST] > 0.0:
                 h = stats[S_H_FIRST]
             for e in range(n_cert):
+                m_e = int(cert[e, C_PERIOD])
                 dq = y[0] - cert[e, C_Q]
                 dv = y[1] - cert[e, C_V]
-                if (cert[e, C_P11] * dq * dq + 2.0 * cert[e, C_P12] * dq * dv
-                        + cert[e, C_P22] * dv * dv) <= cert[e, C_LEVEL]:
-                    label = cert_label[e]
-                    break
+                value = (cert[e, C_P11] * dq * dq + 2.0 * cert[e, C_P12] * dq * dv
+                         + cert[e, C_P22] * dv * dv)
+                if value <= cert[e, C_LEVEL]:
+                    # on the orbit once the contraction its certificate predicts is seen on
+                    # the transient itself, m periods later (as the census's transients)
+                    if entered[e] >= 0 and k - entered[e] == m_e \
+                            and value <= cert[e, C_KAPPA] * entered_v[e]:
+                        label = cert_label[e]
+                        break
+                    if entered[e] < 0 or k - entered[e] >= m_e:
+                        entered[e] = k
+                        entered_v[e] = value
+                elif entered[e] >= 0 and k - entered[e] >= m_e:
+                    entered[e] = -1
             if label >= 0:
                 break
             c = uniform_label(evidence, y[0], y[1], box, radius)

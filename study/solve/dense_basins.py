@@ -75,6 +75,10 @@ VISITS = 1
 ROWS_PER_TILE = 100
 #: states per task of step 5
 CENSUS_CHUNK = 256
+#: the evidence grid reaches out to the orbits' points with this margin (a share of the box),
+#: at most EVIDENCE_REACH times the box along each axis
+EVIDENCE_MARGIN = 0.1
+EVIDENCE_REACH = 3.0
 #: coarse-to-fine rounds: round r computes every 2^(ROUNDS - 1 - r)-th cell along each axis
 ROUNDS = 4
 #: the most periods a state's own trajectory is followed to a certain cell (step 4)
@@ -184,25 +188,61 @@ def seed_labels(q_range, v_range, grid, cert: np.ndarray, cert_label: np.ndarray
     return out
 
 
+def evidence_grid(q_range, v_range, grid, orbits: list[dict], reach: float = EVIDENCE_REACH
+                  ) -> tuple[np.ndarray, tuple[int, int], tuple[int, int]]:
+    """The grid of evidence: the map's cells, extended by whole cells of the same size to cover
+    the orbits' stroboscopic points with a margin of EVIDENCE_MARGIN of the box (transients
+    that leave the box on their way to an orbit out there find evidence there too), at most
+    ``reach`` times the box along each axis. Returns its geometry (kernels.label_reuse B_*
+    columns), its shape (rows along q', columns along q) and the offset (rows, columns) of
+    the map's cell (0, 0) in it."""
+    nq, nv = grid
+    (q0, q1), (v0, v1) = q_range, v_range
+    hq, hv = (q1 - q0) / nq, (v1 - v0) / nv
+    pts = np.concatenate([np.asarray(o["phases"], float).reshape(-1, 2) for o in orbits]
+                         + [np.empty((0, 2))])
+    pad_q, pad_v = EVIDENCE_MARGIN * (q1 - q0), EVIDENCE_MARGIN * (v1 - v0)
+    lo_q = max(min(q0, *(pts[:, 0] - pad_q)), q0 - (reach - 1) / 2 * (q1 - q0)) if len(pts) \
+        else q0
+    hi_q = min(max(q1, *(pts[:, 0] + pad_q)), q1 + (reach - 1) / 2 * (q1 - q0)) if len(pts) \
+        else q1
+    lo_v = max(min(v0, *(pts[:, 1] - pad_v)), v0 - (reach - 1) / 2 * (v1 - v0)) if len(pts) \
+        else v0
+    hi_v = min(max(v1, *(pts[:, 1] + pad_v)), v1 + (reach - 1) / 2 * (v1 - v0)) if len(pts) \
+        else v1
+    left, right = int(np.ceil((q0 - lo_q) / hq)), int(np.ceil((hi_q - q1) / hq))
+    down, up = int(np.ceil((v0 - lo_v) / hv)), int(np.ceil((hi_v - v1) / hv))
+    box = np.array([q0 - left * hq, v0 - down * hv, hq, hv])
+    return box, (nv + down + up, nq + left + right), (down, left)
+
+
+def to_evidence(cells: np.ndarray, grid, shape, offset) -> np.ndarray:
+    """The flat indices on the evidence grid of the map's cells (flat indices)."""
+    nq, _ = grid
+    cells = np.asarray(cells, np.int64)
+    return (cells // nq + offset[0]) * shape[1] + cells % nq + offset[1]
+
+
 def reuse_cells(omega: float, sigma: float, zeta: float, options: dict, q_range, v_range,
-                grid, evidence: np.ndarray, cells: np.ndarray, cert: np.ndarray,
-                cert_label: np.ndarray, radius: int = REUSE_RADIUS, visits: int = VISITS,
-                budget: int = SETTLE_PERIODS) -> dict:
-    """The transients of the cells ``cells`` (flat indices, in that order) stopping on the
-    evidence (kernels.label_reuse.reuse_into), on a copy of ``evidence`` (nv, nq): a tile of a
-    round. Returns ``label`` (OPEN, FAILED or an orbit's index), ``periods`` and the evidence
-    it added (``changed``: flat indices, ``values``)."""
+                grid, evidence: np.ndarray, evidence_box: np.ndarray, cells: np.ndarray,
+                cert: np.ndarray, cert_label: np.ndarray, radius: int = REUSE_RADIUS,
+                visits: int = VISITS, budget: int = SETTLE_PERIODS) -> dict:
+    """The transients of the map's cells ``cells`` (flat indices, in that order) stopping on
+    the evidence (kernels.label_reuse.reuse_into), on a copy of ``evidence`` (its grid
+    ``evidence_box``: evidence_grid): a tile of a round. Returns ``label`` (OPEN, FAILED or an
+    orbit's index), ``periods`` and the evidence it added (``changed``: flat indices on the
+    evidence grid, ``values``)."""
     nq, nv = grid
     q, v = grid_axes(q_range, v_range, grid)
     cells = np.asarray(cells, np.int64)
-    own = np.array(evidence, np.int16, copy=True).reshape(nv, nq)
+    own = np.array(evidence, np.int16, copy=True)
     n, code, rtol = _model(options)
     k = len(cells)
     label = np.empty(k, np.int64)
     periods = np.empty(k, np.int64)
     reuse_into(float(omega), float(sigma), float(zeta), n, code, rtol, MAX_STEPS,
                np.ascontiguousarray(q[cells % nq]), np.ascontiguousarray(v[cells // nq]),
-               int(budget), own, box_of(q_range, v_range, grid), int(radius), int(visits),
+               int(budget), own, np.asarray(evidence_box, float), int(radius), int(visits),
                np.ascontiguousarray(cert, float).reshape(-1, 8),
                np.ascontiguousarray(cert_label, np.int64), label, periods, np.empty((k, 2)))
     changed = np.flatnonzero(own.reshape(-1) != np.asarray(evidence).reshape(-1))
@@ -314,8 +354,8 @@ def join_resolved(orbits: list[dict], blocks: list[BasinBlock]) -> BasinBlock | 
 def reuse_tile(spec: dict) -> dict:
     """A tile of a round (a task): reuse_cells of the spec."""
     return reuse_cells(*spec["point"], spec["options"], spec["q_range"], spec["v_range"],
-                       spec["grid"], spec["evidence"], spec["cells"], spec["cert"],
-                       spec["cert_label"], spec["radius"], spec["visits"])
+                       spec["grid"], spec["evidence"], spec["evidence_box"], spec["cells"],
+                       spec["cert"], spec["cert_label"], spec["radius"], spec["visits"])
 
 
 def census_tile(spec: dict) -> dict:
@@ -391,14 +431,18 @@ def cell_basin_map(omega: float, sigma: float, zeta: float, q_range=TRANSIENT_BO
             for s in basin_grid.row_blocks(len(pv), max(1, len(pv) // 2))])]
     known = known_orbits(omega, sigma, zeta, options, orbits, probes)
     cert, cert_label = certificates(known, omega, sigma, zeta, options)
-    seeds = seed_labels(q_range, v_range, grid, cert, cert_label)
-    evidence = np.where(seeds >= 0, seeds, UNSEEN).astype(np.int16).reshape(nv, nq)
+    # no state is labelled by its position alone: each one's transient shows the contraction
+    seeds = np.full(nq * nv, -1, np.int64)
+    ev_box, ev_shape, offset = evidence_grid(q_range, v_range, grid, known)
+    evidence = np.full(ev_shape, UNSEEN, np.int16)
+    evidence.reshape(-1)[to_evidence(np.arange(nq * nv), grid, ev_shape, offset)] = \
+        np.where(seeds >= 0, seeds, UNSEEN)
     outcome = np.where(seeds >= 0, seeds, OPEN).astype(np.int64)
     method = np.full(outcome.size, SEED, np.int8)
     periods = np.zeros(outcome.size, np.int64)
     common = dict(point=point, options=options, q_range=tuple(q_range), v_range=tuple(v_range),
                   grid=tuple(grid), cert=cert, cert_label=cert_label, radius=int(radius),
-                  visits=int(visits))
+                  visits=int(visits), evidence_box=ev_box)
     for r in range(rounds):
         tiles = [c[seeds[c] < 0] for c in round_tiles(grid, r, rows_per_tile, rounds)]
         tiles = [c for c in tiles if len(c)]
@@ -406,7 +450,7 @@ def cell_basin_map(omega: float, sigma: float, zeta: float, q_range=TRANSIENT_BO
                    [dict(common, evidence=evidence, cells=c) for c in tiles])
         for c, t in zip(tiles, done):
             outcome[c], periods[c], method[c] = t["label"], t["periods"], REUSED
-        evidence = merge_evidence(evidence, done).reshape(nv, nq)
+        evidence = merge_evidence(evidence, done).reshape(ev_shape)
     open_cells = np.flatnonzero(outcome < 0)
     q, v = grid_axes(q_range, v_range, grid)
     chunks = [open_cells[i:i + census_chunk] for i in range(0, len(open_cells), census_chunk)]
