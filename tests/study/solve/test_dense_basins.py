@@ -103,3 +103,16 @@ def test_evidence_conflicts_are_never_reused():
 def test_rounds_cover_every_cell_once():
     cells = np.concatenate([db.round_cells((13, 7), r, 4) for r in range(4)])
     assert sorted(cells) == list(range(13 * 7))
+
+
+def test_a_stores_orbits_need_only_their_start_points(maps):
+    """Stable orbits given as a store holds them (period, start point), no probe: the same
+    attractors, the same map but near the boundary."""
+    fast, _, _ = maps
+    orbits = [{"period": a["period"], "x0": np.array([a["q0"], a["v0"]]), "stable": True,
+               "status": 0} for a in fast.attractors]
+    again = db.cell_basin_map(W, S, Z, grid=GRID, options=OPTIONS, orbits=orbits, probe=None,
+                              **BUDGET)
+    assert [(a["kind"], a["period"]) for a in again.attractors] == \
+        [("periodic", 1), ("periodic", 2)]
+    assert (again.labels != fast.labels).mean() < 0.02
