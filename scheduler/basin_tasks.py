@@ -262,7 +262,7 @@ def _reuse_map(req: BasinRequest, client, on_tile=None):
             results[i] = res
             if on_tile is not None:
                 on_tile(step, specs[i], res)
-        cost = runner.map(f"basin map: {name}", basin_tile_task, tasks, commit, unit="states")
+        cost = runner.map(f"basin map: {name}", basin_tile_task, tasks, commit, unit="tasks")
         if cost.failed:
             raise RuntimeError(f"basin map: {len(cost.failed)} task(s) of {name} failed: "
                                f"{cost.failed[0][1]}")
