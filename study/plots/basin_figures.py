@@ -109,7 +109,8 @@ def plot_basin_map(basins, path, *, title=None) -> Path:
             c = np.exp(np.mean(np.log(f[ok]) - alpha * np.log(eps[ok])))
             fax.loglog(eps, c * eps ** alpha, "-", color="tab:red",
                        label=f"fit: alpha = {alpha:.3f} +- {err:.3f}")
-            fax.loglog(eps, f[ok][0] * (eps / eps[ok][0]), ":", color="0.5",
+            ref = f[ok][0] * (eps / eps[ok][0])
+            fax.loglog(eps[ref <= 1], ref[ref <= 1], ":", color="0.5",
                        label="alpha = 1 (a smooth boundary)")
         fax.set_xlabel("eps (cells)")
         fax.set_ylabel("share of eps-uncertain states f(eps)")
@@ -117,8 +118,9 @@ def plot_basin_map(basins, path, *, title=None) -> Path:
         fax.set_title(
             f"boundary dimension d = 2 - alpha = {float(basins['boundary_dimension']):.3f} "
             f"+- {err:.3f}\nmerging test: {wada} (largest distance "
-            f"{float(basins['wada_hausdorff_max']):.1f} cells, r = {a.get('wada_dilation', 5)}; "
-            f"Wada cells {100 * float(basins['wada_share']):.1f} %)", fontsize=9)
+            f"{float(basins['wada_hausdorff_max']):.1f} cells, r = {a.get('wada_dilation', 5)};"
+            f"\nWada cells {100 * float(basins['wada_share']):.1f} % of the boundary)",
+            fontsize=9)
         fax.legend(fontsize=8)
         fax.grid(True, which="both", alpha=0.3)
     return save(fig, path)
