@@ -1,7 +1,7 @@
 """How exact a dense basin map is (issue 52): random states of a map integrated directly, their
 attractor compared with the map's label.
 
-    .venv/bin/python -m benchmarks.basins_agreement --omega 1.35 --sigma 0.7625 \\
+    .venv/bin/python benchmarks/basins_agreement.py --omega 1.35 --sigma 0.7625 \\
         [--zeta 0.01] [--grid 1000] [--states 2000] [--oracle 40] [--seed 1]
 
 The map is study.solve.dense_basins.cell_basin_map (label reuse, in this process). Then
@@ -26,23 +26,27 @@ from __future__ import annotations
 import argparse
 import functools
 import math
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 from scipy import ndimage
 
-from benchmarks import oracle
-from hertzmap.kernels import status as st
-from hertzmap.kernels.attractors import A, N_ATTRACTOR_FIELDS
-from hertzmap.kernels.records import STROBE_POINTS
-from hertzmap.kernels.shooting import N_FIELDS
-from hertzmap.kernels.attractors import NO_LABEL, attractor_batch_into
-from hertzmap.study.solve.census import (CYCLE_REPEATS, CYCLE_TOL, run_transients,
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from benchmarks import oracle  # noqa: E402
+from hertzmap.kernels import status as st  # noqa: E402
+from hertzmap.kernels.attractors import A, N_ATTRACTOR_FIELDS  # noqa: E402
+from hertzmap.kernels.records import STROBE_POINTS  # noqa: E402
+from hertzmap.kernels.shooting import N_FIELDS  # noqa: E402
+from hertzmap.kernels.attractors import NO_LABEL, attractor_batch_into  # noqa: E402
+from hertzmap.study.solve.census import (CYCLE_REPEATS, CYCLE_TOL, run_transients,  # noqa: E402
                                          transient_settings)
-from hertzmap.study.solve.recognition import NOTHING_KNOWN
-from hertzmap.study.solve.certificate import orbit_points
-from hertzmap.study.solve.dense_basins import cell_basin_map
-from hertzmap.study.solve.point import solutions_from_rows
+from hertzmap.study.solve.recognition import NOTHING_KNOWN  # noqa: E402
+from hertzmap.study.solve.certificate import orbit_points  # noqa: E402
+from hertzmap.study.solve.dense_basins import cell_basin_map  # noqa: E402
+from hertzmap.study.solve.point import solutions_from_rows  # noqa: E402
 
 print = functools.partial(print, flush=True)  # noqa: A001 (progress in a log)
 

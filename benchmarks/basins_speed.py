@@ -1,7 +1,7 @@
 """The speed of dense basin maps (issue 52): ``hertzmap basins`` at 100 x 100 and 1000 x 1000
 initial states, same run, ABBA rounds (benchmarks/abba.py), on an embedded cluster.
 
-    .venv/bin/python -m benchmarks.basins_speed --omega 1.35 --sigma 0.7625 [--workers 2]
+    .venv/bin/python benchmarks/basins_speed.py --omega 1.35 --sigma 0.7625 [--workers 2]
         [--rounds 2] [--method reuse]
 
 The store is a 3 x 3 grid around the point at zeta 0.01 (the default scene's solver, no
@@ -20,7 +20,9 @@ import subprocess
 import sys
 from pathlib import Path
 
-from benchmarks.abba import Command, abba, figure_parser, load_line
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from benchmarks.abba import Command, abba, figure_parser, load_line  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 HERTZMAP = [sys.executable, "-m", "hertzmap.scheduler.cli"]
