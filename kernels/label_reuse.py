@@ -62,26 +62,6 @@ def uniform_label(labels, q, v, box, radius):
     return first
 
 
-@kernel("void(float64[:, ::1], float64[:, ::1], float64[:, ::1], int64[::1], int64[::1])")
-def inside_certified_into(q, v, cert, cert_label, out):
-    """out[i] = the label of the first certified neighbourhood (rows of C_* columns) holding
-    every point (q[i, :], v[i, :]) (the corners of a cell, or their images), -1 if none."""
-    for i in range(q.shape[0]):
-        out[i] = -1
-        for e in range(cert.shape[0]):
-            inside = True
-            for p in range(q.shape[1]):
-                dq = q[i, p] - cert[e, C_Q]
-                dv = v[i, p] - cert[e, C_V]
-                if not ((cert[e, C_P11] * dq * dq + 2.0 * cert[e, C_P12] * dq * dv
-                         + cert[e, C_P22] * dv * dv) <= cert[e, C_LEVEL]):
-                    inside = False
-                    break
-            if inside:
-                out[i] = cert_label[e]
-                break
-
-
 @kernel("void(float64, float64, float64, float64, int64, float64, int64, float64[::1], "
         "float64[::1], int64, int16[:, ::1], float64[::1], int64, int64, float64[:, ::1], "
         "int64[::1], int64[::1], int64[::1], float64[:, ::1])")

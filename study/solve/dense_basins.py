@@ -1,48 +1,43 @@
-"""Dense basin maps by label reuse on the stroboscopic map: 1000 x 1000 initial states in
-about a minute on 2 cores, every state's label its own trajectory's fate (the issue-52 method;
-study.solve.basin_grid runs one whole census transient per state: the brute force).
+"""Dense basin maps by label reuse on the stroboscopic map (issue 52; docs/basins.md): every
+state's label is its own transient's fate, the transient stopped as soon as what earlier
+transients found makes that fate plain (study.solve.basin_grid runs one whole census
+transient per state: the brute force).
 
 The grid of initial states (q, q') at tau = 0 is cut into cells whose centres are the map's
-states (as in basin_grid). Five steps, each a pure function so that the scheduler runs the
-costly ones as tiles on a cluster (scheduler.basin_tasks):
+states (as in basin_grid). The steps, each a pure function of a spec so that the scheduler runs
+the costly ones as tasks on a cluster (scheduler.basin_tasks; ``run`` of cell_basin_map):
 
-1. **The attractors** (:func:`known_orbits`, :func:`certificates`): the stable orbits the
-   caller knows (a store's, at the point) and those the census's transients from a coarse probe
-   grid reach (basin_grid.basin_block), each with a certified neighbourhood at every phase of
-   its orbit (study.solve.certificate; the level taken at SEED_SHARE of the certified one: a
-   factor 2 in radius held in reserve). A state in one is on that orbit for good: the seeds.
-2. **One period of every state** (:func:`image_rows`): each cell's centre integrated over one
-   forcing period (kernels.cell_mapping.settle_into, budget one period): 4-5 us a state.
-3. **The order** (:func:`levels`): the functional graph "cell -> the cell its image lands in",
-   each cell's level its number of images to a seed (kernels.cell_mapping.chain_levels_into).
-4. **Labels, level by level** (:func:`sweep_levels`): a cell's image that lands in a uniform
-   block of already labelled cells (REUSE_RADIUS cells each side, all one label:
-   kernels.cell_mapping.uniform_label) takes that label: the image point is surrounded, a cell
-   or more away on every side, by states known to reach that attractor. Otherwise (near a
-   basin boundary, or where the block is not yet labelled) the trajectory goes on from its image,
-   integrated period by period, until its point lies in a uniform block or a certified
-   neighbourhood (SETTLE_PERIODS at most). No label is taken from a mixed neighbourhood: a
-   state near a boundary is integrated until its own fate is plain. The cells whose chain of
-   images leaves the grid or never meets a seed follow, the same way.
-5. **What that did not settle** (:func:`resolve_open`): the census's own transient
-   (study.solve.census.run_transients: period detection, shooting, recognition on the
-   certified neighbourhoods) for transient_periods + record_periods: a stable orbit the probe
-   missed becomes a new attractor; transients that never settle are ``unsettled`` (or
-   ``non_periodic``, the census's Lyapunov test, where no stable orbit exists), failures
-   ``failed``, as in basin_grid.
+1. **The attractors** (:func:`probe_tile`, :func:`known_orbits`, :func:`certificates`): the
+   stable orbits the caller knows (a store's at the point, by their start points) and those the
+   census's transients from a PROBE_GRID over the box reach, each once (same_cycle), with a
+   certified neighbourhood at every phase of its orbit (study.solve.certificate; SEED_SHARE of
+   the certified level, a factor 2 in radius in reserve).
+2. **The evidence** (:func:`evidence_grid`): per cell, the attractor the states seen in it
+   reached (a cell's own state, and every cell a transient passed through; CONFLICT where two
+   attractors were seen), on the map's cells extended to the orbits' points.
+3. **Rounds of tiles** (:func:`round_tiles`, :func:`reuse_tile`, :func:`merge_evidence`):
+   ROUNDS coarse-to-fine rounds (every 8th cell along each axis, then every 4th, 2nd, all),
+   each cut into tiles of ROWS_PER_TILE rows; a tile's transients
+   (kernels.label_reuse.reuse_into) start from the evidence of the rounds before and stop in
+   a uniform block of evidence (REUSE_RADIUS cells each side, VISITS periods) or once they show
+   a certified neighbourhood's contraction, at most SETTLE_PERIODS; the tiles' evidence is
+   joined after each round. No label is taken from a mixed neighbourhood: a state near a
+   boundary is integrated until its own fate is plain.
+4. **What that did not settle** (:func:`census_tile`, :func:`resolve_open`,
+   :func:`join_resolved`): the census's own transient (study.solve.census.run_transients:
+   period detection, shooting, recognition on the certified neighbourhoods) for
+   transient_periods + record_periods: a stable orbit the probe missed becomes a new attractor;
+   transients that never settle are ``unsettled`` (or ``non_periodic``, the census's Lyapunov
+   test, where no stable orbit exists), failures ``failed``, as in basin_grid.
+5. :func:`assemble`: a basin_grid.BasinMap (labels, attractors, entropies as the brute
+   force's), with ``method`` per cell: REUSED (step 3) or CENSUS (step 4); SEED (a state
+   labelled for lying in a certified neighbourhood) is not used: every state's transient shows
+   the contraction itself.
 
-Why not Hsu's cell mapping with set-valued images (a cell certain when its whole widened image
-lies in certain cells): at zeta = 0.01 the stable orbits are weakly contracting foci (|mu| =
-0.87-0.95 per period at omega 1.35, sigma 0.7625), so a cell's widened image reaches cells
-farther from the orbit than itself out to about 25 cells from it: at 1000 x 1000 only 0.2 % of
-the cells came out certain (6 % with the full certified level and no dilation), the rest left
-to whole transients (docs/basins.md has the measurements).
-
-The outcome is a basin_grid.BasinMap (labels, attractors, entropies as the brute force's),
-with ``method``: per cell SEED (in a certified neighbourhood), IMAGE (its one-period image
-landed in a uniform block), SETTLED (its trajectory ran on to one) or CENSUS (step 5).
-Exactness is measured, not assumed: benchmarks/basins_agreement.py integrates random states of
-a map directly (the census's transients and the scipy oracle) and compares.
+The tiles are fixed by the grid and a task is a pure function of its spec, so the map does not
+depend on the number of workers or the order the tasks finish in. Why not Hsu's cell mapping
+with set-valued images, and how exact the map is: docs/basins.md (measured with
+benchmarks/basins_agreement.py).
 """
 from __future__ import annotations
 
@@ -51,7 +46,7 @@ import numpy as np
 from hertzmap.kernels import status as st
 from hertzmap.kernels.attractors import A, N_ATTRACTOR_FIELDS, C_LEVEL
 from hertzmap.kernels.label_reuse import (CONFLICT, FAILED, OPEN, UNSEEN,
-                                         inside_certified_into, reuse_into)
+                                         reuse_into)
 from hertzmap.kernels.records import STROBE_POINTS
 from hertzmap.kernels.shooting import N_FIELDS
 from hertzmap.study.basin_entropy import BOX_SIDE
@@ -174,18 +169,6 @@ def round_cells(grid, round_: int, rounds: int = ROUNDS) -> np.ndarray:
         coarser = stride * 2
         mine &= ~((ii % coarser == 0) & (jj % coarser == 0))
     return np.flatnonzero(mine.reshape(-1))
-
-
-def seed_labels(q_range, v_range, grid, cert: np.ndarray, cert_label: np.ndarray
-                ) -> np.ndarray:
-    """The label of each cell (flat, nv nq) whose centre lies in a certified neighbourhood,
-    -1 elsewhere: the evidence every round starts from."""
-    q, v = grid_axes(q_range, v_range, grid)
-    qq, vv = np.meshgrid(q, v)
-    out = np.empty(qq.size, np.int64)
-    inside_certified_into(np.ascontiguousarray(qq.reshape(-1, 1)),
-                          np.ascontiguousarray(vv.reshape(-1, 1)), cert, cert_label, out)
-    return out
 
 
 def evidence_grid(q_range, v_range, grid, orbits: list[dict], reach: float = EVIDENCE_REACH

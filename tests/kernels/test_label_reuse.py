@@ -3,9 +3,9 @@ transient that stops on them, against hand-made grids and the scipy oracle's per
 from __future__ import annotations
 
 import numpy as np
+
 from benchmarks import oracle
-from hertzmap.kernels.label_reuse import (CONFLICT, OPEN, UNSEEN, inside_certified_into,
-                                          reuse_into, uniform_label)
+from hertzmap.kernels.label_reuse import CONFLICT, OPEN, UNSEEN, reuse_into, uniform_label
 
 W, S, Z = 1.7, 1.0, 0.05
 BOX = np.array([-6.0, -5.0, 1.0, 1.0])          # 10 x 10 cells of side 1 from (-6, -5)
@@ -22,16 +22,6 @@ def test_uniform_label_needs_the_whole_block():
     assert uniform_label(ev, -1.5, 0.5, BOX, 1) == -1
     assert uniform_label(ev, -5.5, 0.5, BOX, 1) == -1     # the block leaves the grid
     assert uniform_label(ev, 40.0, 0.5, BOX, 0) == -1
-
-
-def test_inside_certified_needs_every_point():
-    # V = 4 (dq^2 + dv^2) <= 1 around (1, 2): the disc of radius 1/2
-    cert = np.array([[1.0, 2.0, 4.0, 0.0, 4.0, 1.0, 0.5, 1.0]])
-    q = np.array([[1.0, 1.4], [1.0, 1.6]])
-    v = np.array([[2.0, 2.0], [2.0, 2.0]])
-    out = np.empty(2, np.int64)
-    inside_certified_into(q, v, cert, np.array([7]), out)
-    assert list(out) == [7, -1]
 
 
 def test_one_period_is_the_oracles_period_map():
@@ -87,3 +77,24 @@ def test_the_budget_ends_open_without_evidence():
     reuse_into(W, S, Z, 1.5, 0, 1e-10, 200_000, np.array([0.3]), np.array([0.1]), 7, ev, BOX,
                1, 1, *NO_CERT, label, periods, np.empty((1, 2)))
     assert label[0] == OPEN and periods[0] == 7 and (ev == UNSEEN).all()
+
+
+def test_a_certified_neighbourhood_needs_its_contraction_seen():
+    """A transient started 1e-3 off a stable orbit (period m), inside a neighbourhood V =
+    |x - x*|^2 <= 1e-2 with kappa = 0.999: it enters after one period and stops once it is back
+    m periods later with V decreased, after 1 + m periods; with kappa = 1e-9 (a contraction
+    the orbit does not have) it never stops there."""
+    from hertzmap.kernels import attractor
+
+    a = attractor(W, S, Z, x0=(0.0, 0.0))
+    assert a.status_name == "converged"
+    m = int(a.period)
+    q, v = a.orbit.x0
+    ev = np.full((10, 10), UNSEEN, np.int16)
+    label = np.empty(1, np.int64)
+    periods = np.empty(1, np.int64)
+    for kappa, want in ((0.999, (7, 1 + m)), (1e-9, (OPEN, 20))):
+        cert = np.array([[q, v, 1.0, 0.0, 1.0, 1e-2, kappa, float(m)]])
+        reuse_into(W, S, Z, 1.5, 0, 1e-10, 200_000, np.array([q + 1e-3]), np.array([v]), 20,
+                   ev, BOX, 1, 1, cert, np.array([7]), label, periods, np.empty((1, 2)))
+        assert (label[0], periods[0]) == want
