@@ -14,6 +14,8 @@ found (study.solve.recognition) / every transient runs its whole budget.
 the point knows (study.solve.certificate) / only on the points of what earlier ones found.
 ``--compare rtol``: the transients' integrator tolerance (census.TRANSIENT_RTOL and the
 certificates' RTOL) 1e-6 / 1e-8.
+``--compare hints``: each certificate's ladder starts at the rung nearest the last grid point's
+level of the same orbit (study.solve.certificate.LevelHints) / at rung 0.
 ``--compare iterations``: certified neighbourhoods of the J-fold iterated orbit map
 (certificate.ITERATIONS) J = 2 / J = 1; ``iterations4``: J = 4 / J = 1.
 
@@ -60,6 +62,8 @@ COMPARISONS = {
     "rtol": (((census_module, "TRANSIENT_RTOL"), (certificate_module, "RTOL")), (1e-6, 1e-8),
              ("rtol 1e-6", "rtol 1e-8")),
     "iterations": (((certificate_module, "ITERATIONS"),), (2, 1), ("J = 2", "J = 1")),
+    "hints": (((census_module, "LEVEL_HINTS"),), (True, False),
+              ("ladders from the neighbour's level", "ladders from rung 0")),
     "iterations4": (((certificate_module, "ITERATIONS"),), (4, 1), ("J = 4", "J = 1")),
 }
 

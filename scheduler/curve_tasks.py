@@ -9,9 +9,11 @@ near an earlier seed whose trace did not cover it, is skipped before it is shipp
 when its turn to commit comes; a trace that starts on an earlier curve is committed as a
 duplicate (no vertices); so the curves kept depend on the grid only, never on which task
 finished first. At most ``IN_FLIGHT_PER_WORKER`` traces per worker (and the first undecided seed's)
-are in flight or waiting for their turn, ahead of it only one per family of seeds (plane, kind,
-period: the curves are traced side by side, not one seed after another on the same curve); a
-seed shipped ahead of its turn can turn out covered (its trace is then dropped).
+are in flight (finished ones wait for their turn outside this bound), ahead of it only one per
+family of seeds (plane, kind, period: the curves are traced side by side, not one seed after
+another on the same curve) and none that a finished trace of its family, waiting for its turn,
+would skip (SeedBook.may_cover); a seed shipped ahead of its turn can turn out covered (its
+trace is then dropped).
 When every seed is decided, the product gets the completeness check: each seed's covering
 curve or why there is none (``seed_*``).
 
@@ -114,6 +116,14 @@ class CurveStage(Stage):
                   file=self.out, flush=True)
         finished: dict[int, dict] = {}
         window_size = IN_FLIGHT_PER_WORKER * runner.n_workers
+        may_cover: dict[tuple[int, int], bool] = {}
+
+        def held(i: int, ship: int) -> bool:
+            """Finished trace i (not committed yet) would have seed ``ship`` skipped."""
+            if (i, ship) not in may_cover:
+                may_cover[i, ship] = book.may_cover(finished[i], seeds[ship])
+            return may_cover[i, ship]
+
         pointer = 0
         with runner.window(self.name, trace_task) as traces:
             in_flight = traces.in_flight
@@ -148,13 +158,26 @@ class CurveStage(Stage):
                 # period) has no trace under way -- the next seeds of a family in flight
                 # mostly lie on its curve, and shipping them would trace the curves one after
                 # the other
-                busy = {SeedBook.family(seeds[i]) for i in (*in_flight, *finished)}
+                # a family with a trace under way ships nothing more; one whose traces are
+                # finished (waiting for their turn) ships the seeds they do not cover
+                busy = {SeedBook.family(seeds[i]) for i in in_flight}
+                waiting: dict[tuple, list] = {}
+                for i in finished:
+                    waiting.setdefault(SeedBook.family(seeds[i]), []).append(i)
                 for ship in range(pointer, len(seeds)):
-                    if ship > pointer and len(in_flight) + len(finished) >= window_size:
+                    # the window bounds the traces under way, not those finished and waiting
+                    # for their turn to commit: a long trace at the pointer (a 9T fold curve,
+                    # 5-14 s) would otherwise fill it with short finished ones and leave a
+                    # worker idle until it ends (the default scene's curves ran on one worker
+                    # at a time: 25.5 s of compute in 25.0 s of wall)
+                    if ship > pointer and len(in_flight) >= window_size:
                         break
                     if (ship in committed or ship in in_flight or ship in finished
                             or book.skip(ship)
-                            or (ship > pointer and SeedBook.family(seeds[ship]) in busy)):
+                            or (ship > pointer and SeedBook.family(seeds[ship]) in busy)
+                            or (ship > pointer and any(
+                                held(i, ship)
+                                for i in waiting.get(SeedBook.family(seeds[ship]), ())))):
                         continue
                     seed = seeds[ship]
                     busy.add(SeedBook.family(seed))

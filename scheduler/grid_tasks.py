@@ -11,7 +11,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from hertzmap.scheduler.plan import make_plan
+from hertzmap.scheduler.plan import make_plan, seconds_per_point, spread_order
 from hertzmap.scheduler.report import KIND_COUNTS, SUMMED_COUNTS, WORST_COUNTS, add_counts
 from hertzmap.scheduler.sample import Sampler
 from hertzmap.scheduler.stage import Stage, Task, TaskRunner
@@ -64,12 +64,12 @@ class GridStage(Stage):
 
     def run(self, runner: TaskRunner) -> dict[str, Any]:
         """Solve the blocks not flagged done; returns the grid's counts (the run summary's)."""
-        todo = self.todo()
+        todo = spread_order(self.todo())
         n_done = len(self.plan.tasks) - len(todo)
         specs = task_specs(self.study, todo, self.study.solver_kwargs(), self.names,
                            self.solver, getattr(self.opts, "task_timeout", None),
                            store=self.store.path, owner=self.owner, sampler=self.sampler)
-        tasks = [Task(self.key(*t.index), spec, t.size) for t, spec in zip(todo, specs)]
+        tasks = [Task(self.key(*t.index), spec, t.size, t.index) for t, spec in zip(todo, specs)]
         by_key = {task.key: t for task, t in zip(tasks, todo)}
         tally = {"compute": 0.0, "write": 0.0, "points": 0, "pids": set(),
                  **{k: 0 for k in SUMMED_COUNTS}, **{k: math.nan for k in WORST_COUNTS}}
@@ -92,7 +92,8 @@ class GridStage(Stage):
 
         try:
             cost = runner.map(self.name, run_task, tasks, commit, label="grid",
-                              total=len(self.plan.tasks), done_before=n_done)
+                              total=len(self.plan.tasks), done_before=n_done,
+                              prior=seconds_per_point(self.study))
         finally:
             if self.store.done_mask().all():
                 remove_stage(self.store.path, GRID_STAGE)

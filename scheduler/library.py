@@ -179,14 +179,17 @@ def plot(store: str | Path, which: Iterable[str] = ("auto",), *, out: str | Path
 def basins(store: str | Path, omega: float, sigma: float, zeta: float | None = None, *,
            grid: tuple[int, int] = (200, 200), q_range: tuple[float, float] | None = None,
            v_range: tuple[float, float] | None = None, client=None,
-           workers: int | None = None, out: str | Path | None = None) -> xr.Dataset:
+           workers: int | None = None, out: str | Path | None = None,
+           method: str = "reuse") -> xr.Dataset:
     """The basin map of a store's grid point (``hertzmap basins``): the census's transients
     from a ``grid`` (cells along q, along dq/dtau) of initial states over ``q_range`` x
     ``v_range`` (default the census's box), labelled by the attractor each ends on, with the
     basin entropy. The point is the store's nearest grid point (``zeta`` may be left out
     when the store has one value). Runs on ``client`` (yours) or on a local cluster of
     ``workers`` processes; written into the store as a product group and drawn as a PNG in
-    ``out`` (default the store's folder). Returns the map as a Dataset."""
+    ``out`` (default the store's folder). ``method``: ``reuse`` (label reuse in tiles) or
+    ``transients`` (one whole transient per state), as ``hertzmap basins --method``. Returns
+    the map as a Dataset."""
     from hertzmap.scheduler.basin_tasks import check_request, run_basins
     from hertzmap.scheduler.cluster import ClusterSpec
     from hertzmap.scheduler.store import read_product
@@ -206,7 +209,7 @@ def basins(store: str | Path, omega: float, sigma: float, zeta: float | None = N
         raise RefusedError(f"grid: give (cells along q, cells along dq/dtau), each 2..2000, "
                            f"got {grid!r}") from None
     req = check_request(store, omega, sigma, zeta, f"{nq}x{nv}", text(q_range, "q_range"),
-                        text(v_range, "v_range"))
+                        text(v_range, "v_range"), method)
     spec = ClusterSpec(kind="local", workers=workers)
     if client is None:
         spec.check()

@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable, Sequence, TextIO
 
 from hertzmap.kernels.model import contact_loss_level
-from hertzmap.scheduler.progress import Progress
+from hertzmap.scheduler.progress import Progress, WorkEstimate
 from hertzmap.scheduler.store import Store
 from hertzmap.study.spec import Study
 
@@ -44,6 +44,9 @@ class Task:
     key: str
     spec: Any
     size: int = 1
+    #: where on the grid (its block's index): the progress line's estimate of the compute
+    #: ahead interpolates the done tasks' costs over it (scheduler.progress.WorkEstimate)
+    place: tuple | None = None
 
 
 @dataclass
@@ -156,13 +159,16 @@ class TaskRunner:
     # -- a list of tasks, each result committed as it comes --------------------------------
     def map(self, stage: str, function: Callable[[Any], dict], tasks: Sequence[Task],
             commit: Callable[[Task, dict], None], *, label: str | None = None,
-            total: int | None = None, done_before: int = 0, unit: str = "points") -> StageCost:
+            total: int | None = None, done_before: int = 0, unit: str = "points",
+            prior: float | None = None) -> StageCost:
         """Run ``function`` on each task's spec and call ``commit(task, result)`` (in the
         interrupt guard) as each returns. A task that fails for good (after Dask's retries) is
         recorded in the cost's ``failed`` and not committed; the scheduler lost raises
         :class:`SchedulerLost`. ``label``, ``total`` and ``done_before``: the progress line's
-        (default: the stage's name, the tasks given, none). Returns this call's cost (also
-        added to the stage's)."""
+        (default: the stage's name, the tasks given, none); ``prior``: the plan's compute
+        seconds per point, the time left's estimate until a task is done (with the tasks'
+        places: scheduler.progress.WorkEstimate). Tasks are shipped in the order given.
+        Returns this call's cost (also added to the stage's)."""
         from distributed import as_completed
 
         cost = StageCost()
@@ -170,8 +176,13 @@ class TaskRunner:
             return cost
         t0 = time.perf_counter()
         since = _last_event_time(self.client)
+        work = None
+        if prior is not None and all(t.place is not None for t in tasks):
+            work = WorkEstimate({t.key: t.place for t in tasks}, {t.key: t.size for t in tasks},
+                                prior)
         progress = Progress(self.err, label or stage, done_before + len(tasks) if total is None
-                            else total, sum(t.size for t in tasks), done_before, unit=unit)
+                            else total, sum(t.size for t in tasks), done_before, unit=unit,
+                            work=work)
         by_key = {t.key: t for t in tasks}
         futures = self.client.map(function, [t.spec for t in tasks],
                                   key=[t.key for t in tasks], pure=False)
@@ -194,7 +205,7 @@ class TaskRunner:
                 fut.release()
                 cost.tasks += 1
                 cost.compute += float(res.get("seconds", 0.0))
-                progress.update(task.size)
+                progress.update(task.size, key=task.key, seconds=float(res.get("seconds", 0.0)))
         finally:
             progress.close()
             self.futures = []

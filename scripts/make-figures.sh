@@ -45,8 +45,9 @@ for scene in $SCENES; do
     paper)
         "$HM" plot --paper fig02 fig03 fig04 fig05 --out "$OUT" ;;
     basins)
-        # a basin map on the default scene's store (run above): README and docs/gallery.md
-        "$HM" basins "$STORES/default.zarr" --omega 1.95 --sigma 0.5 --grid 200x200 \
+        # a 1000 x 1000 basin map on the default scene's store (run above), its zoom and
+        # f(eps): README and docs/gallery.md
+        "$HM" basins "$STORES/default.zarr" --omega 1.35 --sigma 0.7625 --grid 1000x1000 \
             --workers "${WORKERS:-2}" --out "$OUT" ;;
     fit)
         # docs/identify.md's worked example: its result and figure (paper_rig_sweeps_fit.*)

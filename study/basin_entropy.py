@@ -75,6 +75,17 @@ def basin_entropy(labels: np.ndarray, box: int = BOX_SIDE) -> BasinEntropy:
     initial states, negative: not computed) covered by boxes of ``box`` x ``box`` cells. Cells
     beyond the last whole box along an axis are left out, and so are boxes with a cell not
     computed (every box holds n = box^2 states, as in Daza et al.)."""
+    return _summary(*_map_boxes(labels, box))
+
+
+def box_entropies(labels: np.ndarray, box: int = BOX_SIDE) -> tuple[np.ndarray, np.ndarray]:
+    """Per box of ``box`` x ``box`` cells of a basin map (as basin_entropy takes them): its
+    entropy S_i (nats) and the number of labels in it."""
+    s, kinds, _ = _map_boxes(labels, box)
+    return s, kinds
+
+
+def _map_boxes(labels, box):
     labels = np.asarray(labels)
     if labels.ndim != 2:
         raise ValueError(f"labels must be 2-D, got shape {labels.shape}")
@@ -83,7 +94,7 @@ def basin_entropy(labels: np.ndarray, box: int = BOX_SIDE) -> BasinEntropy:
     a, b = labels.shape[0] // box, labels.shape[1] // box
     cut = labels[:a * box, :b * box]
     box_of = (np.arange(a)[:, None] * b + np.arange(b)[None, :]).repeat(box, 0).repeat(box, 1)
-    return _summary(*_box_entropies(box_of.ravel(), cut.ravel(), box * box))
+    return _box_entropies(box_of.ravel(), cut.ravel(), box * box)
 
 
 def scattered_basin_entropy(states: np.ndarray, labels: np.ndarray,

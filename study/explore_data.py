@@ -834,3 +834,58 @@ def sweep_columns(sweep: dict[str, Any], units: Units) -> dict[str, Any]:
     out["jumps"] = {k: (np.asarray(v, float) if k not in ("kind", "direction", "color")
                         else v) for k, v in jumps.items()}
     return out
+
+
+# -- the basin map of a clicked point ---------------------------------------------------------
+
+#: the page's choices of the basin map's cells per side (the default first: issue 52's
+#: resolution, about a minute on 2 cores)
+BASIN_SIDES = (1000, 300, 100)
+#: colours of the basin map's attractors (index = label; -1, not yet computed: transparent)
+BASIN_PALETTE = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
+                 "#7f7f7f", "#bcbd22", "#17becf")
+
+
+def keep_colours(final: np.ndarray, provisional: np.ndarray) -> np.ndarray:
+    """The final labels of a basin map renumbered as the provisional ones (the tiles') where
+    they overlap most, so that an attractor keeps its colour when the map is done; a final
+    label with no provisional cell gets the next free number."""
+    out = np.full(final.shape, -1, np.int16)
+    used: set[int] = set()
+    for lab in np.unique(final[final >= 0]):
+        mine = final == lab
+        prov = provisional[mine & (provisional >= 0)]
+        counts = np.bincount(prov) if prov.size else np.zeros(0, int)
+        for cand in np.argsort(-counts, kind="stable"):
+            if counts[cand] > 0 and int(cand) not in used:
+                break
+        else:
+            cand = next(i for i in range(final.size + 1) if i not in used
+                        and not (provisional == i).any())
+        used.add(int(cand))
+        out[mine] = cand
+    return out
+
+
+def basin_shares(dataset: xr.Dataset, census: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Rows of the page's table beside a basin map: each attractor of the map (kind, period,
+    its share of the map's cells) with the census's share of the same attractor at the point
+    (stored_attractors: same kind and period, one census attractor per row; NaN where the
+    census has none)."""
+    names = {c: k for k, c in ATTRACTOR_KINDS.items()}
+    rows, taken = [], set()
+    for a in range(dataset.sizes["basin_attractor"]):
+        kind = names[int(dataset["attractor_kind"][a])]
+        period = int(dataset["attractor_period"][a])
+        match = next((i for i, c in enumerate(census) if i not in taken
+                      and c["kind"] == kind and c["period"] == period), None)
+        if match is not None:
+            taken.add(match)
+        rows.append({"kind": kind, "period": period,
+                     "map": float(dataset["basin_fraction"][a]),
+                     "census": census[match]["basin"] if match is not None else float("nan")})
+    for i, c in enumerate(census):
+        if i not in taken:
+            rows.append({"kind": c["kind"], "period": c["period"], "map": float("nan"),
+                         "census": c["basin"]})
+    return rows

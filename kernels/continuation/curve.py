@@ -89,6 +89,7 @@ class _Tracer:
         self.m = system.m
         self.kind = CURVE_KINDS[system.kind_code]
         self.others = [k for k in ("fold", "flip", "grazing") if k != self.kind]
+        self._phases = None
 
     # -- one vertex ----------------------------------------------------------------------------
     def record(self, u, F, aux, step, iterations, flag):
@@ -136,6 +137,24 @@ class _Tracer:
             r = chord_correct(self.sys, guess, normal)
         return r
 
+    def phases(self, u0) -> list:
+        """The start orbit's other phases, Phi_{kT}(x0) for k = 1 .. m - 1 at the start's
+        parameters (the T-shift of a 2T start point, ...): each is the start point of the same
+        orbit seen from tau = kT, on another copy of the curve (it solves the same extended
+        system); a side that reaches one has gone round the whole curve in the parameters and
+        would go round it again, up to m times, so it ends there, closed. Computed once per
+        start (m - 1 period maps; for m = 2 the T-shift the 2T start already has)."""
+        if self._phases is None:
+            self._phases = []
+            x = np.array(u0, float)
+            for _ in range(1, self.m):
+                y = self.sys.shift(x)
+                if y is None:
+                    break
+                self._phases.append(y)
+                x = np.array([y[0], y[1], u0[2], u0[3]])
+        return self._phases
+
     def inside(self, u):
         return bool(np.all(u[2:] >= self.lo) and np.all(u[2:] <= self.hi))
 
@@ -148,9 +167,7 @@ class _Tracer:
         h = self.ds
         s_total = 0.0
         status = MAX_POINTS
-        start_targets = [u0[:2]]
-        if self.m == 2 and "_shift" in rec0:
-            start_targets.append(u0[:2] + rec0["_shift"])
+        start_targets = [u0[:2]] + self.phases(u0)
         while len(recs) < self.max_points:
             tp = np.abs(t[2:])
             cap = np.min(np.where(tp > 0, self.dp_max / np.maximum(tp, 1e-300), np.inf))

@@ -26,6 +26,7 @@ from bokeh.plotting import figure
 from hertzmap.kernels.model import LAW_OF_CODE, Model
 from hertzmap.study import explore_data as E
 
+from hertzmap.scheduler.explore.basin_panel import BasinPanel
 from hertzmap.scheduler.explore.state import ExploreState, StoreView, SweepJob
 from hertzmap.scheduler.explore.table import orbit_table
 
@@ -231,6 +232,7 @@ class Page:
         hm.legend.visible = False
         self.hm = hm
         self._build_sweep()
+        self.basins = BasinPanel(self.state, RIGHT_W)
         for fig in (self.map, self.resp, self.phase, self.mu, self.qt, self.ft, self.hm,
                     *self.sweep_figs.values()):
             fig.title.text_font_size = "12px"
@@ -244,7 +246,8 @@ class Page:
         right = column(self.point_div, self.table_div, row(self.phase, self.mu, self.hm),
                        row(self.qt, self.ft),
                        row(self.sweep_axis, column(_div("&nbsp;"), self.sweep_button)),
-                       self.sweep_div, row(f["H1"], f["H2"]), row(f["H1_2"], f["ptp"]))
+                       self.sweep_div, row(f["H1"], f["H2"]), row(f["H1_2"], f["ptp"]),
+                       self.basins.layout())
         self.doc.add_root(column(self.header, row(left, right)))
 
     def _build_sweep(self) -> None:
@@ -430,6 +433,7 @@ class Page:
         self.mark_src.data = {"x": [float(u.freq(w))], "y": [float(u.amp(s))]}
         where = (f" ({u.freq(w):.5g} Hz, force amplitude {u.amp(s):.5g} N)" if u.physical else "")
         computed = bool(v.lcm["computed"].sel(omega=w, sigma=s, zeta=z).values)
+        self.basins.set_point(self.path, w, s, z, E.stored_attractors(ds, w, s, z))
         self.point_div.text = (f"<h2>omega = {w:.6g}, sigma = {s:.6g}, zeta = {z:g}{where}</h2>"
                                f"<span class='muted'>{orb.sizes['orbit']} distinct orbit(s) "
                                "in the store, integrated again from their stored start points "
@@ -749,6 +753,7 @@ class Page:
     # -- polling --------------------------------------------------------------------------
     def poll(self) -> None:
         self.poll_sweep()
+        self.basins.poll()
         # the shown store: redrawn when its flags changed (a run still writing it)
         try:
             v = self.state.view(self.path)

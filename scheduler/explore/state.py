@@ -3,7 +3,8 @@ as they are written), the refine job (one at a time) that writes a new store thr
 ``scheduler.run.run_study`` on a background thread, and the stepped-sine sweeps through clicked
 points (``study.explore_data.line_sweep``, each on its own background thread of this process;
 the store's products/sweeps where it holds the line; the sweeps computed kept for the other
-pages).
+pages), and the basin maps of clicked points (``scheduler.basin_tasks.run_basins`` on the
+refines' cluster, one at a time, its tiles drawn as they return).
 """
 from __future__ import annotations
 
@@ -192,6 +193,63 @@ class RefineJob:
             self.seconds = time.monotonic() - self.started
 
 
+class BasinJob:
+    """The basin map of a clicked point (``hertzmap basins``'s reuse method) on the server's
+    cluster, on a thread: ``labels`` (cells along q', cells along q) fills in as the tiles
+    return (-1: not yet), ``version`` counts the updates; once done, ``dataset`` is the map
+    (written into the store as its product group, as the command writes it) and ``labels`` its
+    final labels, numbered as the tiles numbered them (so the colours stay). ``state``:
+    running, done, failed."""
+
+    def __init__(self, req, cluster: ClusterSpec, client_of):
+        self.req = req
+        self.cluster = cluster
+        self._client_of = client_of
+        nq, nv = req.grid
+        self.labels = np.full((nv, nq), -1, np.int16)
+        self.version = 0
+        self.tiles = 0
+        self.state = "running"
+        self.message = "starting the workers ..."
+        self.dataset: xr.Dataset | None = None
+        self.started = time.monotonic()
+        self.seconds: float | None = None
+        self.thread = threading.Thread(target=self._run, name="hertzmap-basins", daemon=True)
+
+    def start(self) -> "BasinJob":
+        self.thread.start()
+        return self
+
+    def _tile(self, step: str, spec: dict, result: dict) -> None:
+        if step == "round":
+            lab = result["label"]
+            ok = lab >= 0
+            self.labels.reshape(-1)[spec["cells"][ok]] = lab[ok]
+        self.tiles += 1
+        self.version += 1
+        self.message = f"{self.tiles} tiles back"
+
+    def _run(self) -> None:
+        from hertzmap.scheduler.basin_tasks import run_basins
+        try:
+            client = self._client_of()
+            self.message = "computing"
+            result = run_basins(self.req, self.cluster, self.req.store.parent, client=client,
+                                on_tile=self._tile)
+            ds = result["dataset"]
+            final = ds["basin_label"].values
+            self.labels = E.keep_colours(final, self.labels)
+            self.dataset = ds
+            self.version += 1
+            self.state = "done"
+            self.message = f"done in {result['map_seconds']:.1f} s"
+        except Exception as exc:  # shown on the page; the server keeps serving
+            self.state = "failed"
+            self.message = f"{type(exc).__name__}: {exc}"
+        finally:
+            self.seconds = time.monotonic() - self.started
+
+
 class SweepJob:
     """Stepped-sine sweeps up and down one line through a clicked point (``explore_data.
     line_sweep``), computed on a thread of the server process, or a result already at hand
@@ -242,6 +300,7 @@ class ExploreState:
     cluster: ClusterSpec
     max_refine_points: int = E.MAX_REFINE_POINTS
     job: RefineJob | None = None
+    basin_job: BasinJob | None = None
     _views: dict[Path, StoreView] = field(default_factory=dict)
     _client: Any = None
     _cluster_obj: Any = None
@@ -282,6 +341,24 @@ class ExploreState:
             if self._client is None:
                 self._client, self._cluster_obj = make_client(self.cluster)
             return self._client
+
+    def start_basins(self, path: Path, omega: float, sigma: float, zeta: float,
+                     side: int) -> BasinJob:
+        """The basin map (side x side initial states over the census's box) of the grid point
+        of the store ``path`` nearest (omega, sigma, zeta), on the refines' cluster. Raises
+        ValueError (shown on the page) while another basin map runs or the request is
+        refused."""
+        from hertzmap.scheduler.basin_tasks import check_request
+        from hertzmap.scheduler.errors import RefusedError
+
+        if self.basin_job is not None and self.basin_job.state == "running":
+            raise ValueError("a basin map is being computed; wait for it")
+        try:
+            req = check_request(path, omega, sigma, zeta, f"{side}x{side}", None, None)
+        except (RefusedError, StoreError) as exc:
+            raise ValueError(str(exc)) from None
+        self.basin_job = BasinJob(req, self.cluster, self._client_for_refines).start()
+        return self.basin_job
 
     def start_refine(self, ds: xr.Dataset, omega_range, sigma_range, num_omega: int,
                      num_sigma: int, zeta: float) -> RefineJob:

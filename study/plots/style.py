@@ -98,7 +98,9 @@ def fit(fig, rounds: int = 3) -> None:
     that constrained layout could not fit is never cut off): the canvas is enlarged by what
     the drawn artists overflow, then laid out again."""
     for _ in range(rounds):
-        fig.canvas.draw()
+        # the layout and the artists' extents without rasterising them (savefig rasterises
+        # once, at the end)
+        fig.draw_without_rendering()
         tight = fig.get_tightbbox(fig.canvas.get_renderer())
         w, h = fig.get_size_inches()
         over = (max(0.0, -tight.x0) + max(0.0, tight.x1 - w),

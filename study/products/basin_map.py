@@ -15,8 +15,13 @@ import numpy as np
 import xarray as xr
 
 from hertzmap.kernels.records import ATTRACTOR_KINDS, STROBE_POINTS
+from hertzmap.study.basin_measures import (entropy_errors, uncertainty_exponent,
+                                           wada_merging)
 from hertzmap.study.schema import VARIABLES
 
+#: per cell, how its label was found (study.solve.dense_basins.METHODS; a map of
+#: study.solve.basin_grid has every cell's own census transient: ``census``)
+METHOD_MEANINGS = "seed reused census"
 #: the group name's prefix (products/basin_map_omega<w>_sigma<s>_zeta<z>)
 BASIN_MAP_PREFIX = "basin_map"
 #: the dim (and coordinate) of the map's own attractors, those its transients end on: not the
@@ -50,8 +55,58 @@ def basin_map_dataset(bm, source: dict[str, Any]) -> xr.Dataset:
     kind = VARIABLES["attractor_kind"]
     total = bm.labels.size
     e = bm.entropy
+    errors = entropy_errors(bm.labels, bm.box)
+    unc = uncertainty_exponent(bm.labels)
+    wada = wada_merging(bm.labels)
+    method = bm.method if bm.method is not None else np.full(bm.labels.shape, 2, np.int8)
+    counts = np.bincount(method.ravel(), minlength=3)
     ds = xr.Dataset(
         {
+            "basin_method": (("v", "q"), method.astype(np.int8), {
+                **_attrs("how the cell's label was found",
+                         "0 seed: the state lies in a certified neighbourhood of a stable orbit; "
+                         "1 reused: its own transient ran until its point lay in a uniform block "
+                         "of cells whose states reached that attractor (or in a certified "
+                         "neighbourhood); 2 census: the census's whole transient (period "
+                         "detection, shooting): study.solve.dense_basins"),
+                "flag_values": np.array([0, 1, 2], np.int8), "flag_meanings": METHOD_MEANINGS}),
+            "basin_entropy_error": ((), errors.basin_entropy_error, _attrs(
+                "standard error of the basin entropy", "standard deviation of the boxes' "
+                "entropies over the square root of their number", "nats")),
+            "boundary_basin_entropy_error": ((), errors.boundary_basin_entropy_error, _attrs(
+                "standard error of the boundary basin entropy", "the same over the boundary "
+                "boxes", "nats")),
+            "uncertain_share": ("epsilon", unc.fraction, _attrs(
+                "share of eps-uncertain states", "f(eps): share of the cells (those with all "
+                "four cells eps away along q and q' on the grid) whose label differs from one "
+                "of those four (Grebogi et al. 1983)")),
+            "uncertainty_exponent": ((), unc.alpha, _attrs(
+                "uncertainty exponent", "alpha: the slope of log f against log eps "
+                "(least squares over the epsilon values); f ~ eps^alpha")),
+            "uncertainty_exponent_error": ((), unc.alpha_error, _attrs(
+                "standard error of the uncertainty exponent", "the slope's standard error from "
+                "the fit's residuals")),
+            "boundary_dimension": ((), unc.dimension, _attrs(
+                "box-counting dimension of the basin boundary", "d = 2 - alpha (1: smooth; "
+                "above 1: fractal)")),
+            "boundary_dimension_error": ((), unc.alpha_error, _attrs(
+                "standard error of the boundary's dimension", "that of alpha")),
+            "wada_hausdorff_max": ((), wada.hausdorff_max, _attrs(
+                "largest distance between merged boundaries", "the merging method (Daza et al., "
+                "Sci. Rep. 8, 9954, 2018): the largest Hausdorff distance, in cells, between the "
+                "boundaries of two maps each with every basin but one merged", "cells")),
+            "wada_hausdorff_min": ((), wada.hausdorff_min, _attrs(
+                "smallest distance between merged boundaries", "the smallest such Hausdorff "
+                "distance", "cells")),
+            "wada": ((), np.int8(wada.wada), {
+                **_attrs("Wada boundary", "1: three or more basins whose merged boundaries all "
+                         f"lie within {wada.dilation} cells of one another (the merging method)"),
+                "flag_values": np.array([0, 1], np.int8), "flag_meanings": "not_wada wada"}),
+            "wada_share": ((), wada.wada_share, _attrs(
+                "share of Wada boundary cells", f"share of the boundary's cells within "
+                f"{wada.dilation} cells of every basin's merged boundary")),
+            "wada_share_error": ((), wada.wada_share_error, _attrs(
+                "standard error of the Wada share", "binomial, over the boundary's cells")),
             "basin_label": (("v", "q"), bm.labels.astype(np.int16), _attrs(
                 "attractor of the initial state",
                 f"index along the {BASIN_ATTRACTOR} dim of the attractor the transient from "
@@ -94,6 +149,9 @@ def basin_map_dataset(bm, source: dict[str, Any]) -> xr.Dataset:
             BASIN_ATTRACTOR: (BASIN_ATTRACTOR, np.arange(k, dtype=np.int16), _attrs(
                 "attractor index", "periodic attractors by basin size, then the transients "
                 "that did not settle, then the failures")),
+            "epsilon": ("epsilon", unc.epsilon, _attrs(
+                "uncertainty radius", "eps of the uncertain share, in cells of the grid",
+                "cells")),
             "strobe": ("strobe", np.arange(STROBE_POINTS, dtype=np.int16), _attrs(
                 "stroboscopic point index", "k-th of the last stroboscopic points of a "
                 "transient that reached the attractor, in time order")),
@@ -102,6 +160,10 @@ def basin_map_dataset(bm, source: dict[str, Any]) -> xr.Dataset:
                                   f"zeta = {bm.zeta:g}",
                "omega": bm.omega, "sigma": bm.sigma, "zeta": bm.zeta,
                "box_side": bm.box, "boxes": e.boxes, "boundary_boxes": e.boundary_boxes,
-               "transient_periods": bm.transient_periods, "record_periods": bm.record_periods},
+               "transient_periods": bm.transient_periods, "record_periods": bm.record_periods,
+               "method": "transients" if bm.method is None else "reuse",
+               "cells_seed": int(counts[0]), "cells_reused": int(counts[1]),
+               "cells_census": int(counts[2]), "wada_dilation": wada.dilation,
+               "wada_basins": wada.basins},
     )
     return ds

@@ -74,6 +74,9 @@ class BasinMap:
     box: int
     transient_periods: int
     record_periods: int
+    #: per cell, how its label was obtained (study.solve.cell_basins.METHODS); None: every
+    #: cell ran its own census transient (this module's map)
+    method: np.ndarray | None = None
 
 
 def grid_axes(q_range, v_range, grid: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
@@ -135,7 +138,9 @@ def merge_blocks(omega: float, sigma: float, zeta: float, q: np.ndarray, v: np.n
     for b in blocks:
         local = np.empty(len(b.orbits) + 2, np.int64)       # local index (and OPEN, FAILED)
         for i, sol in enumerate(b.orbits):
-            g = next((j for j, s in enumerate(orbits) if same_orbit(sol, s)), None)
+            # one block's orbits are distinct already (its own identity rule)
+            g = None if len(blocks) == 1 else next(
+                (j for j, s in enumerate(orbits) if same_orbit(sol, s)), None)
             if g is None:
                 g = len(orbits)
                 orbits.append(dict(sol, count=0))

@@ -86,7 +86,7 @@ from hertzmap.kernels.model import Model
 from hertzmap.kernels.shooting import N_FIELDS
 from hertzmap.study.basin_entropy import BasinEntropy, scattered_basin_entropy
 from hertzmap.study.orbit_rules import same_orbit
-from hertzmap.study.solve.certificate import certify, orbit_points
+from hertzmap.study.solve.certificate import LevelHints, certify, orbit_points
 from hertzmap.study.solve.point import shoot_seeds, solutions_from_rows
 from hertzmap.study.solve.recognition import (NOTHING_KNOWN, OPEN_LEADERS, KnownAttractors,
                                               periodic_index, periodic_label)
@@ -138,6 +138,10 @@ NEIGHBOUR_STARTS = True
 #: (study.solve.certificate), contracting there; off, only on the points of periodic attractors
 #: the census's own runs found (benchmarks compare both)
 CERTIFIED = True
+#: a certificate's ladder starts at the rung nearest the last grid point's level of the same
+#: orbit (study.solve.certificate.LevelHints: the same certificates for half the ring
+#: evaluations); off, at rung 0 (benchmarks compare both)
+LEVEL_HINTS = True
 #: a stable orbit a run of the census finds is certified when more than this many of the
 #: point's own runs are still to come
 CERTIFY_AHEAD = 2
@@ -191,7 +195,8 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
            n_states: int, transient_periods: int, record_periods: int,
            max_transient_periods: int | None = None, point_steps: int = 2_000_000,
            lyapunov_error: float | None = None,
-           neighbour_starts=()) -> tuple[list[Attractor], list[dict]]:
+           neighbour_starts=(), levels: LevelHints | None = None
+           ) -> tuple[list[Attractor], list[dict]]:
     """The attractors at (omega, sigma, zeta) from ``n_states`` initial states, and the orbits
     the census found that ``orbits`` (the point's known orbits, not changed here) lacks.
 
@@ -201,7 +206,9 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
     ``point_steps`` integration steps summed over its open transients. ``lyapunov_error``:
     the exponent's target standard error (window_exponent; None: one window).
     ``neighbour_starts``: states (q, q') on the neighbouring points' attractors
-    (attractor_starts; module docstring, "Neighbours").
+    (attractor_starts; module docstring, "Neighbours"). ``levels``: the last grid point's
+    certified levels (study.solve.certificate.LevelHints), where the ladders of this point's
+    certificates start; on return, this point's.
     """
     # half of the states where the largest known orbits go (long flights), when they leave
     # the fixed box
@@ -229,6 +236,10 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
     # neighbourhood (study.solve.certificate): a transient that reaches one stops there
     recognised = KnownAttractors()
     certificates: dict[int, np.ndarray] = {}        # periodic attractor index -> its row
+
+    def hint(orbit: dict) -> float | None:
+        return levels.start(orbit) if levels is not None and LEVEL_HINTS else None
+
     first_run: dict[int, int] = {}                  # periodic attractor index -> a run on it
     if RECOGNITION and CERTIFIED:
         for orbit in (o for o in orbits if o["status"] == st.CONVERGED and o.get("stable")
@@ -237,7 +248,8 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
             if pts is None:
                 continue
             row = certify(orbit, omega, sigma, zeta, options,
-                          _other_points(orbits, orbit, pts, omega, sigma, zeta, options))
+                          _other_points(orbits, orbit, pts, omega, sigma, zeta, options),
+                          hint(orbit))
             if row is None:
                 continue
             periodic.append(Attractor("periodic", orbit=orbit, strobe=pts))
@@ -292,7 +304,8 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
                 if CERTIFIED and k - r > CERTIFY_AHEAD:
                     # enough of the point's own runs are left for the certificate to pay
                     row = certify(match, omega, sigma, zeta, options, _other_points(
-                        known, match, a.strobe[-m:], omega, sigma, zeta, options))
+                        known, match, a.strobe[-m:], omega, sigma, zeta, options),
+                        hint(match))
                     if row is not None:
                         certificates[len(periodic) - 1] = row
                         recognised.add_certified(periodic_label(len(periodic) - 1), row)
@@ -539,6 +552,8 @@ def census(omega: float, sigma: float, zeta: float, orbits: list[dict], options:
     # largest basin first (every one is stored: study.solve.point_state)
     found = sorted(reached, key=lambda a: -a.count) + sorted(others, key=lambda a: -a.count)
     found.sort(key=lambda a: -a.count)
+    if levels is not None:
+        levels.keep(certificates.values())
     return found, new
 
 

@@ -91,6 +91,37 @@ def _maps(xs: np.ndarray, omega, sigma, zeta, m, n, model) -> np.ndarray:
     return out
 
 
+class LevelHints:
+    """The certified levels of the last grid point along a line (its census's certificates),
+    the ladder's start for the same orbit at the next point (certify's ``start``): an orbit's
+    level changes little from one grid point to the next, so the ladder there tests the
+    neighbour's level and the one above it. A hint that misses costs ladder steps, never a
+    wrong certificate: every level is tested on the orbit's own map."""
+
+    #: a hint is the orbit's when its x* is within this share of (1 + |x0|) of the orbit's
+    NEAR = 0.5
+
+    def __init__(self):
+        self.rows: list[np.ndarray] = []
+
+    def start(self, orbit: dict) -> float | None:
+        """The level of the nearest certified orbit of the same period, if near enough."""
+        m = int(orbit["period"]) * ITERATIONS
+        x0 = np.asarray(orbit["x0"], float)
+        best, level = self.NEAR * (1.0 + float(np.hypot(*x0))), None
+        for row in self.rows:
+            if int(row[7]) != m:
+                continue
+            d = float(np.hypot(row[0] - x0[0], row[1] - x0[1]))
+            if d <= best:
+                best, level = d, float(row[5])
+        return level
+
+    def keep(self, rows) -> None:
+        """A point's certificates: the hints of the next point."""
+        self.rows = [np.asarray(r, float) for r in rows]
+
+
 def lyapunov_form(M: np.ndarray) -> np.ndarray | None:
     """The symmetric P with M^T P M - P = -I (the discrete Lyapunov equation of a 2 x 2 M),
     solved as three linear equations in (p11, p12, p22); None when they are singular (a
@@ -125,11 +156,15 @@ def orbit_points(orbit: dict, omega: float, sigma: float, zeta: float, options: 
 
 
 def certify(orbit: dict, omega: float, sigma: float, zeta: float, options: dict,
-            others: np.ndarray = np.empty((0, 2))) -> np.ndarray | None:
+            others: np.ndarray = np.empty((0, 2)), start: float | None = None
+            ) -> np.ndarray | None:
     """The certified neighbourhood of a stable orbit (module docstring) as a row of
     kernels.attractors' C_* columns (x*, P, level, kappa, m), or None (an unstable orbit, a
     failed integration, or no level passes). ``others``: points (k, 2) the neighbourhood must
-    keep clear of (the other orbits' points, this orbit's other phases)."""
+    keep clear of (the other orbits' points, this orbit's other phases). ``start``: a level
+    near which the ladder's walk starts (a neighbouring grid point's certified level of the
+    same orbit, LevelHints: the walk then tests two rungs where it tests four from rung 0, and
+    ends on the same rung wherever the rungs that hold are those below one); None: rung 0."""
     if not orbit.get("stable") or orbit.get("status", st.CONVERGED) != st.CONVERGED \
             or int(orbit["period"]) < 1:
         return None
@@ -172,25 +207,32 @@ def certify(orbit: dict, omega: float, sigma: float, zeta: float, options: dict,
         ratio = np.einsum("ki,ij,kj->k", y, P, y) / np.repeat(np.asarray(rings) * c, DIRECTIONS)
         return bool(np.all(ratio <= kappa))                  # NaN (a failure) never holds
 
-    # the level whose smallest semi-axis is FIRST_RADIUS (1 + |x*|), then up or down the ladder
-    # on the outer ring, the inner rings of the level kept
-    c = (FIRST_RADIUS * (1.0 + float(np.hypot(*x0)))) ** 2 * lam[1]
-    c = min(c, cap)
-    if not c > 0.0:
+    # the ladder's rungs: the level whose smallest semi-axis is FIRST_RADIUS (1 + |x*|) (or the
+    # cap of the other orbits, if lower) times LEVEL_STEP^k, |k| <= MAX_LEVELS; from rung 0 up
+    # while the rungs hold, or down to the first that holds. A start level (a neighbour's)
+    # starts the walk at the rung nearest it instead: where the rungs that hold are those
+    # below some rung (the usual case), the walk ends on the same rung either way
+    c0 = min((FIRST_RADIUS * (1.0 + float(np.hypot(*x0)))) ** 2 * lam[1], cap)
+    if not c0 > 0.0:
         return None
-    if holds(c, RINGS):
-        for _ in range(MAX_LEVELS):
-            up = c * LEVEL_STEP
-            if up > cap or not holds(up, RINGS):
-                break
-            c = up
+    k = 0
+    if start is not None and math.isfinite(start) and start > 0.0:
+        k = int(round(math.log(start / c0) / math.log(LEVEL_STEP)))
+        k = max(-MAX_LEVELS, min(MAX_LEVELS, k))
+        while k > 0 and c0 * LEVEL_STEP ** k > cap:
+            k -= 1
+    if holds(c0 * LEVEL_STEP ** k, RINGS):
+        while k < MAX_LEVELS and c0 * LEVEL_STEP ** (k + 1) <= cap \
+                and holds(c0 * LEVEL_STEP ** (k + 1), RINGS):
+            k += 1
     else:
-        for _ in range(MAX_LEVELS):
-            c /= LEVEL_STEP
-            if holds(c, RINGS):
+        while True:
+            k -= 1
+            if k < -MAX_LEVELS:
+                return None
+            if holds(c0 * LEVEL_STEP ** k, RINGS):
                 break
-        else:
-            return None
+    c = c0 * LEVEL_STEP ** k
     row = np.empty(N_CERT_FIELDS)
     row[:] = (x0[0], x0[1], P[0, 0], P[0, 1], P[1, 1], c, kappa, m)
     return row

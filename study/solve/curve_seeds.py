@@ -584,6 +584,18 @@ class SeedBook:
         self._checked[index] = (-1, -1) if hit else (len(self.kept), len(self.untraced))
         return hit
 
+    def may_cover(self, trace: dict, seed: Seed) -> bool:
+        """Whether a trace not committed yet (an earlier seed's of the same family, finished
+        and waiting for its turn) would make ``seed`` skipped once committed: it covers
+        it, or did not cover its own seed and is near it. The stage ships ``seed`` ahead of its
+        turn only if not: a seed of a family whose trace went elsewhere lies on another
+        curve, and is traced beside it instead of after it."""
+        own = self.seeds[int(trace["seed"]["index"])]
+        steps = self._steps(seed)
+        if covers(trace, seed, steps):
+            return True
+        return not covers(trace, own, steps) and near_failure(own, seed, steps)
+
     def duplicate_of(self, trace: dict) -> int:
         """The seed of a kept curve that ``trace`` started on (a duplicate), or -1."""
         if len(trace["vertices"].get("omega", ())) < 2:

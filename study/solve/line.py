@@ -33,6 +33,7 @@ from hertzmap.kernels.model import Model
 from hertzmap.study.orbit_rules import (CONTINUITY_SHARE, continuity_distance, fold_function,
                           match_neighbours, same_orbit)
 from hertzmap.study.solve.census import attractor_starts, census, needs_second_census
+from hertzmap.study.solve.certificate import LevelHints
 from hertzmap.study.solve.point import merge_new_orbits, shoot_seeds_minimal, solve_point
 from hertzmap.study.solve.seeds import mms_seeds
 
@@ -350,6 +351,8 @@ class LineSearch:
             return
         t0 = time.perf_counter()
         probes = self.probe_points()
+        # the certified levels of the point whose census ran last: each ladder's start
+        levels = LevelHints()
 
         def census_at(i: int) -> list[dict]:
             """The census at grid point i, from its own states and its neighbours'
@@ -357,7 +360,7 @@ class LineSearch:
             found, new = census(self.omega[i], self.sigma, self.zeta, self.per_point[i],
                                 self.options, n_states, transient_periods, record_periods,
                                 max_transient_periods, point_steps, lyapunov_error,
-                                self.neighbour_starts(i))
+                                self.neighbour_starts(i), levels)
             self.attractors[i] = found
             for sol in new:
                 sol["omega"] = self.omega[i]

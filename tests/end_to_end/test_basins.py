@@ -1,8 +1,9 @@
 """``hertzmap basins`` end to end on a tiny real store (3 omega values around the bistable point
-omega 1.7, sigma 1.0, zeta 0.05 of tests/study/solve/test_basin_grid.py): the map computed in row
-blocks on an embedded local cluster is the map computed in one process, stored as its product
-group with attrs on every variable, and drawn; bad input is refused, naming the option and what
-is allowed, with the store untouched."""
+omega 1.7, sigma 1.0, zeta 0.05 of tests/study/solve/test_basin_grid.py): the map computed in
+tasks on an embedded local cluster (both methods: label reuse in tiles, the default, and one
+whole transient per state) is the map computed in one process, stored as its product group with
+attrs on every variable and the boundary's measures, and drawn; bad input is refused, naming
+the option and what is allowed, with the store untouched."""
 from __future__ import annotations
 
 import contextlib
@@ -15,7 +16,9 @@ import xarray as xr
 
 from hertzmap.scheduler.cli import main
 from hertzmap.study.products.basin_map import basin_map_name
+from hertzmap.scheduler.basin_tasks import check_request, store_orbits
 from hertzmap.study.solve.basin_grid import basin_map
+from hertzmap.study.solve.dense_basins import cell_basin_map
 from tests.helpers import solved_results
 
 STUDY = """
@@ -52,7 +55,8 @@ def _snapshot(root: Path) -> dict[str, tuple[int, int]]:
 def test_the_command_stores_and_draws_the_map(store, tmp_path):
     # 1.72 is not a grid value: the nearest, 1.7, is taken
     rc, out, err = _main(["basins", store, "--omega", 1.72, "--sigma", 1.0, "--grid", "12x10",
-                          "--workers", 1, "--out", tmp_path, "--q-range=-4,2"])
+                          "--workers", 1, "--out", tmp_path, "--q-range=-4,2",
+                          "--method", "transients"])
     assert rc == 0, err
     name = basin_map_name(1.7, 1.0, 0.05)
     png = tmp_path / f"bistable_{name}.png"
@@ -78,8 +82,36 @@ def test_the_command_stores_and_draws_the_map(store, tmp_path):
     assert "attractor" not in group.dims
 
 
+def test_the_reuse_method_is_the_one_process_map(store, tmp_path):
+    """The default method on 2 workers (its tiles in any order) gives the map that
+    study.solve.dense_basins computes in this process from the store's orbits, with the
+    measures stored and printed."""
+    rc, out, err = _main(["basins", store, "--omega", 1.7, "--sigma", 1.0, "--grid", "40x30",
+                          "--workers", 2, "--out", tmp_path])
+    assert rc == 0, err
+    name = basin_map_name(1.7, 1.0, 0.05)
+    ds = xr.open_zarr(store, group=f"products/{name}").load()
+    req = check_request(store, 1.7, 1.0, None, "40x30", None, None)
+    assert store_orbits(req), "the store holds the point's stable orbits"
+    ref = cell_basin_map(1.7, 1.0, 0.05, req.q_range, req.v_range, (40, 30),
+                         options=req.options, orbits=store_orbits(req),
+                         transient_periods=req.transient_periods,
+                         record_periods=req.record_periods)
+    assert (ds["basin_label"].values == ref.labels).all()
+    assert (ds["basin_method"].values == ref.method).all()
+    assert ds.attrs["method"] == "reuse"
+    assert ds.attrs["cells_seed"] + ds.attrs["cells_reused"] + ds.attrs["cells_census"] == 1200
+    for v in ("basin_entropy_error", "uncertainty_exponent", "uncertainty_exponent_error",
+              "boundary_dimension", "wada", "wada_share", "uncertain_share"):
+        assert ds[v].attrs.get("long_name"), v
+    assert np.isfinite(float(ds["uncertainty_exponent"]))
+    assert "uncertainty exponent alpha" in out and "by label reuse" in out
+    assert (tmp_path / f"bistable_{name}.png").is_file()
+
+
 @pytest.mark.parametrize("args, needle", [
     (["--grid", "12by12"], "--grid: expected NQxNV"),
+    (["--method", "guess"], "invalid choice: 'guess'"),
     (["--grid", "1x12"], "--grid: each side must be 2..2000"),
     (["--q-range=4,-6"], "--q-range: expected finite LO < HI"),
     (["--v-range", "a,b"], "--v-range: expected LO,HI"),

@@ -532,6 +532,93 @@ def test_a_sweep_through_the_clicked_point(map_store, browser, tmp_path):
     assert "Traceback" not in err, err
 
 
+READ_BASINS = """
+const doc = Bokeh.documents[0];
+const src = doc.get_model_by_name('basin_image');
+const img = src.data.image[0];
+return {flat: Array.from(img), shape: img.shape ? Array.from(img.shape) : null};
+"""
+
+
+@needs_browser
+def test_a_basin_map_of_the_clicked_point(map_store, browser, tmp_path):
+    """Click (1.9, 0.5), choose 100 states per side, press "Basin map of this point": the page
+    says "computing...", draws the tiles as they return, then the map: the same partition of
+    the 100 x 100 states as an independent study.solve.dense_basins map (the same store orbits,
+    in this process), the census's shares at the point beside the map's, the map written into
+    the store as its product group."""
+    from hertzmap.scheduler.basin_tasks import check_request, store_orbits
+    from hertzmap.scheduler.store import read_product
+    from hertzmap.study import explore_data as E
+    from hertzmap.study import products as P
+    from hertzmap.study.products.basin_map import basin_map_name
+    from hertzmap.study.solve.dense_basins import cell_basin_map
+
+    ds = P.open_store(map_store)
+    w, s = _nearest(ds["omega"].values, OMEGA), _nearest(ds["sigma"].values, SIGMA)
+    server = Served(map_store, "--workers", "1")
+    try:
+        _open(browser, server.url)
+        ab, pa = _pointer(browser)
+        pa.move_to_location(*_map_px(browser, w * F0, s * PRELOAD))
+        pa.click()
+        ab.perform()
+        _wait(lambda: _table(browser), 30, "the orbit table")
+        browser.execute_script(
+            "Bokeh.documents[0].get_model_by_name('basin_side').value = '100'")
+        time.sleep(0.3)
+        button = _wait(lambda: (browser.execute_script(
+            DEEP + "return deep(document, 'button', []).filter("
+            "e => e.textContent.includes('Basin map of this point') && !e.disabled)") or [None])[0], 10,
+            "the basin button")
+        button.click()
+        states = set()
+
+        def state(want):
+            st = _text(browser, "#basin_state")
+            states.add(st)
+            return st == want
+        _wait(lambda: state("done"), 240, "the basin map")
+        assert "computing..." in states, states
+        got = browser.execute_script(READ_BASINS)
+        page = np.array(got["flat"], int).reshape(100, 100)
+        req = check_request(map_store, w, s, ZETA, "100x100", None, None)
+        ref = cell_basin_map(w, s, ZETA, req.q_range, req.v_range, (100, 100),
+                             options=req.options, orbits=store_orbits(req),
+                             transient_periods=req.transient_periods,
+                             record_periods=req.record_periods)
+        # the same partition (the page keeps the tiles' colours: a renumbering)
+        pairs = set(zip(page.ravel().tolist(), ref.labels.ravel().tolist()))
+        assert len(pairs) == len(set(page.ravel())) == len(set(ref.labels.ravel())), pairs
+        # beside it: the census's shares and the map's, as the store and the map have them
+        census = E.stored_attractors(ds, w, s, ZETA)
+        assert census, "the test store has the census at the point"
+        cells = browser.execute_script(
+            DEEP + "return deep(document, '#basin_table tr[data-attractor]', [])"
+            ".map(e => [e.children[1].textContent, e.querySelector('.map').textContent,"
+            " e.querySelector('.census').textContent]);")
+        stored = read_product(map_store, basin_map_name(w, s, ZETA))
+        for name, share_map, share_census in cells:
+            if share_map:
+                a = next(i for i in range(stored.sizes["basin_attractor"])
+                         if f"{int(stored.attractor_period[i])}T" == name)
+                assert float(share_map.rstrip(" %")) == pytest.approx(
+                    100 * float(ref.attractors[a]["count"]) / 1e4, abs=0.051)
+            if share_census:
+                assert any(abs(float(share_census.rstrip(" %")) - 100 * c["basin"]) < 0.051
+                           for c in census)
+        assert (stored["basin_label"].values == ref.labels).all()
+        assert _text(browser, "#basin_measures")
+        time.sleep(0.5)
+        browser.execute_script("window.scrollTo(0, document.body.scrollHeight)")
+        time.sleep(0.3)
+        _screenshot(browser, _shots(tmp_path) / "explore_basins.png")
+    finally:
+        rc, _, err = server.stop()
+    assert rc == 0, err
+    assert "Traceback" not in err, err
+
+
 @needs_bokeh
 def test_a_refused_or_failed_sweep_says_so_and_the_server_goes_on(tmp_path, monkeypatch):
     """No browser: the page's document with its callbacks run here. A line study has one

@@ -426,3 +426,28 @@ def test_explore_data_imports_neither_a_server_nor_dask_nor_the_scheduler():
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60,
                        cwd=REPO)
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_a_basin_map_keeps_its_tiles_colours():
+    """The final labels (by basin size) renumbered as the tiles numbered them where they
+    overlap most; a label the tiles never drew gets a number of its own."""
+    provisional = np.array([[2, 2, 0], [0, -1, -1]], np.int16)
+    final = np.array([[0, 0, 1], [1, 1, 2]])
+    out = E.keep_colours(final, provisional)
+    assert out.tolist() == [[2, 2, 0], [0, 0, 1]]
+
+
+def test_basin_shares_pair_the_map_with_the_census():
+    import xarray as xr
+    ds = xr.Dataset({"attractor_kind": ("basin_attractor", np.array([1, 1, 3], np.int8)),
+                     "attractor_period": ("basin_attractor", np.array([2, 1, 0], np.int8)),
+                     "basin_fraction": ("basin_attractor", np.array([0.6, 0.3, 0.1]))})
+    census = [{"kind": "periodic", "period": 1, "basin": 0.25},
+              {"kind": "periodic", "period": 2, "basin": 0.75},
+              {"kind": "periodic", "period": 3, "basin": 0.0}]
+    rows = E.basin_shares(ds, census)
+    assert [(r["kind"], r["period"]) for r in rows] == [
+        ("periodic", 2), ("periodic", 1), ("unsettled", 0), ("periodic", 3)]
+    assert [r["map"] for r in rows[:3]] == [0.6, 0.3, 0.1] and np.isnan(rows[3]["map"])
+    assert [r["census"] for r in rows[:2]] == [0.75, 0.25] and np.isnan(rows[2]["census"])
+    assert rows[3]["census"] == 0.0
