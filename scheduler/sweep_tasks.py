@@ -2,9 +2,9 @@
 ``sweeps`` output, issue 45), after the grid and the stages that read it: at each line of the
 grid (each (sigma, zeta) for ``[sweep] axis = "omega"``, each (omega, zeta) for ``"sigma"``)
 two stepped sweeps over the grid's values of the axis, up and down, each one task
-(study.products.stepped_sweeps.run_sweep: study.solve.sweep.stepped_sweep on a worker, its
+(study.solve.sweep_runs.run_sweep: study.solve.sweep.stepped_sweep on a worker, its
 record of numbers returned); then, with ``[sweep] rates``, one swept-sine run per line,
-direction and rate, each one task (study.products.stepped_sweeps.run_swept: study.solve.sweep.
+direction and rate, each one task (study.solve.sweep_runs.run_swept: study.solve.sweep.
 swept_sine over the line's range, read at the product's samples, and the stepped sweep's jumps
 read on it). A swept task is per (line, direction, rate), not per line: each needs the stepped
 sweep of its own direction only (its start state and its jumps), its cost grows as 1 / rate and
@@ -30,8 +30,8 @@ from hertzmap.scheduler.stage import Stage, Task, TaskRunner
 from hertzmap.scheduler.store import (SWEEP_STAGE, has_run_product, remove_stage, stage_sweep,
                                       stage_swept, staged_sweeps, staged_swept, write_product)
 from hertzmap.study.products.results import open_store
-from hertzmap.study.products.stepped_sweeps import (SWEEPS, jumps_of, run_sweep, run_swept,
-                                                    sweep_specs, sweeps_dataset, swept_specs)
+from hertzmap.study.products.stepped_sweeps import SWEEPS, jumps_of, sweeps_dataset
+from hertzmap.study.solve.sweep_runs import run_sweep, run_swept, sweep_specs, swept_specs
 
 def sweep_task(spec: dict[str, Any]) -> dict[str, Any]:
     """One stepped sweep (runs on a worker): ``spec`` one of study.products.stepped_sweeps.

@@ -633,11 +633,11 @@ SWEEP_QUANTITIES = (("H1", "H1 (at the excitation frequency)", "force"),
 
 def sweep_settings(ds: xr.Dataset) -> dict[str, Any]:
     """The keyword arguments of ``study.solve.sweep.stepped_sweep`` for a sweep of the store
-    (those of its ``sweeps`` output, study.products.stepped_sweeps.sweep_specs): the store's
+    (those of its ``sweeps`` output, study.solve.sweep_runs.sweep_specs): the store's
     model, exponent and solver rtol; its study's ``[sweep]`` jump_tol, settle_periods,
     record_periods (``study.spec.DEFAULT_SWEEP`` when the study has none); started from rest
     (``SWEEP_START``)."""
-    from hertzmap.study.products.stepped_sweeps import sweep_options
+    from hertzmap.study.solve.sweep_runs import sweep_options
     from hertzmap.study.schema import study_from_attrs
     from hertzmap.study.spec import DEFAULT_SWEEP, StudyError
 
@@ -707,7 +707,7 @@ def line_sweep(ds: xr.Dataset, axis: str, omega: float, sigma: float, zeta: floa
     to_step}], steps as indices into "value", from_step -1 when there is none), "seconds"
     ({"up", "down"}), "stride", "grid_step" (the store's median step along the axis),
     "settings"}. Dimensionless throughout."""
-    from hertzmap.study.products.stepped_sweeps import force_components
+    from hertzmap.study.solve.sweep import force_components
     from hertzmap.study.solve.sweep import DIRECTIONS, stepped_sweep
 
     values, stride = sweep_values(ds, axis, omega, sigma, max_steps=max_steps)
@@ -750,7 +750,8 @@ def stored_line_sweep(sweeps: xr.Dataset | None, axis: str, omega: float, sigma:
     1: the product steps on every grid value); None when there is no product, it sweeps
     another axis, or none of its lines is the point's (its two fixed parameters equal the
     point's to 1e-9, relative)."""
-    from hertzmap.study.products.stepped_sweeps import JUMP_KIND_CODES, sweep_line
+    from hertzmap.study.products.stepped_sweeps import sweep_line
+    from hertzmap.study.solve.sweep_runs import JUMP_KIND_CODES
     from hertzmap.study.solve.sweep import DIRECTIONS
 
     if sweeps is None or sweeps.attrs.get("sweep_axis", "omega") != axis:

@@ -101,7 +101,7 @@ SWEEP_RECORD_PERIODS_RANGE = (32, 10_000)
 #: leave the 1T orbit for the 2T one (1000 do not: the step is then recorded unsettled)
 DEFAULT_SWEEP = {"axis": "omega", "jump_tol": 1e-6, "settle_periods": 4000,
                  "record_periods": 200}
-#: [sweep] rates: the swept-sine runs beside the stepped sweeps (study.solve.sweep.swept_sine),
+#: [sweep] rates: the swept-sine runs beside the stepped sweeps (study.solve.swept_sine.swept_sine),
 #: each rate the swept parameter's change per unit dimensionless time tau (d omega / d tau for
 #: axis omega, d sigma / d tau for sigma), up and down each line; none by default (the key is
 #: then left out of the canonical form: a study without it hashes as before). rates_hz_per_s

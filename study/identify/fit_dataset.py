@@ -21,7 +21,7 @@ from hertzmap.study.identify.measurement import CHANNELS, DIRECTIONS, Measuremen
 from hertzmap.study.identify.problem import PARAMETERS
 from hertzmap.study.identify.profile_likelihood import THRESHOLD
 from hertzmap.study.identify.rig_table import RigTable, table_attrs
-from hertzmap.study.products.stepped_sweeps import JUMP_KIND_CODES
+from hertzmap.study.solve.sweep_runs import JUMP_KIND_CODES
 
 __all__ = ["FIT_VARIABLES", "JUMP_SIGMAS", "JUMP_RELATIVE", "fit_dataset", "measured_jumps",
            "summary_lines"]

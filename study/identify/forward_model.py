@@ -42,7 +42,7 @@ import numpy as np
 from hertzmap.kernels import api
 from hertzmap.kernels import continuation as cont
 from hertzmap.kernels.model import DEFAULT_LAW, DEFAULT_RTOL
-from hertzmap.study.products.stepped_sweeps import JUMP_KIND_CODES
+from hertzmap.study.solve.sweep_runs import JUMP_KIND_CODES
 from hertzmap.study.solve.sweep import stepped_sweep
 
 __all__ = ["FORWARD_STEP", "JUMP_TOL", "REFINE", "SETTLE_PERIODS", "WINDOW_PERIODS", "SAMPLES",

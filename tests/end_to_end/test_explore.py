@@ -399,7 +399,7 @@ def _independent_sweeps(axis, values, fixed):
     """study.solve.sweep.stepped_sweep up and down, called here with the study's settings
     (its [sweep] table, model and rtol; from rest): {direction: (values in increasing order,
     H1, H2, ptp, period in that order, the Sweep)}."""
-    from hertzmap.study.products.stepped_sweeps import force_components
+    from hertzmap.study.solve.sweep import force_components
     from hertzmap.study.solve.sweep import stepped_sweep
     from hertzmap.study.spec import parse_study
 

@@ -20,8 +20,8 @@ from benchmarks import oracle
 from hertzmap.scheduler.cli import main
 from hertzmap.scheduler.store import (list_products, read_product, remove_stage, stage_sweep,
                                       stage_swept)
-from hertzmap.study.products.stepped_sweeps import (JUMP_KIND_CODES, run_sweep, run_swept,
-                                                    sweep_specs, swept_specs)
+from hertzmap.study.solve.sweep_runs import (JUMP_KIND_CODES, run_sweep, run_swept, sweep_specs,
+                                             swept_specs)
 from hertzmap.study.schema import study_from_attrs
 from tests.helpers import RIG_TABLE, assert_rerun_leaves_product, small_study_toml
 

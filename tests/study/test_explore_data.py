@@ -321,7 +321,7 @@ def _direct_sweeps(axis, values, fixed, settings):
 
 
 def test_line_sweep_is_stepped_sweep_up_and_down_through_the_point():
-    from hertzmap.study.products.stepped_sweeps import force_components
+    from hertzmap.study.solve.sweep import force_components
 
     ds = P.open_store(blank_results(SWEEP_LINE, "swept"))
     study = parse_study(SWEEP_LINE)
@@ -380,7 +380,8 @@ def test_line_sweep_is_stepped_sweep_up_and_down_through_the_point():
 
 
 def test_stored_line_sweep_is_the_products_line_and_none_elsewhere():
-    from hertzmap.study.products.stepped_sweeps import run_sweep, sweep_specs, sweeps_dataset
+    from hertzmap.study.products.stepped_sweeps import sweeps_dataset
+    from hertzmap.study.solve.sweep_runs import run_sweep, sweep_specs
 
     ds = P.open_store(blank_results(SWEEP_LINE, "swept"))
     study = parse_study(SWEEP_LINE)

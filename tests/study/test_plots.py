@@ -195,9 +195,8 @@ def test_the_sweeps_figure_draws_the_swept_sines_beside_the_stepped_sweeps(real,
     paths are drawn in every panel (thin, their direction's colour, the fastest faintest) and
     named in the legend with its rate; without, the figure is as before."""
     from hertzmap.study.plots import line_figures
-    from hertzmap.study.products.stepped_sweeps import (run_sweep, run_swept, sweep_line,
-                                                        sweep_specs, sweeps_dataset,
-                                                        swept_specs)
+    from hertzmap.study.products.stepped_sweeps import sweep_line, sweeps_dataset
+    from hertzmap.study.solve.sweep_runs import run_sweep, run_swept, sweep_specs, swept_specs
     from hertzmap.study.schema import study_from_attrs
     from hertzmap.study.spec import DEFAULT_SWEEP
 

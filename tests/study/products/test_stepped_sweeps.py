@@ -15,9 +15,10 @@ import xarray as xr
 from hertzmap.scheduler.store import write_product
 from hertzmap.study import products as P
 from hertzmap.study.analytic.rig import Rig
-from hertzmap.study.products.stepped_sweeps import (JUMP_KIND_CODES, SWEPT_SAMPLES,
-                                                    force_components, run_sweep, run_swept,
-                                                    sweep_specs, sweeps_dataset, swept_specs)
+from hertzmap.study.products.stepped_sweeps import sweeps_dataset
+from hertzmap.study.solve.sweep import force_components
+from hertzmap.study.solve.sweep_runs import (JUMP_KIND_CODES, SWEPT_SAMPLES, run_sweep, run_swept,
+                                             sweep_specs, swept_specs)
 from hertzmap.study.schema import study_from_attrs
 from tests.helpers import RIG_TABLE, small_study_toml, solved_results
 
@@ -228,7 +229,7 @@ def test_the_swept_runs_follow_the_stepped_sweep_away_from_its_jumps(swept):
     """Down from the 2T orbit at omega 2.0 (the stepped sweep's first step: the swept run
     starts where it settled), the stepped sweep stays on the 2T response: so does the swept
     run, its two-cycle H1, H2, H1/2 and amplitude those of the steps' orbits at each step's
-    value, the closer the slower. Each run is the record of study.solve.sweep.swept_sine
+    value, the closer the slower. Each run is the record of study.solve.swept_sine.swept_sine
     read at the samples; the down sweep has no jump."""
     sw, _, records, runs = swept
     down = sw.isel(line=0, direction=1)
