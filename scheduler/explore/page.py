@@ -25,6 +25,7 @@ from bokeh.plotting import figure
 
 from hertzmap.kernels.model import LAW_OF_CODE, Model
 from hertzmap.study import explore_data as E
+from hertzmap.study import explore_sweeps as ES
 
 from hertzmap.scheduler.explore.basin_panel import BasinPanel
 from hertzmap.scheduler.explore.state import ExploreState, StoreView, SweepJob
@@ -264,7 +265,7 @@ class Page:
             "<span class='muted'>stepped-sine sweeps up and down the chosen axis through the "
             "clicked point, over the map's range, as a lab measures them: click a point, "
             "then sweep</span>", width=RIGHT_W, name="sweep_status")
-        names = [n for n, _, _ in E.SWEEP_QUANTITIES]
+        names = [n for n, _, _ in ES.SWEEP_QUANTITIES]
         self.sweep_srcs = {d: ColumnDataSource(_empty("x", "value", "period", *names),
                                                name=f"sweep_{d}") for d in ("up", "down")}
         self.sweep_jump_src = ColumnDataSource(
@@ -273,7 +274,7 @@ class Page:
         self.sweep_figs: dict = {}
         self.sweep_spans: list[Span] = []
         x_range = None
-        for name, label, q in E.SWEEP_QUANTITIES:
+        for name, label, q in ES.SWEEP_QUANTITIES:
             if q == "force":
                 ylab = label.split(" (")[0] + (" [N]" if u.physical else " (F / N)")
             else:
@@ -284,9 +285,9 @@ class Page:
                        **({"x_range": x_range} if x_range is not None else {}))
             x_range = f.x_range
             for d in ("up", "down"):
-                src, color = self.sweep_srcs[d], E.SWEEP_COLORS[d]
+                src, color = self.sweep_srcs[d], ES.SWEEP_COLORS[d]
                 f.line("x", name, source=src, line_color=color, line_width=1.3, alpha=0.85)
-                f.scatter("x", name, source=src, marker=E.SWEEP_MARKERS[d], size=6,
+                f.scatter("x", name, source=src, marker=ES.SWEEP_MARKERS[d], size=6,
                           color=color, alpha=0.85)
             f.add_layout(Arrow(end=VeeHead(size=8, fill_color="color", line_color="color"),
                                x_start="x", y_start=f"{name}_0", x_end="x", y_end=f"{name}_1",
@@ -598,7 +599,7 @@ class Page:
 
     def draw_sweep(self, job: SweepJob) -> None:
         sw, u = job.result, self.view.units
-        cols = E.sweep_columns(sw, u)
+        cols = ES.sweep_columns(sw, u)
         for d, src in self.sweep_srcs.items():
             src.data = dict(cols[d])
         self.sweep_jump_src.data = dict(cols["jumps"])
@@ -617,7 +618,7 @@ class Page:
             steps = (f"{n} steps, the store's grid values of {axis} (step {sw['grid_step']:.4g})")
         else:
             steps = (f"{n} steps: one in {sw['stride']} of the store's {ng} grid values of "
-                     f"{axis} (more than the {E.MAX_SWEEP_STEPS} a sweep of the page takes), "
+                     f"{axis} (more than the {ES.MAX_SWEEP_STEPS} a sweep of the page takes), "
                      "through the clicked value and both ends")
         secs = sw["seconds"]
         if job.origin == "stored":
@@ -644,8 +645,8 @@ class Page:
             f"from rest, each step from where the last ended"
             + (f", jumps located to {jt:g}" if jt else "") + ". <span id='sweep_jumps'>"
             + ("jumps: " + "; ".join(jumps) if jumps else "no jump") + "</span>"
-            + f"<br><span class='muted'><span style='color:{E.SWEEP_COLORS['up']}'>&#9650; up "
-            f"sweep</span>, <span style='color:{E.SWEEP_COLORS['down']}'>&#9660; down "
+            + f"<br><span class='muted'><span style='color:{ES.SWEEP_COLORS['up']}'>&#9650; up "
+            f"sweep</span>, <span style='color:{ES.SWEEP_COLORS['down']}'>&#9660; down "
             "sweep</span>; arrows: the jumps, from "
             "the step before to the step after, at the located value; dotted: the clicked "
             "point; dash-dotted on the map: the swept line</span>")

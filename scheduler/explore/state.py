@@ -29,6 +29,7 @@ from hertzmap.scheduler.run import RunOptions, run_study
 from hertzmap.scheduler.store import (has_run_product, lock_path, read_attrs, read_done_flags,
                                       read_product)
 from hertzmap.study import explore_data as E
+from hertzmap.study import explore_sweeps as ES
 from hertzmap.study import products as P
 from hertzmap.study.products.stepped_sweeps import SWEEPS
 
@@ -385,9 +386,9 @@ class ExploreState:
         ``explore_data.line_sweep`` started on a thread (the job answers at once: the page
         polls it). Raises ValueError (shown on the page, nothing computed) when the line cannot
         be swept (one grid value along the axis)."""
-        values, _ = E.sweep_values(view.ds, axis, omega, sigma)     # ValueError: refused
-        stored = E.stored_line_sweep(view.sweeps(), axis, omega, sigma, zeta)
-        fixed = E.sweep_fixed(view.ds, axis, omega, sigma, zeta)
+        values, _ = ES.sweep_values(view.ds, axis, omega, sigma)     # ValueError: refused
+        stored = ES.stored_line_sweep(view.sweeps(), axis, omega, sigma, zeta)
+        fixed = ES.sweep_fixed(view.ds, axis, omega, sigma, zeta)
         what = (f"{axis} ({values.size} steps) at "
                 + ", ".join(f"{a} = {v:g}" for a, v in fixed.items()))
         if stored is not None:
@@ -407,7 +408,7 @@ class ExploreState:
                     self._sweeps.popitem(last=False)
 
         ds = view.ds
-        return SweepJob(what, lambda: E.line_sweep(ds, axis, omega, sigma, zeta), on_done=keep)
+        return SweepJob(what, lambda: ES.line_sweep(ds, axis, omega, sigma, zeta), on_done=keep)
 
     def close(self) -> None:
         # bounded: a scheduler that went away first must not hold up Ctrl-C
