@@ -24,6 +24,8 @@ import numpy as np
 
 from hertzmap.kernels.model import (DEFAULT_EXPONENT, DEFAULT_LAW, DEFAULT_RTOL, LAW_OF_CODE, LAWS,
                                     MODELS, Model)
+from hertzmap.study import spec_fields as F
+from hertzmap.study.spec_fields import MAX_GRID_POINTS, StudyError
 
 __all__ = [
     "StudyError",
@@ -42,8 +44,6 @@ __all__ = [
 
 SPEC_VERSION = 2
 
-#: Largest grid (omega x sigma x zeta points) a single study may ask for.
-MAX_GRID_POINTS = 20_000_000
 
 AXES = ("omega", "sigma", "zeta")
 
@@ -114,12 +114,6 @@ SWEEP_MAX_RATES = 16
 
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$")
 
-_AXIS_RULES = {
-    # axis: (lower bound, bound is strict, description)
-    "omega": (0.0, True, "> 0"),
-    "sigma": (0.0, False, ">= 0"),
-    "zeta": (0.0, False, ">= 0"),
-}
 
 _RIG_KEYS = {
     # key: (description of allowed range, check)
@@ -129,14 +123,6 @@ _RIG_KEYS = {
     "m": ("moving mass in kg, > 0", lambda x: x > 0),
     "N": ("static preload in N, > 0", lambda x: x > 0),
 }
-
-
-class StudyError(ValueError):
-    """A study file is invalid. The message names the field and what is allowed."""
-
-    def __init__(self, field_name: str, message: str):
-        self.field = field_name
-        super().__init__(f"{field_name}: {message}" if field_name else message)
 
 
 @dataclass(frozen=True)
@@ -298,123 +284,6 @@ class Study:
 
 
 # ----------------------------------------------------------------------------------------
-# parsing helpers
-
-
-def _r(value: Any, limit: int = 80) -> str:
-    """repr of a value for an error message, shortened (a study file may hold huge values)."""
-    text = repr(value)
-    return text if len(text) <= limit else text[: limit - 5] + " ...>"
-
-
-def _is_number(x: Any) -> bool:
-    return isinstance(x, (int, float)) and not isinstance(x, bool)
-
-
-def _number(value: Any, field_name: str, allowed: str) -> float:
-    if not _is_number(value):
-        raise StudyError(field_name, f"expected a number ({allowed}), got {_r(value)}")
-    try:
-        x = float(value) + 0.0          # + 0.0: -0.0 is stored (and hashed) as 0.0
-    except OverflowError:               # an integer beyond the float range
-        raise StudyError(field_name, f"must be a finite number ({allowed}), got {_r(value)}") from None
-    if not math.isfinite(x):
-        raise StudyError(field_name, f"must be a finite number ({allowed}), got {_r(value)}")
-    return x
-
-
-def _integer(value: Any, field_name: str, lo: int, hi: int) -> int:
-    if not isinstance(value, int) or isinstance(value, bool):
-        raise StudyError(field_name, f"expected an integer in {lo}..{hi}, got {_r(value)}")
-    if not lo <= value <= hi:
-        raise StudyError(field_name, f"must be in {lo}..{hi}, got {value}")
-    return int(value)
-
-
-def _table(doc: Mapping[str, Any], key: str, required: bool = False) -> dict[str, Any]:
-    if key not in doc:
-        if required:
-            raise StudyError(key, f"missing required table [{key}]")
-        return {}
-    value = doc[key]
-    if not isinstance(value, dict):
-        raise StudyError(key, f"expected a table [{key}], got {type(value).__name__}")
-    return value
-
-
-def _refuse_unknown(table: Mapping[str, Any], prefix: str, allowed: tuple[str, ...]) -> None:
-    for key in table:
-        if key not in allowed:
-            where = f"{prefix}.{key}" if prefix else key
-            raise StudyError(where, f"unknown key; allowed keys: {', '.join(allowed)}")
-
-
-def _check_axis_value(x: float, field_name: str, axis: str) -> None:
-    lower, strict, desc = _AXIS_RULES[axis]
-    if (x <= lower) if strict else (x < lower):
-        raise StudyError(field_name, f"{axis} must be {desc} (finite), got {_r(x)}")
-
-
-def _parse_axis(value: Any, axis: str) -> tuple[float, ...]:
-    fname = f"grid.{axis}"
-    _, _, desc = _AXIS_RULES[axis]
-    allowed = f"{desc}, finite"
-    if _is_number(value):
-        values = [_number(value, fname, allowed)]
-        _check_axis_value(values[0], fname, axis)
-    elif isinstance(value, list):
-        if not value:
-            raise StudyError(fname, "empty list; give at least one value")
-        values = [_number(v, f"{fname}[{i}]", allowed) for i, v in enumerate(value)]
-        for i, x in enumerate(values):
-            _check_axis_value(x, f"{fname}[{i}]", axis)
-    elif isinstance(value, dict):
-        _refuse_unknown(value, fname, ("start", "stop", "num"))
-        for key in ("start", "stop", "num"):
-            if key not in value:
-                raise StudyError(f"{fname}.{key}", "missing; a range needs start, stop and num")
-        start = _number(value["start"], f"{fname}.start", allowed)
-        stop = _number(value["stop"], f"{fname}.stop", allowed)
-        _check_axis_value(start, f"{fname}.start", axis)
-        _check_axis_value(stop, f"{fname}.stop", axis)
-        num = value["num"]
-        if not isinstance(num, int) or isinstance(num, bool) or num < 1:
-            raise StudyError(f"{fname}.num", f"expected an integer >= 1, got {_r(num)}")
-        if num > MAX_GRID_POINTS:
-            raise StudyError(f"{fname}.num", f"must be <= {MAX_GRID_POINTS}, got {num}")
-        if num == 1 and start != stop:
-            raise StudyError(f"{fname}.num", "num = 1 with start != stop is ambiguous; "
-                             "use a one-element list instead")
-        values = [float(x) for x in np.linspace(start, stop, num)]
-        # np.linspace may leave the last value off by an ulp: pin the end points exactly.
-        values[0] = start
-        values[-1] = stop
-    else:
-        raise StudyError(fname, "expected a number, a list of numbers or a table "
-                         f"{{start, stop, num}}, got {type(value).__name__}")
-    seen: dict[float, int] = {}
-    for i, x in enumerate(values):
-        if x in seen:
-            raise StudyError(fname, f"duplicated value {_r(x)} (positions {seen[x]} and {i}); "
-                             "axis values must be distinct")
-        seen[x] = i
-    return tuple(values)
-
-
-def _axis_length(value: Any) -> int | None:
-    """Number of values an axis asks for, when that is clear before validation (else None)."""
-    if _is_number(value):
-        return 1
-    if isinstance(value, list):
-        return len(value) or None
-    if isinstance(value, dict):
-        num = value.get("num")
-        if isinstance(num, int) and not isinstance(num, bool) and num >= 1:
-            return num
-    return None
-
-
-# ----------------------------------------------------------------------------------------
 # the parser
 
 
@@ -477,31 +346,31 @@ def study_toml(doc: dict) -> str:
 
 def _validated(doc: dict, default_name: str | None, text: str) -> Study:
     """The Study of a parsed study file ``doc`` (``text``: its TOML text)."""
-    _refuse_unknown(doc, "", ("study", "grid", "model", "solver", "search", "products", "rig",
+    F.refuse_unknown(doc, "", ("study", "grid", "model", "solver", "search", "products", "rig",
                               "sweep"))
 
     # [study]
-    st = _table(doc, "study")
-    _refuse_unknown(st, "study", ("name", "description"))
+    st = F.table(doc, "study")
+    F.refuse_unknown(st, "study", ("name", "description"))
     name = st.get("name", default_name)
     if name is None:
         raise StudyError("study.name", "missing; give [study] name = \"...\"")
     if not isinstance(name, str) or not _NAME_RE.match(name):
         raise StudyError("study.name", "must be 1-64 characters from letters, digits, '.', '_', '-' "
-                         f"(starting with a letter or digit), got {_r(name)}")
+                         f"(starting with a letter or digit), got {F.shown(name)}")
     description = st.get("description", "")
     if not isinstance(description, str):
-        raise StudyError("study.description", f"expected a string, got {_r(description)}")
+        raise StudyError("study.description", f"expected a string, got {F.shown(description)}")
 
     # [grid]
-    grid = _table(doc, "grid", required=True)
-    _refuse_unknown(grid, "grid", AXES)
+    grid = F.table(doc, "grid", required=True)
+    F.refuse_unknown(grid, "grid", AXES)
     for ax in AXES:
         if ax not in grid:
             raise StudyError(f"grid.{ax}", "missing; give a number, a list or {start, stop, num}")
     # the size is checked before any axis is expanded: a huge grid is refused at once,
     # without allocating its axes
-    lengths = {ax: _axis_length(grid[ax]) for ax in AXES}
+    lengths = {ax: F.axis_length(grid[ax]) for ax in AXES}
     if all(n is not None for n in lengths.values()):
         size = math.prod(lengths.values())
         if size > MAX_GRID_POINTS:
@@ -510,7 +379,7 @@ def _validated(doc: dict, default_name: str | None, text: str) -> Study:
                              f"{MAX_GRID_POINTS}; split the study")
     axes = {}
     for ax in AXES:
-        axes[ax] = _parse_axis(grid[ax], ax)
+        axes[ax] = F.parse_axis(grid[ax], ax)
     size = math.prod(len(v) for v in axes.values())
     if size > MAX_GRID_POINTS:
         raise StudyError("grid", f"{size} points (omega x sigma x zeta = "
@@ -518,18 +387,18 @@ def _validated(doc: dict, default_name: str | None, text: str) -> Study:
                          f"{MAX_GRID_POINTS}; split the study")
 
     # [model]
-    mt = _table(doc, "model")
-    _refuse_unknown(mt, "model", ("kind", "exponent"))
+    mt = F.table(doc, "model")
+    F.refuse_unknown(mt, "model", ("kind", "exponent"))
     kind = mt.get("kind", DEFAULT_LAW)
     if kind not in MODEL_KINDS:
         raise StudyError("model.kind", f"must be one of {', '.join(map(repr, MODEL_KINDS))}, "
-                         f"got {_r(kind)}")
+                         f"got {F.shown(kind)}")
     if LAW_OF_CODE[MODELS[kind]].has_exponent:
         lo, hi = EXPONENT_RANGE
-        exponent = _number(mt.get("exponent", DEFAULT_EXPONENT), "model.exponent", f"{lo} < exponent <= {hi}")
+        exponent = F.number(mt.get("exponent", DEFAULT_EXPONENT), "model.exponent", f"{lo} < exponent <= {hi}")
         if not lo < exponent <= hi:
             raise StudyError("model.exponent", f"must satisfy {lo:g} < exponent <= {hi:g}, "
-                             f"got {_r(exponent)}")
+                             f"got {F.shown(exponent)}")
     else:
         if "exponent" in mt:
             raise StudyError("model.exponent", "only allowed with kind = "
@@ -538,52 +407,52 @@ def _validated(doc: dict, default_name: str | None, text: str) -> Study:
         exponent = None
 
     # [solver]
-    so = _table(doc, "solver")
+    so = F.table(doc, "solver")
     if "max_solutions" in so:
         raise StudyError("solver.max_solutions", "no longer a setting: every orbit found at a "
                          "point is stored (store format 2); delete this key")
-    _refuse_unknown(so, "solver", ("rtol",))
+    F.refuse_unknown(so, "solver", ("rtol",))
     lo, hi = RTOL_RANGE
-    rtol = _number(so.get("rtol", DEFAULT_RTOL), "solver.rtol", f"{lo:g} <= rtol <= {hi:g}")
+    rtol = F.number(so.get("rtol", DEFAULT_RTOL), "solver.rtol", f"{lo:g} <= rtol <= {hi:g}")
     if not lo <= rtol <= hi:
-        raise StudyError("solver.rtol", f"must satisfy {lo:g} <= rtol <= {hi:g}, got {_r(rtol)}")
+        raise StudyError("solver.rtol", f"must satisfy {lo:g} <= rtol <= {hi:g}, got {F.shown(rtol)}")
 
     # [search]
-    se = _table(doc, "search")
-    _refuse_unknown(se, "search", ("periods", "discover", "transients", "attractors",
+    se = F.table(doc, "search")
+    F.refuse_unknown(se, "search", ("periods", "discover", "transients", "attractors",
                                    "continue_unstable",
                                    "initial_states", "transient_periods", "record_periods",
                                    "max_transient_periods", "point_steps", "lyapunov_error"))
     discover = se.get("discover", False)
     if not isinstance(discover, bool):
-        raise StudyError("search.discover", f"expected true or false, got {_r(discover)}")
+        raise StudyError("search.discover", f"expected true or false, got {F.shown(discover)}")
     transients = se.get("transients", 16)
     if isinstance(transients, bool) or not isinstance(transients, int) or not 1 <= transients <= 256:
         raise StudyError("search.transients", f"expected an integer 1..256 (initial states of the "
-                         f"transients per line), got {_r(transients)}")
+                         f"transients per line), got {F.shown(transients)}")
     if "transients" in se and not discover:
         raise StudyError("search.transients", "only meaningful with search.discover = true")
     periods = se.get("periods", [1, 2])
     if not isinstance(periods, list) or not periods:
         raise StudyError("search.periods", "expected a non-empty list of periods, integers "
-                         f"1..{PERIODS_ALLOWED[-1]} (e.g. [1, 2, 4]), got {_r(periods)}")
+                         f"1..{PERIODS_ALLOWED[-1]} (e.g. [1, 2, 4]), got {F.shown(periods)}")
     for p in periods:
         if not isinstance(p, int) or isinstance(p, bool) or p not in PERIODS_ALLOWED:
             raise StudyError("search.periods", f"each period must be an integer "
-                             f"1..{PERIODS_ALLOWED[-1]} (in forcing periods), got {_r(p)}")
+                             f"1..{PERIODS_ALLOWED[-1]} (in forcing periods), got {F.shown(p)}")
     if len(set(periods)) != len(periods):
-        raise StudyError("search.periods", f"duplicated period in {_r(periods)}")
+        raise StudyError("search.periods", f"duplicated period in {F.shown(periods)}")
     periods_t = tuple(sorted(int(p) for p in periods))
     # the attractor census at every point (every point's basins sampled: what attracts there is
     # known by construction); a 1T-only scene (a flip curve, say) pays nothing for it by default
     attractors = se.get("attractors", "always" if max(periods_t) >= 2 else "never")
     if attractors not in ATTRACTOR_MODES:
         raise StudyError("search.attractors", f"must be one of "
-                         f"{', '.join(map(repr, ATTRACTOR_MODES))}, got {_r(attractors)}")
+                         f"{', '.join(map(repr, ATTRACTOR_MODES))}, got {F.shown(attractors)}")
     continue_unstable = se.get("continue_unstable", CONTINUE_UNSTABLE[0])
     if continue_unstable not in CONTINUE_UNSTABLE:
         raise StudyError("search.continue_unstable", f"must be one of "
-                         f"{', '.join(map(repr, CONTINUE_UNSTABLE))}, got {_r(continue_unstable)}")
+                         f"{', '.join(map(repr, CONTINUE_UNSTABLE))}, got {F.shown(continue_unstable)}")
     census = {}
     for key, (lo, hi), default, what in (
             ("initial_states", INITIAL_STATES_RANGE, DEFAULT_INITIAL_STATES,
@@ -601,7 +470,7 @@ def _validated(doc: dict, default_name: str | None, text: str) -> Study:
         value = se.get(key, default)
         if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
             raise StudyError(f"search.{key}", f"expected an integer {lo}..{hi} ({what}), "
-                             f"got {_r(value)}")
+                             f"got {F.shown(value)}")
         if key in se and attractors == "never":
             raise StudyError(f"search.{key}", 'only meaningful with search.attractors other '
                              'than "never"')
@@ -613,27 +482,27 @@ def _validated(doc: dict, default_name: str | None, text: str) -> Study:
     if "lyapunov_error" in se:
         lo, hi = LYAPUNOV_ERROR_RANGE
         value = se["lyapunov_error"]
-        if not _is_number(value) or not lo <= value <= hi:
+        if not F.is_number(value) or not lo <= value <= hi:
             raise StudyError("search.lyapunov_error", f"expected a number {lo:g}..{hi:g} (the "
                              "largest Lyapunov exponent's standard error to reach, per unit "
-                             f"dimensionless time), got {_r(value)}")
+                             f"dimensionless time), got {F.shown(value)}")
         if attractors == "never":
             raise StudyError("search.lyapunov_error", 'only meaningful with search.attractors '
                              'other than "never"')
         census["lyapunov_error"] = float(value)
 
     # [products]
-    pr = _table(doc, "products")
-    _refuse_unknown(pr, "products", ("outputs",))
+    pr = F.table(doc, "products")
+    F.refuse_unknown(pr, "products", ("outputs",))
     outputs = pr.get("outputs", list(DEFAULT_OUTPUTS))
     if not isinstance(outputs, list):
         raise StudyError("products.outputs", f"expected a list of names from {list(OUTPUTS)}, "
-                         f"got {_r(outputs)}")
+                         f"got {F.shown(outputs)}")
     for o in outputs:
         if o not in OUTPUTS:
-            raise StudyError("products.outputs", f"unknown output {_r(o)}; allowed: {', '.join(OUTPUTS)}")
+            raise StudyError("products.outputs", f"unknown output {F.shown(o)}; allowed: {', '.join(OUTPUTS)}")
     if len(set(outputs)) != len(outputs):
-        raise StudyError("products.outputs", f"duplicated output in {_r(outputs)}")
+        raise StudyError("products.outputs", f"duplicated output in {F.shown(outputs)}")
     if "attractors" in outputs and attractors == "never":
         raise StudyError("products.outputs", '"attractors" needs search.attractors other than '
                          '"never"')
@@ -667,20 +536,20 @@ def _validated(doc: dict, default_name: str | None, text: str) -> Study:
     # [rig]
     rig = None
     if "rig" in doc:
-        rt = _table(doc, "rig")
-        _refuse_unknown(rt, "rig", (*_RIG_KEYS, "contact"))
+        rt = F.table(doc, "rig")
+        F.refuse_unknown(rt, "rig", (*_RIG_KEYS, "contact"))
         values: dict[str, Any] = {}
         for key, (desc, check) in _RIG_KEYS.items():
             if key not in rt:
                 raise StudyError(f"rig.{key}", f"missing ({desc})")
-            x = _number(rt[key], f"rig.{key}", desc)
+            x = F.number(rt[key], f"rig.{key}", desc)
             if not check(x):
-                raise StudyError(f"rig.{key}", f"out of range: {desc}, got {_r(x)}")
+                raise StudyError(f"rig.{key}", f"out of range: {desc}, got {F.shown(x)}")
             values[key] = x
         contact = rt.get("contact", "double")
         if contact not in CONTACTS:
             raise StudyError("rig.contact", f"must be one of {', '.join(map(repr, CONTACTS))}, "
-                             f"got {_r(contact)}")
+                             f"got {F.shown(contact)}")
         values["contact"] = contact
         rig = tuple(sorted(values.items()))
 
@@ -720,12 +589,12 @@ def _parse_sweep(doc: Mapping[str, Any], outputs, axes: dict[str, tuple[float, .
             raise StudyError("sweep", 'the [sweep] table is only meaningful with "sweeps" in '
                              "products.outputs")
         return None
-    sw = _table(doc, "sweep")
-    _refuse_unknown(sw, "sweep", (*DEFAULT_SWEEP, "rates", "rates_hz_per_s"))
+    sw = F.table(doc, "sweep")
+    F.refuse_unknown(sw, "sweep", (*DEFAULT_SWEEP, "rates", "rates_hz_per_s"))
     axis = sw.get("axis", DEFAULT_SWEEP["axis"])
     if axis not in SWEEP_AXES:
         raise StudyError("sweep.axis", f"must be one of {', '.join(map(repr, SWEEP_AXES))} (the "
-                         f"parameter stepped), got {_r(axis)}")
+                         f"parameter stepped), got {F.shown(axis)}")
     if len(axes[axis]) < 2:
         raise StudyError("products.outputs", f"\"sweeps\" steps along grid.{axis} (sweep.axis), "
                          f"which has {len(axes[axis])} value; give it two or more values (the "
@@ -733,9 +602,9 @@ def _parse_sweep(doc: Mapping[str, Any], outputs, axes: dict[str, tuple[float, .
     lo, hi = SWEEP_JUMP_TOL_RANGE
     allowed = f"{lo:g} <= jump_tol <= {hi:g} (the width in the swept parameter each jump is " \
               "bracketed to)"
-    jump_tol = _number(sw.get("jump_tol", DEFAULT_SWEEP["jump_tol"]), "sweep.jump_tol", allowed)
+    jump_tol = F.number(sw.get("jump_tol", DEFAULT_SWEEP["jump_tol"]), "sweep.jump_tol", allowed)
     if not lo <= jump_tol <= hi:
-        raise StudyError("sweep.jump_tol", f"must satisfy {allowed}, got {_r(jump_tol)}")
+        raise StudyError("sweep.jump_tol", f"must satisfy {allowed}, got {F.shown(jump_tol)}")
     out: dict[str, Any] = {"axis": axis, "jump_tol": jump_tol}
     for key, (lo, hi), what in (
             ("settle_periods", SWEEP_SETTLE_PERIODS_RANGE,
@@ -745,7 +614,7 @@ def _parse_sweep(doc: Mapping[str, Any], outputs, axes: dict[str, tuple[float, .
         value = sw.get(key, DEFAULT_SWEEP[key])
         if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
             raise StudyError(f"sweep.{key}", f"expected an integer {lo}..{hi} ({what}), got "
-                             f"{_r(value)}")
+                             f"{F.shown(value)}")
         out[key] = int(value)
     rates = _parse_rates(sw, axis, axes, rig)
     if rates:
@@ -785,18 +654,18 @@ def _parse_rates(sw: Mapping[str, Any], axis: str, axes: dict[str, tuple[float, 
                 f"omega per unit tau is 2 pi f0^2 = {1 / scale:.6g} Hz/s, the rig's f0 = "
                 f"{f0:.6g} Hz)")
     if not isinstance(given, list):
-        raise StudyError(field_name, f"expected a list of numbers ({what}), got {_r(given)}")
+        raise StudyError(field_name, f"expected a list of numbers ({what}), got {F.shown(given)}")
     if len(given) > SWEEP_MAX_RATES:
         raise StudyError(field_name, f"at most {SWEEP_MAX_RATES} rates, got {len(given)}")
     rates = []
     for x in given:
-        x = _number(x, field_name, what)
+        x = F.number(x, field_name, what)
         rate = x * scale
         if not (x > 0.0 and lo * (1 - 1e-12) <= rate <= hi * (1 + 1e-12)):
-            raise StudyError(field_name, f"{what}; got {_r(x)}{unit}")
+            raise StudyError(field_name, f"{what}; got {F.shown(x)}{unit}")
         rates.append(rate)
     if len(set(rates)) != len(rates):
-        raise StudyError(field_name, f"duplicated rate in {_r(given)}")
+        raise StudyError(field_name, f"duplicated rate in {F.shown(given)}")
     # the run's length: the forcing cycles of the slowest run along the line (T = 2 pi / omega)
     values = axes[axis]
     span = max(values) - min(values)
@@ -806,7 +675,7 @@ def _parse_rates(sw: Mapping[str, Any], axis: str, axes: dict[str, tuple[float, 
         else:
             cycles = span * max(axes["omega"]) / (2.0 * math.pi * rate)
         if cycles > SWEEP_MAX_CYCLES:
-            raise StudyError(field_name, f"the rate {_r(x)}{unit} would sweep grid.{axis} "
+            raise StudyError(field_name, f"the rate {F.shown(x)}{unit} would sweep grid.{axis} "
                              f"{min(values):g} .. {max(values):g} in {cycles:.3g} forcing "
                              f"cycles, more than the limit of {SWEEP_MAX_CYCLES:,} a swept run; "
                              f"give a rate at least {x * cycles / SWEEP_MAX_CYCLES:.3g}{unit}")
