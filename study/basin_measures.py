@@ -109,8 +109,12 @@ def uncertain_fraction(labels: np.ndarray, eps: int) -> tuple[float, int]:
 
 
 def default_epsilons(shape) -> np.ndarray:
-    """eps = 1, 2, 4, ... cells up to a sixteenth of the map's smaller side (at least 3)."""
-    top = max(4, min(shape) // 16)
+    """eps = 1, 2, 4, ... cells up to a sixteenth of the map's smaller side (at least 4), and
+    never past the largest eps the map has a cell for (``uncertain_fraction``): none on a map
+    narrower than 3 cells."""
+    top = min(max(4, min(shape) // 16), (min(shape) - 1) // 2)
+    if top < 1:
+        return np.zeros(0, int)
     return 2 ** np.arange(int(math.log2(top)) + 1)
 
 
@@ -119,8 +123,9 @@ def uncertainty_exponent(labels: np.ndarray, epsilons=None) -> UncertaintyExpone
     log eps (least squares) with its standard error (NaN with fewer than three usable eps:
     f > 0)."""
     eps = np.asarray(default_epsilons(np.shape(labels)) if epsilons is None else epsilons, int)
-    f, n = zip(*(uncertain_fraction(labels, e) for e in eps))
-    f, n = np.array(f), np.array(n)
+    pairs = [uncertain_fraction(labels, e) for e in eps]
+    f = np.array([p[0] for p in pairs], float)
+    n = np.array([p[1] for p in pairs], int)
     use = np.isfinite(f) & (f > 0)
     alpha = err = float("nan")
     if use.sum() >= 2:

@@ -1,7 +1,7 @@
 """What one ``hertzmap explore`` process shares between its pages: the stores it shows (read
 as they are written), the refine job (one at a time) that writes a new store through
 ``scheduler.run.run_study`` on a background thread, and the stepped-sine sweeps through clicked
-points (``study.explore_data.line_sweep``, each on its own background thread of this process;
+points (``study.explore_sweeps.line_sweep``, each on its own background thread of this process;
 the store's products/sweeps where it holds the line; the sweeps computed kept for the other
 pages), and the basin maps of clicked points (``scheduler.basin_tasks.run_basins`` on the
 refines' cluster, one at a time, its tiles drawn as they return).
@@ -252,7 +252,7 @@ class BasinJob:
 
 
 class SweepJob:
-    """Stepped-sine sweeps up and down one line through a clicked point (``explore_data.
+    """Stepped-sine sweeps up and down one line through a clicked point (``explore_sweeps.
     line_sweep``), computed on a thread of the server process, or a result already at hand
     (the store's products/sweeps, or a sweep this server computed before). ``state``:
     running, done, failed; ``result``: the sweep (explore_data's form) once done; ``origin``:
@@ -383,7 +383,7 @@ class ExploreState:
         """The sweeps up and down ``axis`` through the grid point nearest (omega, sigma, zeta)
         of the store ``view``: the store's products/sweeps when it holds that line (nothing
         computed), else a sweep this server computed before on the same line and steps, else
-        ``explore_data.line_sweep`` started on a thread (the job answers at once: the page
+        ``explore_sweeps.line_sweep`` started on a thread (the job answers at once: the page
         polls it). Raises ValueError (shown on the page, nothing computed) when the line cannot
         be swept (one grid value along the axis)."""
         values, _ = ES.sweep_values(view.ds, axis, omega, sigma)     # ValueError: refused

@@ -549,7 +549,7 @@ def test_a_basin_map_of_the_clicked_point(map_store, browser, tmp_path):
     the store as its product group."""
     from hertzmap.scheduler.basin_tasks import check_request, store_orbits
     from hertzmap.scheduler.store import read_product
-    from hertzmap.study import explore_data as E
+    from hertzmap.study import explore_sweeps as E
     from hertzmap.study import products as P
     from hertzmap.study.products.basin_map import basin_map_name
     from hertzmap.study.solve.dense_basins import cell_basin_map
@@ -629,7 +629,7 @@ def test_a_refused_or_failed_sweep_says_so_and_the_server_goes_on(tmp_path, monk
     from hertzmap.scheduler.cluster import ClusterSpec
     from hertzmap.scheduler.explore.page import Page
     from hertzmap.scheduler.explore.state import ExploreState
-    from hertzmap.study import explore_data as E
+    from hertzmap.study import explore_sweeps as E
     from tests.helpers import blank_results, write_results
 
     ds = blank_results("[grid]\nomega = [1.96, 1.98, 2.0]\nsigma = 0.5\nzeta = 0.01\n", "line")

@@ -61,6 +61,18 @@ def test_uncertain_fraction_of_a_straight_boundary_is_exact():
         assert f == pytest.approx(2 * eps / (N - 2 * eps), rel=1e-12)
 
 
+@pytest.mark.parametrize("shape, eps", [((4, 3), [1]), ((5, 9), [1, 2]), ((2, 40), [])])
+def test_a_small_map_uses_only_the_eps_it_has_cells_for(shape, eps):
+    """A map of 4 x 3 cells (hertzmap basins --grid 4 3) has cells 1 away on both sides along
+    each axis and none 2 away: f(1) only, and no exponent (one eps does not give a slope; two
+    give a slope without an error)."""
+    labels = np.zeros(shape, int)
+    labels[:, shape[1] // 2:] = 1
+    u = uncertainty_exponent(labels)
+    np.testing.assert_array_equal(u.epsilon, eps)
+    assert np.isnan(u.alpha) == (len(eps) < 2) and np.isnan(u.alpha_error)
+
+
 @pytest.mark.parametrize("shape", ["line", "circle"])
 def test_a_smooth_boundary_has_exponent_one(shape):
     x, y = _grid()
