@@ -26,8 +26,17 @@ fi
 mkdir "$base/tmp"
 echo "test.sh: the tests' files are in $base (removed if every test passes)" >&2
 code=0
-TMPDIR="$base/tmp" .venv/bin/python -m pytest -q -n 2 --dist loadgroup \
+start=$(date +%s)
+# --durations=20: the slowest 20 tests and their times, printed at the end of the run
+TMPDIR="$base/tmp" .venv/bin/python -m pytest -q -n 2 --dist loadgroup --durations=20 \
     --basetemp "$base/pytest" "$@" || code=$?
+# the suite's budget (issue 50): 10 minutes of wall time on a 2-core machine, said when passed
+wall=$(( $(date +%s) - start ))
+if [ "$#" = 0 ] && [ "$wall" -gt 600 ]; then
+    echo "test.sh: BUDGET: the suite took $wall s, past its 10-minute budget (600 s): see the slowest tests above" >&2
+else
+    echo "test.sh: the suite took $wall s (budget 600 s)" >&2
+fi
 if [ "$code" = 0 ] || [ "$code" = 5 ]; then
     rm -rf "$base"
 fi

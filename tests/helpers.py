@@ -463,3 +463,30 @@ def assert_rerun_leaves_product(main, study, store, product: str, capsys,
     assert not any(ln.startswith(stage_line) for ln in out.splitlines()), out
     assert product_mtime(store, product) == before
     return out
+
+
+def assert_same_data(a: xr.Dataset, b: xr.Dataset) -> None:
+    """xr.testing.assert_identical, failing first with what differs where: for each variable
+    whose values differ, how many and the first few points' coordinates with both values
+    (a non-determinism shows as a region, an off-by-a-slot order as a shift)."""
+    lines = []
+    for name in sorted(set(a.data_vars) & set(b.data_vars)):
+        x, y = a[name], b[name]
+        if x.shape != y.shape:
+            lines.append(f"{name}: shapes {x.shape} and {y.shape}")
+            continue
+        xv, yv = np.asarray(x.values), np.asarray(y.values)
+        same = xv == yv
+        if xv.dtype.kind in "fc":
+            same |= np.isnan(xv) & np.isnan(yv)
+        if same.all():
+            continue
+        where = np.argwhere(~same)
+        first = []
+        for idx in where[:3]:
+            at = {d: (x[d].values[i].item() if d in x.coords else int(i))
+                  for d, i in zip(x.dims, idx)}
+            first.append(f"{at}: {xv[tuple(idx)]!r} vs {yv[tuple(idx)]!r}")
+        lines.append(f"{name}: {len(where)} of {xv.size} differ; " + "; ".join(first))
+    assert not lines, "the stores differ:\n" + "\n".join(lines)
+    xr.testing.assert_identical(a, b)

@@ -26,7 +26,8 @@ import pytest
 import xarray as xr
 
 from tests.end_to_end.slurm_cluster import ACCOUNT, SlurmUnavailable, start_slurm
-from tests.helpers import REPO, done_count, hertzmap_cmd, subprocess_env, wait_until
+from tests.helpers import (REPO, assert_same_data, done_count, hertzmap_cmd, subprocess_env,
+                           wait_until)
 from hertzmap.scheduler.cli import main
 
 pytestmark = pytest.mark.slow
@@ -138,7 +139,7 @@ def assert_same_store(a: Path, b: Path) -> None:
     for key in ("hertzmap_study_hash", "hertzmap_study_toml", "hertzmap_chunk_shape",
                 "hertzmap_code_hash"):
         assert da_.attrs[key] == db_.attrs[key], key
-    xr.testing.assert_identical(open_data(a), open_data(b))
+    assert_same_data(open_data(a), open_data(b))
 
 
 def slurm_options(slurm, logs: Path, *extra: str) -> list[str]:

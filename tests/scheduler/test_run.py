@@ -21,8 +21,8 @@ from hertzmap.scheduler.run import RunOptions, run_study
 from hertzmap.scheduler.store import Store, lock_path
 from hertzmap.study.schema import VARIABLES, pad_slots
 from hertzmap.study.spec import parse_study
-from tests.helpers import (done_count, free_port, hertzmap_cmd, kill_client_mid_study,
-                      subprocess_env, wait_until)
+from tests.helpers import (assert_same_data, done_count, free_port, hertzmap_cmd,
+                           kill_client_mid_study, subprocess_env, wait_until)
 
 
 E2E_STUDY = """
@@ -53,7 +53,7 @@ def assert_same_store(a: Path, b: Path) -> None:
     da_, db_ = xr.open_zarr(a), xr.open_zarr(b)
     for key in ("hertzmap_study_hash", "hertzmap_study_toml", "hertzmap_chunk_shape"):
         assert da_.attrs[key] == db_.attrs[key], key
-    xr.testing.assert_identical(open_data(a), open_data(b))
+    assert_same_data(open_data(a), open_data(b))
 
 
 @pytest.fixture(scope="module")
