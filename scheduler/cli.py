@@ -468,7 +468,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Periodic responses of a preloaded Hertzian contact over parameter grids.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, (add_arguments, handler, help) in SUBCOMMANDS.items():
-        p = sub.add_parser(name, help=help, description=help)
+        # argparse formats a subcommand's help with %: a literal "95 %" would raise
+        p = sub.add_parser(name, help=help.replace("%", "%%"), description=help)
         add_arguments(p)
         p.set_defaults(handler=handler)
     return parser

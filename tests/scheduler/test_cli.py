@@ -113,6 +113,23 @@ def test_plot_help_names_every_figure_and_says_what_it_draws(capsys):
     assert all(f" {f.which} ({' '.join(f.help.split())})" in text for f in FIGURES)
 
 
+def test_help_of_hertzmap_and_of_every_subcommand_prints_and_exits_0(capsys):
+    """`hertzmap --help` lists every subcommand with its line (argparse formats those lines
+    with %: the fit's "95 %" once made it raise), and each subcommand's --help prints."""
+    from hertzmap.scheduler.cli import SUBCOMMANDS
+
+    with pytest.raises(SystemExit) as e:
+        main(["--help"])
+    assert e.value.code == 0
+    text = " ".join(capsys.readouterr().out.split())
+    for name, (_, _, line) in SUBCOMMANDS.items():
+        assert name in text and " ".join(line.split()[:4]) in text
+        with pytest.raises(SystemExit) as e:
+            main([name, "--help"])
+        assert e.value.code == 0, name
+    assert "95 % profile-likelihood" in text
+
+
 MINIMAL = """
 [grid]
 omega = {start = 0.5, stop = 2.5, num = 5}
