@@ -1,0 +1,60 @@
+"""The commit flags of a store: ``task_done``, one flag per block of the grid, set by the client
+(which holds the lock) only once the block is in the store. A flag is therefore never set for a
+block that is not fully written; a block written but not flagged (a worker or the client killed
+in between) is recomputed, or packed from its staged file, on resume, with identical values."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import zarr
+
+from hertzmap.scheduler.store.layout import quiet
+
+def read_done_flags(path: str | Path) -> np.ndarray:
+    """The task_done flags of a store, read only (cheap: for a page or a client polling a store
+    that another process writes)."""
+    with quiet():
+        group = zarr.open_group(zarr.storage.LocalStore(Path(path), read_only=True), mode="r",
+                                zarr_format=3, use_consolidated=False)
+        return np.asarray(group["task_done"][...], bool)
+
+
+class CommitFlags:
+    """The task_done flags of a store opened for writing (a part of Store: ``self._done`` is
+    its task_done array)."""
+
+    def done_mask(self) -> np.ndarray:
+        """The task_done flags. A flag chunk that cannot be read (truncated file) counts as
+        not done (the task is recomputed): see :meth:`unreadable_flags`."""
+        try:
+            return np.asarray(self._done[...], dtype=bool)
+        except Exception:
+            mask = np.zeros(self._done.shape, dtype=bool)
+            for idx in np.ndindex(*self._done.shape):
+                try:
+                    mask[idx] = bool(self._done[idx])
+                except Exception:
+                    mask[idx] = False
+            return mask
+
+    def unreadable_flags(self) -> list[tuple[int, int, int]]:
+        """Chunk indices whose task_done flag file exists but cannot be decoded."""
+        bad = []
+        try:
+            self._done[...]
+            return bad
+        except Exception:
+            pass
+        for idx in np.ndindex(*self._done.shape):
+            try:
+                self._done[idx]
+            except Exception:
+                bad.append(tuple(int(i) for i in idx))
+        return bad
+
+    def mark_done(self, index: tuple[int, int, int]) -> None:
+        self._done[index] = True
+
+    def unmark(self, index: tuple[int, int, int]) -> None:
+        self._done[index] = False
