@@ -15,10 +15,12 @@ package, one concern per module (docs/architecture.md, "The store"):
 The names other modules use are imported here.
 """
 from hertzmap.scheduler.errors import StoreError
-from hertzmap.scheduler.store.block_writes import BlockWriter, commit_grid_block, write_task_block
+from hertzmap.scheduler.store.block_writes import (SHARD_LOG_ENV, BlockWriter, pack_shard,
+                                                   stage_task_block, staged_blocks)
 from hertzmap.scheduler.store.commit_flags import read_done_flags
-from hertzmap.scheduler.store.layout import (ALL_CHUNKS_ATTR, ATLAS_ATTR, SLOTS_USED_ATTR,
-                                             block_name, read_attrs, store_attrs)
+from hertzmap.scheduler.store.layout import (ALL_CHUNKS_ATTR, ATLAS_ATTR, SHARD_BLOCKS_ATTR,
+                                             SHARD_POINTS, SLOTS_USED_ATTR, block_name,
+                                             read_attrs, shard_blocks, store_attrs)
 from hertzmap.scheduler.store.lock import (LOCK_SUFFIX, Lock, check_writer, lock_path,
                                            shared_store_hint)
 from hertzmap.scheduler.store.product_groups import (TRACED_CURVES, finish_traced_curves,

@@ -1,11 +1,25 @@
-"""Block writes: a task's block of every stored variable, written into the store's main group
-as whole chunks (``BlockWriter``), by the worker that solved it (``write_task_block``, only
-while its client holds the lock) or by the client (a block that did not fit the slot dims,
-``commit_grid_block``; an atlas round)."""
+"""Block writes: the grid's blocks reach the store's main group in whole shards, each written
+once by the client, so that no two processes ever write one shard (zarr's sharding codec
+rewrites a whole shard file on any write into it: two writers of one shard lose data).
+
+A task's worker stages its block (``stage_task_block``: one file, whole or not at all, only
+while its client holds the lock) and returns; the client, when every block of a shard is
+staged, packs them into the shard (``pack_shard``: one region write per variable, the slot
+dims grown first), then sets their ``task_done`` flags in one write, then removes the staged
+files. A kill anywhere leaves either staged files (packed on resume, the same values) or a
+packed shard whose flags are set.
+
+``HERTZMAP_SHARD_LOG`` (tests only): a file each region write appends one line to (the
+writer's pid, the shards it wrote, its start and end times), to check that writers never
+overlap on a shard.
+"""
 from __future__ import annotations
 
 import asyncio
+import contextlib
+import json
 import os
+import time
 from pathlib import Path
 from typing import Any
 
@@ -15,22 +29,51 @@ import zarr
 # all of a block's variables in one call
 from zarr.core.sync import sync as zarr_sync
 
-from hertzmap.scheduler.store.layout import ALL_CHUNKS_ATTR, block_name, read_attrs
+from hertzmap.scheduler.store.layout import block_name, shard_members
 from hertzmap.scheduler.store.lock import check_writer
-from hertzmap.scheduler.store.staging import GRID_STAGE, read_stage_file, stage_file, unstage
-from hertzmap.study.schema import SLOT_CHUNK, VARIABLES, array_slots, pad_slots
+from hertzmap.scheduler.store.slot_dims import slots_used
+from hertzmap.scheduler.store.staging import GRID_STAGE, stage_file, staged_names, unstage
+from hertzmap.study.schema import (SLOT_CHUNK, SLOT_DIMS, VARIABLES, array_slots, chunk_slices,
+                                   pad_slots)
+
+#: the test-only log of region writes (module docstring)
+SHARD_LOG_ENV = "HERTZMAP_SHARD_LOG"
+
+
+@contextlib.contextmanager
+def log_shard_write(slices, chunks, shard_blocks):
+    """Append (pid, shards, start, end) of the write inside to SHARD_LOG_ENV's file, if set."""
+    path = os.environ.get(SHARD_LOG_ENV)
+    if not path:
+        yield
+        return
+    per = [c * b for c, b in zip(chunks, shard_blocks)]
+    ranges = [range(s.start // p, (s.stop - 1) // p + 1) for s, p in zip(slices, per)]
+    shards = [[i, j, k] for i in ranges[0] for j in ranges[1] for k in ranges[2]]
+    t0 = time.time()
+    yield
+    line = json.dumps({"pid": os.getpid(), "shards": shards, "start": t0, "end": time.time()})
+    fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+    try:
+        os.write(fd, (line + "\n").encode())
+    finally:
+        os.close(fd)
+
 
 class BlockWriter:
-    """The arrays of a store's main group, each opened once, for region writes of whole blocks.
+    """The arrays of a store's main group, each opened once, for region writes of whole blocks
+(a shard packed, an atlas round's tiles): the client's alone.
 
     Byte-for-byte what ``block_dataset(...).to_zarr(region=...)`` writes (the stored dtypes
     are the VARIABLES dtypes and no variable has a CF scale or offset; tested), at a third
     of its cost: xarray's region write re-opens and re-validates every array on each call,
     and zarr then runs one event-loop round trip per variable."""
 
-    def __init__(self, group: zarr.Group, chunks: tuple[int, ...], all_chunks: bool):
+    def __init__(self, group: zarr.Group, chunks: tuple[int, ...], all_chunks: bool,
+                 shard_blocks: tuple[int, int, int] = (1, 1, 1)):
         self._group = group
         self.chunks = tuple(int(c) for c in chunks)
+        self.shard_blocks = tuple(int(b) for b in shard_blocks)
         #: every chunk of a block is written, even all-fill ones, in stores that require it:
         #: a done task whose chunk file is missing is then known to be damaged (Store.verify)
         self.all_chunks = all_chunks
@@ -72,12 +115,13 @@ class BlockWriter:
         holds more slots than the store's dims (the client grows them: Store.write_block)."""
         if not self.fits(arrays, names):
             return False
-        ib = slices[0].start // self.chunks[0]
+        c0 = self.chunks[0]
+        blocks = slice(slices[0].start // c0, -(-slices[0].stop // c0))
         jobs = []
         for name in names:
             v = VARIABLES[name]
             arr = self._array(name)
-            lead = (slice(ib, ib + 1), slices[1], slices[2]) if v.layout == "line" else tuple(slices)
+            lead = (blocks, slices[1], slices[2]) if v.layout == "line" else tuple(slices)
             data = np.asarray(arrays[name]).astype(v.dtype, copy=False)
             if v.slot_dim is not None:
                 extent = arr.shape[3]
@@ -98,7 +142,8 @@ class BlockWriter:
         async def write_all():
             await asyncio.gather(*jobs)
 
-        zarr_sync(write_all())
+        with log_shard_write(slices, self.chunks, self.shard_blocks):
+            zarr_sync(write_all())
         return True
 
     def _tail(self, name: str) -> zarr.Array:
@@ -111,47 +156,79 @@ class BlockWriter:
         return arr
 
 
-#: where a worker process writes: store path -> (its task_done metadata file's (inode, mtime),
-#: the writer). A store made again (--overwrite) has new metadata files, so a writer of the
-#: store it replaced is never used.
-_WRITERS: dict[str, tuple[tuple[int, int], BlockWriter]] = {}
 
-
-def _writer_for(path: str | Path) -> BlockWriter:
-    path = Path(path)
-    meta = os.stat(path / "task_done" / "zarr.json")
-    stamp = (meta.st_ino, meta.st_mtime_ns)
-    hit = _WRITERS.get(str(path))
-    if hit is None or hit[0] != stamp:
-        attrs = read_attrs(path) or {}
-        group = zarr.open_group(zarr.storage.LocalStore(path), mode="r+", zarr_format=3,
-                                use_consolidated=False)
-        hit = _WRITERS[str(path)] = (stamp, BlockWriter(
-            group, attrs["hertzmap_chunk_shape"], bool(attrs.get(ALL_CHUNKS_ATTR))))
-    return hit[1]
-
-
-def write_task_block(path: str | Path, owner: dict[str, Any], slices: tuple[slice, slice, slice],
-                     index: tuple[int, int, int], arrays: dict[str, np.ndarray],
-                     names: tuple[str, ...]) -> bool:
-    """A task's own block, written by the worker that solved it (scheduler.worker.run_task):
-    whole chunks that no other task writes, so without a lock between workers; only while
-    ``owner`` (the client's Lock.owner) holds the store (check_writer). A block that holds
-    more slots than the store's slot dims (only the client resizes them) is staged instead,
-    as one file (stage_file), for the client to grow the dims and write it
-    (commit_grid_block). Returns True when written, False when staged. The client sets the
-    task's flag once this has returned (and a staged block is written)."""
+def stage_task_block(path: str | Path, owner: dict[str, Any], index: tuple[int, int, int],
+                     arrays: dict[str, np.ndarray]) -> Path:
+    """A task's block, staged by the worker that solved it (scheduler.worker.run_task) as one
+    file (staging.stage_file), only while ``owner`` (the client's Lock.owner) holds the store
+    (check_writer). The client packs it into its shard (pack_shard)."""
     check_writer(path, owner)
-    if _writer_for(path).write(slices, arrays, names):
-        return True
-    stage_file(path, GRID_STAGE, block_name(index), arrays)
-    return False
+    return stage_file(path, GRID_STAGE, block_name(index), arrays)
 
 
-def commit_grid_block(store, slices: tuple[slice, slice, slice],
-                      index: tuple[int, int, int], names: tuple[str, ...]) -> None:
-    """Write a staged grid block (write_task_block) into the store, its slot dims grown, and
-    remove its file. The client's, before it flags the task."""
-    arrays = read_stage_file(store.path, GRID_STAGE, block_name(index))
-    store.write_block(slices, arrays, names)
-    unstage(store.path, GRID_STAGE, block_name(index))
+def staged_blocks(path: str | Path) -> set[tuple[int, int, int]]:
+    """The grid's blocks staged and not packed yet."""
+    return {tuple(int(i) for i in n.split("-")) for n in staged_names(path, GRID_STAGE)}
+
+
+def pack_shard(store, shard: tuple[int, int, int], counts: tuple[int, int, int],
+               names: tuple[str, ...]) -> list[tuple[int, int, int]]:
+    """Write every block of ``shard`` from its staged file into the store (its blocks
+    not flagged done must all be staged), one variable at a time (the client holds one
+    variable's shard in memory), the slot dims grown first; then flag them done in one write
+    and remove their files. The client's (it holds the lock). Returns the blocks packed."""
+    members = shard_members(shard, store.shard_blocks, counts)
+    done = store.done_mask()
+    todo = [m for m in members if not done[m]]
+    if not todo:
+        return []
+    shape = store.grid_shape
+    files = {m: np.load(Path(store.path) / GRID_STAGE / f"{block_name(m)}.npz",
+                        allow_pickle=False) for m in todo}
+    try:
+        region = [chunk_slices(shape, store.chunks, m) for m in members]
+        lo = [min(r[a].start for r in region) for a in range(3)]
+        hi = [max(r[a].stop for r in region) for a in range(3)]
+        where = tuple(slice(a, b) for a, b in zip(lo, hi))
+        # the slots the shard needs along each dim: the longest of its blocks (and the store's)
+        need = {d: 1 for d in SLOT_DIMS}
+        used = {}
+        for f in files.values():
+            counted = {n: f[n] for n in ("status", "attractor_kind") if n in names}
+            have = array_slots(counted)
+            need = {d: max(need[d], have[d]) for d in SLOT_DIMS}
+            for d, k in slots_used(counted).items():
+                used[d] = max(used.get(d, 0), k)
+        store.prepare_slots(need, used)
+        for name in names:
+            v = VARIABLES[name]
+            extent = store.slot_extents()[v.slot_dim] if v.slot_dim else None
+            if v.layout == "line":
+                c0 = store.chunks[0]
+                lead = (-(-hi[0] // c0) - lo[0] // c0, hi[1] - lo[1], hi[2] - lo[2])
+            else:
+                lead = tuple(b - a for a, b in zip(lo, hi))
+            first = np.asarray(files[todo[0]][name])
+            tail = first.shape[4:] if v.slot_dim else first.shape[3:]
+            full = np.full(lead + ((extent,) if v.slot_dim else ()) + tail, v.fill, v.dtype)
+            for m in todo:
+                r = chunk_slices(shape, store.chunks, m)
+                a = np.asarray(files[m][name])
+                if v.slot_dim:
+                    a = pad_slots({name: a}, {v.slot_dim: extent})[name]
+                if v.layout == "line":
+                    i0 = r[0].start // store.chunks[0] - lo[0] // store.chunks[0]
+                    at = (slice(i0, i0 + 1),)
+                else:
+                    at = (slice(r[0].start - lo[0], r[0].stop - lo[0]),)
+                at += (slice(r[1].start - lo[1], r[1].stop - lo[1]),
+                       slice(r[2].start - lo[2], r[2].stop - lo[2]))
+                full[at] = a
+            store.write_block(where, {name: full}, (name,), need=need)
+    finally:
+        for f in files.values():
+            f.close()
+    store.mark_done_many(todo)
+    for m in todo:
+        unstage(store.path, GRID_STAGE, block_name(m))
+    return todo

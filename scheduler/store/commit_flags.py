@@ -56,5 +56,13 @@ class CommitFlags:
     def mark_done(self, index: tuple[int, int, int]) -> None:
         self._done[index] = True
 
+    def mark_done_many(self, indices) -> None:
+        """Flag the blocks ``indices`` done in one write (the flags are one file: a kill
+        leaves them all set or none)."""
+        flags = self.done_mask()
+        for i in indices:
+            flags[tuple(i)] = True
+        self._done[...] = flags
+
     def unmark(self, index: tuple[int, int, int]) -> None:
         self._done[index] = False

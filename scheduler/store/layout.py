@@ -5,13 +5,16 @@ study.schema's (VARIABLES, template); this module says how they are laid out in 
 from __future__ import annotations
 
 import contextlib
+import itertools
 import json
+import math
 import warnings
 from pathlib import Path
 from typing import Any
 
 from hertzmap.scheduler.errors import StoreError
-from hertzmap.study.schema import StoreFormatError, check_format
+from hertzmap.study.schema import (CHUNK_DIMS, SLOT_CHUNK, SLOT_DIMS, VARIABLES, StoreFormatError,
+                                   check_format, chunk_counts)
 
 ALL_CHUNKS_ATTR = "hertzmap_all_chunks_written"
 #: the atlas's progress (its round and phase: scheduler.atlas_tasks)
@@ -20,6 +23,71 @@ ATLAS_ATTR = "hertzmap_atlas"
 #: SLOT_DIMS), kept by the client as blocks and atlas rounds are written: the length the dims
 #: are cut to when the run ends (Store.settle_slots)
 SLOTS_USED_ATTR = "hertzmap_slots_used"
+#: the blocks (tasks) of the grid one shard holds along (omega, sigma, zeta): shard_blocks
+SHARD_BLOCKS_ATTR = "hertzmap_shard_blocks"
+
+#: Grid points one shard of a variable holds, at most (fewer at the grid's edges). Every array
+#: of the main group has one file per shard (per SLOT_CHUNK of its slot dim beyond the first,
+#: where points hold more): 71 arrays at most (every output), so a 10^6-point study is 8
+#: shards a variable, about 600 files, and a 10^7-point one 77, about 5,500 (benchmarks/
+#: store_layout.py measures them). A shard is written whole, once, by the client when every
+#: block of it is staged (block_writes.pack_shard): the largest that client holds in memory is
+#: one variable's shard, 2^18 points x its slots (8 MB for a float64 at one slot chunk).
+SHARD_POINTS = 2 ** 18
+
+
+def shard_blocks(shape: tuple[int, int, int], chunks: tuple[int, int, int],
+                 points: int = SHARD_POINTS) -> tuple[int, int, int]:
+    """Blocks per shard along (omega, sigma, zeta): doubled, along the axis with the most
+    shards left, while a shard holds fewer than ``points`` grid points and does not yet span
+    the grid."""
+    counts = chunk_counts(shape, chunks)
+    blocks = [1, 1, 1]
+    while True:
+        size = math.prod(min(c * b, n) for c, b, n in zip(chunks, blocks, shape))
+        left = [-(-n // b) for n, b in zip(counts, blocks)]
+        axis = max(range(3), key=lambda a: left[a])
+        if size * 2 > points or left[axis] == 1:
+            return tuple(blocks)
+        blocks[axis] = min(blocks[axis] * 2, counts[axis])
+
+
+def shard_shape(name: str, dims: tuple[str, ...], shape: tuple[int, ...],
+                chunks: tuple[int, ...], blocks: tuple[int, int, int]) -> tuple[int, ...]:
+    """The shard shape of an array of the main group: ``blocks`` of its chunks along the grid
+    dims (and along omega_block, a line variable's one entry per omega block), one chunk along
+    a slot dim (SLOT_CHUNK: the dim grows and is cut by whole shards), the whole array along
+    the others (the harmonics, the strobe) and for the ``task_done`` flags (one file, written
+    by the client alone)."""
+    if dims == CHUNK_DIMS:
+        return tuple(shape)
+    along = {"omega": blocks[0], "omega_block": blocks[0], "sigma": blocks[1], "zeta": blocks[2]}
+    out = []
+    for d, n, c in zip(dims, shape, chunks):
+        if d in along:
+            out.append(min(c * along[d], n))
+        elif d in SLOT_DIMS:
+            out.append(SLOT_CHUNK)
+        else:
+            out.append(n)
+    return tuple(out)
+
+
+def shard_of(index: tuple[int, int, int], blocks: tuple[int, int, int]) -> tuple[int, int, int]:
+    """The shard that holds the block (task) ``index``."""
+    return tuple(int(i) // int(b) for i, b in zip(index, blocks))
+
+
+def shard_members(shard: tuple[int, int, int], blocks: tuple[int, int, int],
+                  counts: tuple[int, int, int]) -> list[tuple[int, int, int]]:
+    """The blocks (task indices) of ``shard``, in C order."""
+    ranges = [range(s * b, min((s + 1) * b, n)) for s, b, n in zip(shard, blocks, counts)]
+    return [tuple(i) for i in itertools.product(*ranges)]
+
+
+def is_sharded_variable(name: str) -> bool:
+    """A stored variable of the schema (its arrays are sharded), not a coordinate."""
+    return name in VARIABLES or name == "task_done"
 
 
 @contextlib.contextmanager

@@ -14,7 +14,8 @@ import zarr
 from hertzmap.scheduler.errors import StoreError
 from hertzmap.scheduler.store.block_writes import BlockWriter
 from hertzmap.scheduler.store.commit_flags import CommitFlags
-from hertzmap.scheduler.store.layout import ALL_CHUNKS_ATTR, quiet, read_attrs
+from hertzmap.scheduler.store.layout import (ALL_CHUNKS_ATTR, SHARD_BLOCKS_ATTR, quiet, read_attrs,
+                                             shard_blocks, shard_of, shard_shape)
 from hertzmap.scheduler.store.slot_dims import SlotDims, slots_used
 from hertzmap.study.schema import (FORMAT_ADVICE, STORE_FORMAT, StoreFormatError, array_slots,
                                    check_format, history_line, parse_attrs, stored_variables,
@@ -34,6 +35,8 @@ class Store(CommitFlags, SlotDims):
         self.info = parse_attrs(attrs)
         self.study_hash: str = attrs["hertzmap_study_hash"]
         self.chunks = tuple(int(c) for c in attrs["hertzmap_chunk_shape"])
+        #: blocks per shard along (omega, sigma, zeta) (format 2 and older: one)
+        self.shard_blocks = tuple(int(b) for b in attrs.get(SHARD_BLOCKS_ATTR, (1, 1, 1)))
         self._group = zarr.open_group(zarr.storage.LocalStore(self.path), mode="r+",
                                       zarr_format=3, use_consolidated=False)
         self._done = self._group["task_done"]
@@ -53,12 +56,19 @@ class Store(CommitFlags, SlotDims):
         # template's zero-copy broadcasts into memory (the whole store uncompressed: 2.7 GB per
         # 10^6 points of the default products, a 10^7-point store could not be created on a
         # 24 GB client); the written template is the same
-        along = dict(zip(("omega", "sigma", "zeta"), ds.attrs["hertzmap_chunk_shape"]))
+        # every array of the main group in shards of whole blocks (layout.shard_shape): few
+        # files at any size, each shard written whole by the client (block_writes.pack_shard)
+        chunks = tuple(int(c) for c in ds.attrs["hertzmap_chunk_shape"])
+        blocks = shard_blocks(study.shape, chunks)
+        ds.attrs[SHARD_BLOCKS_ATTR] = list(blocks)
+        for name, var in ds.data_vars.items():
+            enc[name]["shards"] = shard_shape(name, var.dims, var.shape, enc[name]["chunks"],
+                                              blocks)
         lazy = ds.copy()
         for name, var in ds.data_vars.items():
             lazy[name] = var.copy(data=dask.array.full(
                 var.shape, np.asarray(var.data).flat[0], dtype=var.dtype,
-                chunks=tuple(min(along.get(d, n), n) for d, n in zip(var.dims, var.shape))))
+                chunks=enc[name]["shards"]))
         # task_done must be written now (not lazily): keep it numpy-backed
         lazy["task_done"] = ds["task_done"]
         # every block write stores all its chunks (even all-fill ones): a done task whose
@@ -99,9 +109,11 @@ class Store(CommitFlags, SlotDims):
             raise StoreError(f"{self.path} is incomplete (missing {', '.join(missing)})")
 
     def _chunk_file(self, name: str, index: tuple[int, ...]) -> Path:
+        """The file that holds block ``index`` of array ``name``: its shard."""
         arr = self._group[name]
         extra = (0,) * (arr.ndim - len(index))
-        return self.path / name / "c" / "/".join(str(int(i)) for i in (*index, *extra))
+        where = shard_of(index, self.shard_blocks)
+        return self.path / name / "c" / "/".join(str(int(i)) for i in (*where, *extra))
 
     def verify(self, tasks, names: tuple[str, ...]) -> dict[tuple[int, int, int], list[str]]:
         """Check the chunks of tasks flagged done: each stored variable's chunk must exist (in
@@ -128,20 +140,30 @@ class Store(CommitFlags, SlotDims):
         return damaged
 
     # -- data -----------------------------------------------------------------------------
-    def write_block(self, slices: tuple[slice, slice, slice], arrays: dict[str, np.ndarray],
-                    names: tuple[str, ...]) -> None:
-        """Region write of one block (whole chunks) of every variable in ``names``
-        (:class:`BlockWriter`), the store's slot dims grown first where the block holds more
-        than they have room for: the grid's blocks that did not fit, the atlas's commits, and
-        tests. The client's alone (it holds the store's lock)."""
-        block = {n: arrays[n] for n in names}
-        self.note_slots_used(slots_used(block))
-        need = array_slots(block)
+    @property
+    def grid_shape(self) -> tuple[int, int, int]:
+        """The grid's (omega, sigma, zeta) lengths."""
+        return tuple(int(self._group[d].shape[0]) for d in ("omega", "sigma", "zeta"))
+
+    def prepare_slots(self, need: dict[str, int], used: dict[str, int]) -> None:
+        """Before a region write whose arrays are ``need`` long along the slot dims and hold
+        ``used`` entries at most: note what is used, grow the dims where they are shorter."""
+        self.note_slots_used(used)
         have = self.slot_extents()
         if any(need[d] > have[d] for d in have):
             self.settle_slots({d: max(need[d], have[d]) for d in have})
+
+    def write_block(self, slices: tuple[slice, slice, slice], arrays: dict[str, np.ndarray],
+                    names: tuple[str, ...], need: dict[str, int] | None = None) -> None:
+        """Region write of whole blocks (a shard packed, an atlas round's tiles) of every
+        variable in ``names`` (:class:`BlockWriter`), the store's slot dims grown first where
+        the region holds more than they have room for (``need``: its slot lengths, when the
+        arrays given do not say them all). The client's alone (it holds the store's lock)."""
+        block = {n: arrays[n] for n in names}
+        self.prepare_slots(need or array_slots(block), slots_used(block))
         if self._writer is None:
-            self._writer = BlockWriter(self._group, self.chunks, bool(self.attrs.get(ALL_CHUNKS_ATTR)))
+            self._writer = BlockWriter(self._group, self.chunks,
+                                       bool(self.attrs.get(ALL_CHUNKS_ATTR)), self.shard_blocks)
         if not self._writer.write(slices, arrays, names):
             raise StoreError(f"{self.path}: a block holds more slots than its dims after they "
                              "grew (another process resized the store?)")
