@@ -208,9 +208,16 @@ def pack_shard(store, shard: tuple[int, int, int], counts: tuple[int, int, int],
                 lead = (-(-hi[0] // c0) - lo[0] // c0, hi[1] - lo[1], hi[2] - lo[2])
             else:
                 lead = tuple(b - a for a, b in zip(lo, hi))
-            first = np.asarray(files[todo[0]][name])
-            tail = first.shape[4:] if v.slot_dim else first.shape[3:]
-            full = np.full(lead + ((extent,) if v.slot_dim else ()) + tail, v.fill, v.dtype)
+            if len(todo) < len(members):
+                # blocks of the shard already packed (a damaged block recomputed): kept as read
+                c0 = store.chunks[0]
+                sel = ((slice(lo[0] // c0, -(-hi[0] // c0)),) + where[1:]
+                       if v.layout == "line" else where)
+                full = np.array(store.array(name)[sel], dtype=v.dtype)
+            else:
+                first = np.asarray(files[todo[0]][name])
+                tail = first.shape[4:] if v.slot_dim else first.shape[3:]
+                full = np.full(lead + ((extent,) if v.slot_dim else ()) + tail, v.fill, v.dtype)
             for m in todo:
                 r = chunk_slices(shape, store.chunks, m)
                 a = np.asarray(files[m][name])

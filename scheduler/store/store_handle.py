@@ -17,7 +17,8 @@ from hertzmap.scheduler.store.commit_flags import CommitFlags
 from hertzmap.scheduler.store.layout import (ALL_CHUNKS_ATTR, SHARD_BLOCKS_ATTR, quiet, read_attrs,
                                              shard_blocks, shard_of, shard_shape)
 from hertzmap.scheduler.store.slot_dims import SlotDims, slots_used
-from hertzmap.study.schema import (FORMAT_ADVICE, STORE_FORMAT, StoreFormatError, array_slots,
+from hertzmap.study.schema import (FORMAT_ADVICE, STORE_FORMAT, VARIABLES, StoreFormatError,
+                                   array_slots, chunk_slices,
                                    check_format, history_line, parse_attrs, stored_variables,
                                    template)
 from hertzmap.study.spec import Study
@@ -130,9 +131,11 @@ class Store(CommitFlags, SlotDims):
                     if all_written:
                         problems.append(f"{name}: chunk file missing")
                     continue
-                block = tuple(t.index) + (0,) * (arr.ndim - 3)
+                r = chunk_slices(self.grid_shape, self.chunks, t.index)
+                if VARIABLES[name].layout == "line":
+                    r = (slice(t.index[0], t.index[0] + 1),) + tuple(r[1:])
                 try:
-                    arr.get_block_selection(block)
+                    arr[r]
                 except Exception as exc:
                     problems.append(f"{name}: chunk unreadable ({type(exc).__name__})")
             if problems:
@@ -140,6 +143,10 @@ class Store(CommitFlags, SlotDims):
         return damaged
 
     # -- data -----------------------------------------------------------------------------
+    def array(self, name: str) -> zarr.Array:
+        """An array of the main group (read, or written by the client)."""
+        return self._group[name]
+
     @property
     def grid_shape(self) -> tuple[int, int, int]:
         """The grid's (omega, sigma, zeta) lengths."""

@@ -22,6 +22,7 @@ from hertzmap.scheduler.cluster import ClusterSpec
 from hertzmap.scheduler.plan import make_plan
 from hertzmap.scheduler.run import RunOptions, run_study
 from hertzmap.scheduler.store import Store, lock_path
+from hertzmap.study.schema import STORE_FORMAT
 from hertzmap.study.spec import parse_study
 from tests.helpers import (PLACEHOLDER, done_count, free_port, hertzmap_cmd, subprocess_env, trim_slots,
                            align_slots, wait_until)
@@ -299,9 +300,9 @@ def test_store_of_another_version_or_study_is_refused(study_path, reference, tmp
     meta.write_text(json.dumps(doc))
     before = sorted((p.name, p.stat().st_mtime_ns) for p in store.rglob("*"))
     assert main(base_args(study_path, store) + ["--workers", "1"]) == 2
-    assert "is in store format 99, this hertzmap reads format 2" in capsys.readouterr().err
+    assert f"is in store format 99, this hertzmap reads format {STORE_FORMAT}" in capsys.readouterr().err
     # another study's store (edited file)
-    doc["attributes"]["hertzmap_store_format"] = 2
+    doc["attributes"]["hertzmap_store_format"] = STORE_FORMAT
     meta.write_text(json.dumps(doc))
     before = sorted((p.name, p.stat().st_mtime_ns) for p in store.rglob("*"))
     other = tmp_path / "other.toml"
