@@ -65,7 +65,7 @@ def shard_shape(name: str, dims: tuple[str, ...], shape: tuple[int, ...],
     out = []
     for d, n, c in zip(dims, shape, chunks):
         if d in along:
-            out.append(min(c * along[d], n))
+            out.append(c * along[d])        # whole chunks (zarr's rule): the edge shards partial
         elif d in SLOT_DIMS:
             out.append(SLOT_CHUNK)
         else:
