@@ -64,6 +64,13 @@ class GridStage(Stage):
         staged = staged_blocks(self.store.path)
         return [t for t in self.plan.tasks if not done[t.index] and t.index not in staged]
 
+    def pack_staged(self) -> set:
+        """Pack what a killed run staged, where its shard is whole; returns the blocks still
+        staged."""
+        staged = staged_blocks(self.store.path)
+        self.pack_ready(staged)
+        return staged
+
     def pack_ready(self, staged: set, shards=None) -> None:
         """Pack every shard (of ``shards``, default all) whose blocks are all done or staged."""
         blocks, counts = self.store.shard_blocks, self.plan.counts
@@ -74,6 +81,9 @@ class GridStage(Stage):
             if all(done[m] or m in staged for m in members):
                 for m in pack_shard(self.store, shard, counts, self.names):
                     staged.discard(m)
+        if not staged and self.store.done_mask().all():
+            # what is left: the files of workers killed while staging
+            remove_stage(self.store.path, GRID_STAGE)
 
     def shard_order(self, blocks) -> list:
         """The blocks in the order a run ships them: shard after shard (a shard is packed, and
@@ -100,9 +110,7 @@ class GridStage(Stage):
         tally = {"compute": 0.0, "write": 0.0, "points": 0, "pids": set(),
                  **{k: 0 for k in SUMMED_COUNTS}, **{k: math.nan for k in WORST_COUNTS}}
 
-        # what a killed run staged: packed now where its shard is whole
-        staged = staged_blocks(self.store.path)
-        self.pack_ready(staged)
+        staged = self.pack_staged()
 
         def commit(task: Task, res: dict) -> None:
             block = by_key[task.key]
@@ -116,13 +124,9 @@ class GridStage(Stage):
             tally["points"] += block.size
             self.sampler.merge(res["samples"])
 
-        try:
-            cost = runner.map(self.name, run_task, tasks, commit, label="grid",
-                              total=len(self.plan.tasks), done_before=n_done,
-                              prior=seconds_per_point(self.study))
-        finally:
-            if self.store.done_mask().all():
-                remove_stage(self.store.path, GRID_STAGE)
+        cost = runner.map(self.name, run_task, tasks, commit, label="grid",
+                          total=len(self.plan.tasks), done_before=n_done,
+                          prior=seconds_per_point(self.study))
         n_conv, n_fail = tally["conv"], tally["fail"]
         return dict(
             wall=cost.wall, compute=cost.compute, tasks_run=cost.tasks, failed=cost.failed,

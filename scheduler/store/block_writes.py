@@ -29,7 +29,7 @@ import zarr
 # all of a block's variables in one call
 from zarr.core.sync import sync as zarr_sync
 
-from hertzmap.scheduler.store.layout import block_name, shard_members
+from hertzmap.scheduler.store.layout import PACK_PAUSE_ENV, block_name, shard_members, hold_for_test
 from hertzmap.scheduler.store.lock import check_writer
 from hertzmap.scheduler.store.slot_dims import slots_used
 from hertzmap.scheduler.store.staging import GRID_STAGE, stage_file, staged_names, unstage
@@ -232,6 +232,7 @@ def pack_shard(store, shard: tuple[int, int, int], counts: tuple[int, int, int],
                        slice(r[2].start - lo[2], r[2].stop - lo[2]))
                 full[at] = a
             store.write_block(where, {name: full}, (name,), need=need)
+            hold_for_test(PACK_PAUSE_ENV)
     finally:
         for f in files.values():
             f.close()

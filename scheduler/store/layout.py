@@ -8,6 +8,8 @@ import contextlib
 import itertools
 import json
 import math
+import os
+import time
 import warnings
 from pathlib import Path
 from typing import Any
@@ -34,13 +36,16 @@ SHARD_BLOCKS_ATTR = "hertzmap_shard_blocks"
 #: block of it is staged (block_writes.pack_shard): the largest that client holds in memory is
 #: one variable's shard, 2^18 points x its slots (8 MB for a float64 at one slot chunk).
 SHARD_POINTS = 2 ** 18
+#: Shards a grid has at least (fewer only where it has fewer blocks): a small study's blocks are
+#: packed, and flagged done, as the run goes, not all at its end.
+MIN_SHARDS = 8
 
 
 def shard_blocks(shape: tuple[int, int, int], chunks: tuple[int, int, int],
                  points: int = SHARD_POINTS) -> tuple[int, int, int]:
     """Blocks per shard along (omega, sigma, zeta): doubled, along the axis with the most
-    shards left, while a shard holds fewer than ``points`` grid points and does not yet span
-    the grid."""
+    shards left, while a shard holds fewer than ``points`` grid points and the grid keeps
+    MIN_SHARDS shards."""
     counts = chunk_counts(shape, chunks)
     blocks = [1, 1, 1]
     while True:
@@ -49,7 +54,11 @@ def shard_blocks(shape: tuple[int, int, int], chunks: tuple[int, int, int],
         axis = max(range(3), key=lambda a: left[a])
         if size * 2 > points or left[axis] == 1:
             return tuple(blocks)
-        blocks[axis] = min(blocks[axis] * 2, counts[axis])
+        grown = list(blocks)
+        grown[axis] = min(blocks[axis] * 2, counts[axis])
+        if math.prod(-(-n // b) for n, b in zip(counts, grown)) < min(MIN_SHARDS, math.prod(counts)):
+            return tuple(blocks)
+        blocks = grown
 
 
 def shard_shape(name: str, dims: tuple[str, ...], shape: tuple[int, ...],
@@ -127,6 +136,20 @@ def store_attrs(path: str | Path) -> dict[str, Any]:
     except StoreFormatError as exc:
         raise StoreError(str(exc)) from None
     return attrs
+
+
+#: test-only pauses (seconds) that hold a write open so that a test can kill the writer in it:
+#: a staged file built but not renamed into place (staging.stage_file), a shard's pack between
+#: two of its variables (block_writes.pack_shard)
+STAGE_PAUSE_ENV = "HERTZMAP_STAGE_PAUSE"
+PACK_PAUSE_ENV = "HERTZMAP_PACK_PAUSE"
+
+
+def hold_for_test(env: str) -> None:
+    """Sleep for $``env`` seconds when a test sets it (never otherwise)."""
+    seconds = os.environ.get(env)
+    if seconds:
+        time.sleep(float(seconds))
 
 
 def block_name(index) -> str:

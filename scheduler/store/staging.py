@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from hertzmap.scheduler.store.layout import block_name
+from hertzmap.scheduler.store.layout import STAGE_PAUSE_ENV, block_name, hold_for_test
 from hertzmap.scheduler.store.lock import check_writer
 from hertzmap.study.schema import PRODUCT_GROUP
 
@@ -40,17 +40,20 @@ CURVE_STAGE = f"{PRODUCT_GROUP}/{CURVE_PARTS}"
 def stage_file(store: str | Path, folder: str | Path, name: str,
                arrays: dict[str, np.ndarray] | None) -> Path:
     """Stage arrays as one .npz file ``folder/name.npz`` of the store, written whole or not
-    at all (built next to its place, then renamed into it): an atlas round's tile, a grid
-    block that did not fit. The caller holds the store's lock, or is a worker of the client
-    that holds it."""
+    at all (built next to its place, then renamed into it): a grid block, an atlas round's
+    tile, a sweep, a traced curve. The caller holds the store's lock, or is a worker of the
+    client that holds it."""
     root = Path(store) / folder
     root.mkdir(parents=True, exist_ok=True)
     final = root / f"{name}.npz"
-    building = root / f".{name}.writing.npz"
+    # the builder's pid in the name: a task run again elsewhere (its worker lost, or slow)
+    # never builds into the same file
+    building = root / f".{name}.{os.getpid()}.writing.npz"
     with open(building, "wb") as f:
         np.savez(f, **(arrays or {}))
         f.flush()
         os.fsync(f.fileno())
+    hold_for_test(STAGE_PAUSE_ENV)
     os.replace(building, final)
     return final
 
