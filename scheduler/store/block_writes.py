@@ -29,6 +29,7 @@ import zarr
 # all of a block's variables in one call
 from zarr.core.sync import sync as zarr_sync
 
+from hertzmap.scheduler.errors import StoreError
 from hertzmap.scheduler.store.layout import PACK_PAUSE_ENV, block_name, shard_members, hold_for_test
 from hertzmap.scheduler.store.lock import check_writer
 from hertzmap.scheduler.store.slot_dims import slots_used
@@ -36,6 +37,8 @@ from hertzmap.scheduler.store.staging import GRID_STAGE, stage_file, staged_name
 from hertzmap.study.schema import (SLOT_CHUNK, SLOT_DIMS, VARIABLES, array_slots, chunk_slices,
                                    pad_slots)
 
+#: the bytes of a shard the client assembles before it writes them (several variables at once)
+PACK_BYTES = 64 * 2 ** 20
 #: the test-only log of region writes (module docstring)
 SHARD_LOG_ENV = "HERTZMAP_SHARD_LOG"
 
@@ -86,7 +89,7 @@ class BlockWriter:
                 {"write_empty_chunks": self.all_chunks})
         return arr
 
-    def _extent(self, name: str) -> int:
+    def slot_extent(self, name: str) -> int:
         """The length of a slot variable's slot dim in the store (its metadata read again
         when the cached array is shorter than asked: the client may have grown it since)."""
         return self._array(name).shape[3]
@@ -96,12 +99,12 @@ class BlockWriter:
         may have grown them since the arrays were opened)."""
         need = array_slots({n: arrays[n] for n in names})
         slot_names = [n for n in names if VARIABLES[n].slot_dim is not None]
-        if all(need[VARIABLES[n].slot_dim] <= self._extent(n) for n in slot_names):
+        if all(need[VARIABLES[n].slot_dim] <= self.slot_extent(n) for n in slot_names):
             return True
         for n in slot_names:
             self._arrays.pop(n, None)
             self._arrays.pop((n, "tail"), None)
-        return all(need[VARIABLES[n].slot_dim] <= self._extent(n) for n in slot_names)
+        return all(need[VARIABLES[n].slot_dim] <= self.slot_extent(n) for n in slot_names)
 
     def write(self, slices: tuple[slice, slice, slice], arrays: dict[str, np.ndarray],
               names: tuple[str, ...]) -> bool:
@@ -199,10 +202,17 @@ def pack_shard(store, shard: tuple[int, int, int], counts: tuple[int, int, int],
             need = {d: max(need[d], have[d]) for d in SLOT_DIMS}
             for d, k in slots_used(counted).items():
                 used[d] = max(used.get(d, 0), k)
-        store.prepare_slots(need, used)
+        writer = store.block_writer()
+        slot_names = {d: [n for n in names if VARIABLES[n].slot_dim == d] for d in SLOT_DIMS}
+        if any(writer.slot_extent(n) < need[d] for d, ns in slot_names.items() for n in ns):
+            store.prepare_slots(need, used)         # grown (a metadata write)
+            writer = store.block_writer()
+        else:
+            store.note_slots_used(used)
+        batch: dict[str, np.ndarray] = {}
         for name in names:
             v = VARIABLES[name]
-            extent = store.slot_extents()[v.slot_dim] if v.slot_dim else None
+            extent = writer.slot_extent(name) if v.slot_dim else None
             if v.layout == "line":
                 c0 = store.chunks[0]
                 lead = (-(-hi[0] // c0) - lo[0] // c0, hi[1] - lo[1], hi[2] - lo[2])
@@ -231,8 +241,15 @@ def pack_shard(store, shard: tuple[int, int, int], counts: tuple[int, int, int],
                 at += (slice(r[1].start - lo[1], r[1].stop - lo[1]),
                        slice(r[2].start - lo[2], r[2].stop - lo[2]))
                 full[at] = a
-            store.write_block(where, {name: full}, (name,), need=need)
-            hold_for_test(PACK_PAUSE_ENV)
+            batch[name] = full
+            # written a few variables at a time, in one call into zarr's event loop: the
+            # client holds at most PACK_BYTES of a shard in memory
+            if sum(a.nbytes for a in batch.values()) >= PACK_BYTES or name == names[-1]:
+                if not writer.write(where, batch, tuple(batch)):
+                    raise StoreError(f"{store.path}: a shard holds more slots than its dims "
+                                     "after they grew (another process resized the store?)")
+                batch = {}
+                hold_for_test(PACK_PAUSE_ENV)
     finally:
         for f in files.values():
             f.close()

@@ -160,6 +160,13 @@ class Store(CommitFlags, SlotDims):
         if any(need[d] > have[d] for d in have):
             self.settle_slots({d: max(need[d], have[d]) for d in have})
 
+    def block_writer(self) -> BlockWriter:
+        """The writer of this store's main group (made again after the slot dims change)."""
+        if self._writer is None:
+            self._writer = BlockWriter(self._group, self.chunks,
+                                       bool(self.attrs.get(ALL_CHUNKS_ATTR)), self.shard_blocks)
+        return self._writer
+
     def write_block(self, slices: tuple[slice, slice, slice], arrays: dict[str, np.ndarray],
                     names: tuple[str, ...], need: dict[str, int] | None = None) -> None:
         """Region write of whole blocks (a shard packed, an atlas round's tiles) of every
@@ -168,10 +175,7 @@ class Store(CommitFlags, SlotDims):
         arrays given do not say them all). The client's alone (it holds the store's lock)."""
         block = {n: arrays[n] for n in names}
         self.prepare_slots(need or array_slots(block), slots_used(block))
-        if self._writer is None:
-            self._writer = BlockWriter(self._group, self.chunks,
-                                       bool(self.attrs.get(ALL_CHUNKS_ATTR)), self.shard_blocks)
-        if not self._writer.write(slices, arrays, names):
+        if not self.block_writer().write(slices, arrays, names):
             raise StoreError(f"{self.path}: a block holds more slots than its dims after they "
                              "grew (another process resized the store?)")
 
