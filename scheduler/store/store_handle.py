@@ -46,8 +46,9 @@ class Store(CommitFlags, SlotDims):
     # -- creation -------------------------------------------------------------------------
     @classmethod
     def create(cls, path: str | Path, study: Study, chunks: tuple[int, int, int],
-               action: str) -> "Store":
-        """Write the template of ``study`` at ``path`` (which must not exist)."""
+               action: str, sharded: bool = True) -> "Store":
+        """Write the template of ``study`` at ``path`` (which must not exist). ``sharded``
+        False: format 2's layout, one file per chunk (benchmarks/store_layout.py compares)."""
         import dask.array  # the template is chunked lazily with Dask
 
         path = Path(path)
@@ -65,11 +66,15 @@ class Store(CommitFlags, SlotDims):
         for name, var in ds.data_vars.items():
             enc[name]["shards"] = shard_shape(name, var.dims, var.shape, enc[name]["chunks"],
                                               blocks)
+        if not sharded:
+            ds.attrs.update({"hertzmap_store_format": 2, SHARD_BLOCKS_ATTR: [1, 1, 1]})
+            for name in ds.data_vars:
+                del enc[name]["shards"]
         lazy = ds.copy()
         for name, var in ds.data_vars.items():
             lazy[name] = var.copy(data=dask.array.full(
                 var.shape, np.asarray(var.data).flat[0], dtype=var.dtype,
-                chunks=enc[name]["shards"]))
+                chunks=enc[name].get("shards", enc[name]["chunks"])))
         # task_done must be written now (not lazily): keep it numpy-backed
         lazy["task_done"] = ds["task_done"]
         # every block write stores all its chunks (even all-fill ones): a done task whose
