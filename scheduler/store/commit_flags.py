@@ -57,12 +57,18 @@ class CommitFlags:
         self._done[index] = True
 
     def mark_done_many(self, indices) -> None:
-        """Flag the blocks ``indices`` done in one write (the flags are one file: a kill
-        leaves them all set or none)."""
-        flags = self.done_mask()
+        """Flag the blocks ``indices`` (those of one shard) done in one write of their flags'
+        region (one file: a kill leaves them all set or none)."""
+        indices = [tuple(int(a) for a in i) for i in indices]
+        if not indices:
+            return
+        lo = [min(i[a] for i in indices) for a in range(3)]
+        hi = [max(i[a] for i in indices) + 1 for a in range(3)]
+        region = tuple(slice(a, b) for a, b in zip(lo, hi))
+        flags = np.asarray(self._done[region], dtype=bool)
         for i in indices:
-            flags[tuple(i)] = True
-        self._done[...] = flags
+            flags[tuple(a - b for a, b in zip(i, lo))] = True
+        self._done[region] = flags
 
     def unmark(self, index: tuple[int, int, int]) -> None:
         self._done[index] = False

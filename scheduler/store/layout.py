@@ -66,10 +66,11 @@ def shard_shape(name: str, dims: tuple[str, ...], shape: tuple[int, ...],
     """The shard shape of an array of the main group: ``blocks`` of its chunks along the grid
     dims (and along omega_block, a line variable's one entry per omega block), one chunk along
     a slot dim (SLOT_CHUNK: the dim grows and is cut by whole shards), the whole array along
-    the others (the harmonics, the strobe) and for the ``task_done`` flags (one file, written
-    by the client alone)."""
+    the others (the harmonics, the strobe); the ``task_done`` flags (one per block) in shards
+    of the grid's shards, so that a shard's blocks are flagged in one file write and a damaged
+    flag file loses the flags of one shard."""
     if dims == CHUNK_DIMS:
-        return tuple(shape)
+        return tuple(int(b) for b in blocks)
     along = {"omega": blocks[0], "omega_block": blocks[0], "sigma": blocks[1], "zeta": blocks[2]}
     out = []
     for d, n, c in zip(dims, shape, chunks):
