@@ -19,6 +19,7 @@ import asyncio
 import contextlib
 import json
 import os
+import shutil
 import time
 from pathlib import Path
 from typing import Any
@@ -209,6 +210,15 @@ def pack_shard(store, shard: tuple[int, int, int], counts: tuple[int, int, int],
             writer = store.block_writer()
         else:
             store.note_slots_used(used)
+        if len(todo) == len(members):
+            # zarr reads a shard before it writes into it, even whole: the shard's old files
+            # (a damaged shard's, or a pack cut short) hold nothing kept, and go first
+            for name in names:
+                old = Path(store.path) / name / "c" / "/".join(map(str, shard))
+                if old.is_dir():
+                    shutil.rmtree(old)
+                else:
+                    old.unlink(missing_ok=True)
         batch: dict[str, np.ndarray] = {}
         for name in names:
             v = VARIABLES[name]

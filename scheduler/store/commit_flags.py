@@ -71,4 +71,17 @@ class CommitFlags:
         self._done[region] = flags
 
     def unmark(self, index: tuple[int, int, int]) -> None:
-        self._done[index] = False
+        """Clear one block's flag: its shard of flags written whole from what can be read of
+        it (a damaged flag file reads as not done), never read-modified from a damaged file."""
+        blocks = self._done.shards or (1, 1, 1)
+        region = tuple(slice(i // b * b, min((i // b + 1) * b, n))
+                       for i, b, n in zip(index, blocks, self._done.shape))
+        flags = self.done_mask()[region]
+        flags[tuple(i - r.start for i, r in zip(index, region))] = False
+        try:
+            self._done[region] = flags
+        except Exception:
+            # zarr reads a shard before writing into it: a damaged one is removed first
+            shard = "/".join(str(i // b) for i, b in zip(index, blocks))
+            (Path(self.path) / "task_done" / "c" / shard).unlink(missing_ok=True)
+            self._done[region] = flags
