@@ -1085,7 +1085,7 @@ def cmd_scale(a) -> int:
        * *client writes* (hertzmap until the workers wrote their blocks): the task returns the
          block's arrays; the client receives them, writes the block, sets the flag, counts
          (block_counts) and samples;
-       * *worker writes* (now): the task writes its block (store.write_task_block) and returns
+       * *worker writes* (now): the task stages its block (store.stage_task_block) and returns
          its summary (block_counts, the error-sample candidates); the client sets the flag and
          adds the counts.
        Printed: the client's and the scheduler's CPU ms per task, the wall per task, and the
