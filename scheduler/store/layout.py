@@ -29,12 +29,11 @@ SLOTS_USED_ATTR = "hertzmap_slots_used"
 SHARD_BLOCKS_ATTR = "hertzmap_shard_blocks"
 
 #: Grid points one shard of a variable holds, at most (fewer at the grid's edges). Every array
-#: of the main group has one file per shard (per SLOT_CHUNK of its slot dim beyond the first,
-#: where points hold more): 71 arrays at most (every output), so a 10^6-point study is 8
-#: shards a variable, about 600 files, and a 10^7-point one 77, about 5,500 (benchmarks/
-#: store_layout.py measures them). A shard is written whole, once, by the client when every
-#: block of it is staged (block_writes.pack_shard): the largest that client holds in memory is
-#: one variable's shard, 2^18 points x its slots (8 MB for a float64 at one slot chunk).
+#: of the main group has one file per shard (and per SLOT_CHUNK of its slot dim beyond the
+#: first, where points hold more): a 10^6-point study of the default scene's kind has 8 shards
+#: a variable, 431 files, a 10^7-point one 70, about 3,300 (benchmarks/store_layout.py). A
+#: shard is written whole, once, by the client when every block of it is staged
+#: (block_writes.pack_shard): it holds at most PACK_BYTES of one in memory.
 SHARD_POINTS = 2 ** 18
 #: Shards a grid has at least (fewer only where it has fewer blocks): a small study's blocks are
 #: packed, and flagged done, as the run goes, not all at its end.
