@@ -1085,7 +1085,7 @@ def cmd_scale(a) -> int:
        * *client writes* (hertzmap until the workers wrote their blocks): the task returns the
          block's arrays; the client receives them, writes the block, sets the flag, counts
          (block_counts) and samples;
-       * *worker writes* (now): the task writes its block (store.write_task_block) and returns
+       * *worker writes* (now): the task stages its block (store.stage_task_block) and returns
          its summary (block_counts, the error-sample candidates); the client sets the flag and
          adds the counts.
        Printed: the client's and the scheduler's CPU ms per task, the wall per task, and the
@@ -1331,11 +1331,11 @@ def _task_returning_the_block(job: dict) -> dict:
 
 
 def _task_writing_the_block(job: dict) -> dict:
-    """Now (scheduler.worker.run_task after its solve): the worker writes its block and
+    """Now (scheduler.worker.run_task after its solve): the worker stages its block and
     returns the run summary's counts and the error-sample candidates."""
     from hertzmap.scheduler.report import block_counts
     from hertzmap.scheduler.sample import block_candidates
-    from hertzmap.scheduler.store import write_task_block
+    from hertzmap.scheduler.store import stage_task_block
 
     time.sleep(job.get("sleep", 0.0))
     if job.get("block") is None:
@@ -1343,8 +1343,7 @@ def _task_writing_the_block(job: dict) -> dict:
                 "pid": os.getpid(), "counts": None, "samples": []}
     arrays = _load_block(job["block"])
     t0 = time.perf_counter()
-    write_task_block(job["store"], job["owner"], _slices(job["j"], job["c_o"]),
-                     tuple(job["index"]), arrays, tuple(job["names"]))
+    stage_task_block(job["store"], job["owner"], tuple(job["index"]), arrays)
     dt = time.perf_counter() - t0
     axes = (np.asarray(job["omega"]), np.array([0.5]), np.array([0.01]))
     return {"index": (0, job["j"], 0), "seconds": job.get("sleep", 0.0), "write_seconds": dt,

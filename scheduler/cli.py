@@ -184,6 +184,28 @@ def _status_args(p: argparse.ArgumentParser) -> None:
                    "flagged done; exit 1 if any is missing or unreadable (rerun to repair)")
 
 
+def _upgrade_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("store", type=Path, help="a store written by an older hertzmap (format 2)")
+
+
+@subcommand("upgrade", "rewrite a store of an older format in place, without recomputing")(
+    _upgrade_args)
+def cmd_upgrade(args: argparse.Namespace) -> int:
+    from hertzmap.scheduler.errors import StoreError
+    from hertzmap.scheduler.store.upgrade import upgrade_store
+
+    try:
+        done = upgrade_store(args.store)
+    except StoreError as exc:
+        return _error(str(exc))
+    if done["from"] == done["to"]:
+        print(f"{args.store}: already in store format {done['to']}, nothing to do")
+    else:
+        print(f"{args.store}: store format {done['from']} -> {done['to']}, "
+              f"{done['files_before']} -> {done['files_after']} files, nothing recomputed")
+    return EXIT_OK
+
+
 @subcommand("status", "tasks done/total, study name and hash, versions of a store")(_status_args)
 def cmd_status(args: argparse.Namespace) -> int:
     from hertzmap.scheduler.errors import StoreError

@@ -1,9 +1,10 @@
 """The grid as a stage of a run (scheduler.stage): one task per block of the store (a chunk
 of omega x sigma x zeta points), solved on a worker by the block solver (scheduler.worker.
-run_task -> study.solve.block.solve_block), which writes the block into the store itself (or
-stages it when it holds more slots than the store's slot dims) and returns a summary of a few
-hundred bytes. The commit rule: the client writes a staged block (growing the dims), notes the
-slots used, then sets the task's ``task_done`` flag; a rerun ships only the blocks not flagged.
+run_task -> study.solve.block.solve_block), which stages the block in the store (one file) and
+returns a summary of a few hundred bytes. The commit rule: once every block of a shard is
+staged, the client packs them into the shard (scheduler.store.block_writes.pack_shard: the
+shard written once, by the client alone) and sets their ``task_done`` flags; a rerun packs
+what a killed run staged and ships only the blocks neither flagged nor staged.
 """
 from __future__ import annotations
 
@@ -15,7 +16,9 @@ from hertzmap.scheduler.plan import make_plan, seconds_per_point, spread_order
 from hertzmap.scheduler.report import KIND_COUNTS, SUMMED_COUNTS, WORST_COUNTS, add_counts
 from hertzmap.scheduler.sample import Sampler
 from hertzmap.scheduler.stage import Stage, Task, TaskRunner
-from hertzmap.scheduler.store import GRID_STAGE, commit_grid_block, remove_stage
+from hertzmap.scheduler.store import GRID_STAGE, remove_stage
+from hertzmap.scheduler.store.block_writes import pack_shard, staged_blocks
+from hertzmap.scheduler.store.layout import shard_members, shard_of
 from hertzmap.scheduler.worker import DEFAULT_SOLVER, run_task
 from hertzmap.study.schema import stored_variables
 from hertzmap.study.spec import Study
@@ -56,15 +59,48 @@ class GridStage(Stage):
         self.sampler = Sampler(self.study, int(getattr(self.opts, "error_sample", 0)))
 
     def todo(self) -> list:
+        """The blocks neither flagged done nor staged."""
         done = self.store.done_mask()
-        return [t for t in self.plan.tasks if not done[t.index]]
+        staged = staged_blocks(self.store.path)
+        return [t for t in self.plan.tasks if not done[t.index] and t.index not in staged]
+
+    def pack_staged(self) -> set:
+        """Pack what a killed run staged, where its shard is whole; returns the blocks still
+        staged."""
+        staged = staged_blocks(self.store.path)
+        self.pack_ready(staged)
+        return staged
+
+    def pack_ready(self, staged: set, shards=None) -> None:
+        """Pack every shard (of ``shards``, default all) whose blocks are all done or staged."""
+        blocks, counts = self.store.shard_blocks, self.plan.counts
+        done = self.store.done_mask()
+        for shard in sorted(shards if shards is not None
+                            else {shard_of(i, blocks) for i in staged}):
+            members = shard_members(shard, blocks, counts)
+            if all(done[m] or m in staged for m in members):
+                for m in pack_shard(self.store, shard, counts, self.names):
+                    staged.discard(m)
+        if not staged and self.store.done_mask().all():
+            # what is left: the files of workers killed while staging
+            remove_stage(self.store.path, GRID_STAGE)
+
+    def shard_order(self, blocks) -> list:
+        """The blocks in the order a run ships them: shard after shard (a shard is packed, and
+        its staged files removed, as soon as its last block returns), each shard's blocks in
+        plan.spread_order (the progress line's estimate knows every region's cost early)."""
+        by_shard: dict = {}
+        for b in spread_order(blocks):
+            by_shard.setdefault(shard_of(b.index, self.store.shard_blocks), []).append(b)
+        shards = spread_order(sorted(by_shard))
+        return [b for s in shards for b in by_shard[s]]
 
     def pending(self) -> bool:
         return not bool(self.store.done_mask().all())
 
     def run(self, runner: TaskRunner) -> dict[str, Any]:
         """Solve the blocks not flagged done; returns the grid's counts (the run summary's)."""
-        todo = spread_order(self.todo())
+        todo = self.shard_order(self.todo())
         n_done = len(self.plan.tasks) - len(todo)
         specs = task_specs(self.study, todo, self.study.solver_kwargs(), self.names,
                            self.solver, getattr(self.opts, "task_timeout", None),
@@ -74,29 +110,23 @@ class GridStage(Stage):
         tally = {"compute": 0.0, "write": 0.0, "points": 0, "pids": set(),
                  **{k: 0 for k in SUMMED_COUNTS}, **{k: math.nan for k in WORST_COUNTS}}
 
+        staged = self.pack_staged()
+
         def commit(task: Task, res: dict) -> None:
             block = by_key[task.key]
-            # the worker wrote the block before its task returned (or staged it, when it
-            # holds more slots than the store's dims: written here, the dims grown): only now
-            # its flag
-            if res.get("staged"):
-                commit_grid_block(self.store, block.slices, block.index, self.names)
-            else:
-                self.store.note_slots_used(res["counts"].get("slots", {}))
-            self.store.mark_done(block.index)
+            # the worker staged the block before its task returned: its shard is packed (and
+            # its blocks flagged) once all its blocks are staged
+            staged.add(block.index)
+            self.pack_ready(staged, [shard_of(block.index, self.store.shard_blocks)])
             tally["write"] += res["write_seconds"]
             tally["pids"].add(res["pid"])
             add_counts(tally, res["counts"])
             tally["points"] += block.size
             self.sampler.merge(res["samples"])
 
-        try:
-            cost = runner.map(self.name, run_task, tasks, commit, label="grid",
-                              total=len(self.plan.tasks), done_before=n_done,
-                              prior=seconds_per_point(self.study))
-        finally:
-            if self.store.done_mask().all():
-                remove_stage(self.store.path, GRID_STAGE)
+        cost = runner.map(self.name, run_task, tasks, commit, label="grid",
+                          total=len(self.plan.tasks), done_before=n_done,
+                          prior=seconds_per_point(self.study))
         n_conv, n_fail = tally["conv"], tally["fail"]
         return dict(
             wall=cost.wall, compute=cost.compute, tasks_run=cost.tasks, failed=cost.failed,

@@ -151,7 +151,7 @@ def products(store: str | Path, which: Iterable[str] = ("auto",), *,
     registry says the store supports and the figures ``which`` draw need (docs/products.md),
     written into the store as ``products/<name>`` groups unless ``write`` is False, and
     returned with the run's own products (traced curves, thresholds) as Datasets."""
-    from hertzmap.scheduler.store import make_products
+    from hertzmap.scheduler.product_tasks import make_products
 
     return make_products(Path(store), list(which), write=write)
 
@@ -162,7 +162,7 @@ def plot(store: str | Path, which: Iterable[str] = ("auto",), *, out: str | Path
     computed (and written, unless ``write`` is False) first. ``which``: the figures' names
     (``hertzmap plot --help`` lists them; ``auto``: what the products support); ``zeta``: the
     figures of that zeta only. Returns the PNG paths."""
-    from hertzmap.scheduler.store import make_products
+    from hertzmap.scheduler.product_tasks import make_products
     from hertzmap.study import plots
     from hertzmap.study import products as P
 

@@ -252,6 +252,9 @@ class StudyRun:
             # a resize cut short by a kill made whole (every slot array as long as the longest)
             self.store.settle_slots(self.store.slot_extents())
             self.repair()
+            # the blocks a killed run staged, packed into their shards (no recomputing)
+            with self.interrupt.critical():
+                self.grid.pack_staged()
         todo = self.grid.todo()
         n_done = len(self.plan.tasks) - len(todo)
         self.summary["tasks_done_before"] = n_done

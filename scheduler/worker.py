@@ -106,22 +106,21 @@ class Warmup(WorkerPlugin):
 
 
 def run_task(spec: dict[str, Any]) -> dict[str, Any]:
-    """Solve one block (one chunk of the store) and write it into the store. Runs on a worker.
+    """Solve one block (one chunk of the store) and stage it in the store (the client packs it
+    into its shard, scheduler.store.block_writes). Runs on a worker.
 
     ``spec``: index, slices (the block's (start, stop) along omega, sigma, zeta), omega, sigma,
     zeta (1-D float64 arrays), kwargs (for solve_block), names (the variables to store), solver
     ("module:function"), time_budget, store (its absolute path) and owner (the client's lock
-    record: scheduler.store.write_task_block writes only while that client holds the store),
+    record: scheduler.store.stage_task_block stages only while that client holds the store),
     sample (scheduler.sample.Sampler.task_spec).
     Returns a summary of a few hundred bytes, never the arrays: the counts the run summary
     needs (scheduler.report.block_counts), the block's error-sample candidates, the solve and
-    write times, the worker's pid and whether the block was staged (it holds more slots than
-    the store's slot dims: the client grows them and writes it, scheduler.store). The client
-    sets the task's flag once this has returned.
+    staging times and the worker's pid. The client flags the task once its shard is packed.
     """
     from hertzmap.scheduler.sample import block_candidates
     from hertzmap.scheduler.report import block_counts
-    from hertzmap.scheduler.store import write_task_block
+    from hertzmap.scheduler.store import stage_task_block
     from hertzmap.study.schema import VARIABLES, check_block
 
     fn = load_solver(spec.get("solver", DEFAULT_SOLVER))
@@ -138,10 +137,8 @@ def run_task(spec: dict[str, Any]) -> dict[str, Any]:
     check_block(out, names, (len(omega), len(sigma), len(zeta)))
     arrays = {n: np.ascontiguousarray(out[n], dtype=VARIABLES[n].dtype) for n in names}
     t1 = time.perf_counter()
-    slices = tuple(slice(int(a), int(b)) for a, b in spec["slices"])
-    written = write_task_block(spec["store"], spec["owner"], slices, tuple(spec["index"]),
-                               arrays, names)
-    return {"index": tuple(spec["index"]), "seconds": seconds, "staged": not written,
+    stage_task_block(spec["store"], spec["owner"], tuple(spec["index"]), arrays)
+    return {"index": tuple(spec["index"]), "seconds": seconds,
             "write_seconds": time.perf_counter() - t1, "pid": os.getpid(),
             "counts": block_counts(arrays),
             "samples": block_candidates(arrays, (omega, sigma, zeta), spec["sample"])}

@@ -78,12 +78,17 @@ __all__ = [
 #: ``solution`` and ``attractor`` dims sized by the data (every orbit and attractor a point has;
 #: format 1 kept at most solver.max_solutions orbits and 4 attractors a point, and said how
 #: many it dropped in ``orbits_dropped``).
-STORE_FORMAT = 2
+#: 3: every array of the main group sharded (zarr's sharding codec: a shard of whole blocks,
+#: written once by the client; scheduler.store.layout), format 2's values unchanged.
+STORE_FORMAT = 3
 #: What a reader of another format is told to do (study.products.results.check_format).
 FORMAT_ADVICE = {1: "format 1 (hertzmap before 2026-11-28) kept at most solver.max_solutions "
                     "orbits and 4 attractors per point and may have dropped some: rerun the "
                     "study with `hertzmap run STUDY --overwrite` (delete solver.max_solutions "
-                    "from its file) to store them all"}
+                    "from its file) to store them all",
+                 2: "format 2 (hertzmap before 2026-12-08) stored one file per chunk (not "
+                    "sharded): rewrite it in place, without recomputing, with "
+                    "`hertzmap upgrade STORE`"}
 
 GRID_DIMS = ("omega", "sigma", "zeta", "solution")
 #: Products (study.products) are stored in the study's store as zarr groups PRODUCT_GROUP/<name>.

@@ -75,7 +75,7 @@ def placeholder_solve_block(omega, sigma, zeta, *, periods=(1, 2), exponent=1.5,
         slots.append((1, np.ones_like(w, bool)))
     if 2 in periods:
         slots.append((2, (w > 1.8) & (w < 2.2) & (s > 0.2)))
-    slots += [(3 + e, w > 1.5) for e in range(extra)]
+    slots += [(3 + e, w > 1.5) for e in range(extra if (omega > 1.5).any() else 0)]
     for slot, (p, mask) in enumerate(slots):
         a = amp * p
         sl = (slice(None),) * 3 + (slot,)

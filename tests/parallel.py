@@ -31,6 +31,7 @@ SECONDS: dict[str, float] = {
     "tests/end_to_end/test_explore.py": 129,
     "tests/end_to_end/test_located_bifurcations.py": 116,
     "tests/scheduler/test_store.py": 113,
+    "tests/scheduler/store/test_one_writer_per_shard.py": 70,
     "tests/hardening/test_input.py": 85,
     "tests/end_to_end/test_map_hatching.py": 48,
     "tests/hardening/test_time_limit.py": 47,

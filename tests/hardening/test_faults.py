@@ -21,7 +21,8 @@ from hertzmap.scheduler.cli import main
 from hertzmap.scheduler.cluster import ClusterSpec
 from hertzmap.scheduler.plan import make_plan
 from hertzmap.scheduler.run import RunOptions, run_study
-from hertzmap.scheduler.store import Store, lock_path
+from hertzmap.scheduler.store import Store, lock_path, staged_blocks
+from hertzmap.study.schema import STORE_FORMAT
 from hertzmap.study.spec import parse_study
 from tests.helpers import (PLACEHOLDER, done_count, free_port, hertzmap_cmd, subprocess_env, trim_slots,
                            align_slots, wait_until)
@@ -115,9 +116,11 @@ def test_ctrl_c_stops_cleanly_and_rerun_completes_identical(study_path, referenc
                                                  zeta=t.slices[2]).drop_vars("task_done"),
                                         ref.isel(omega=t.slices[0], sigma=t.slices[1],
                                                  zeta=t.slices[2]).drop_vars("task_done"))
+    # blocks staged after the flags were read (tasks in flight finish): packed on resume
+    staged = len(staged_blocks(store))
     r = subprocess.run(cmd, env=subprocess_env(), capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
-    assert f"{done}/{N_TASKS} tasks already done" in r.stdout
+    assert f"{done + staged}/{N_TASKS} tasks already done" in r.stdout
     xr.testing.assert_identical(data(store), data(reference))
 
 
@@ -157,7 +160,9 @@ def test_scheduler_killed_mid_study_leaves_a_resumable_store(study_path, referen
     assert "lost the Dask scheduler" in err and "run again to resume: hertzmap run" in err, err
     assert "Traceback" not in err, err
     assert not lock_path(store).exists()
-    # restart a scheduler and resume: identical to the undisturbed run
+    # restart a scheduler and resume: identical to the undisturbed run (blocks staged but not
+    # packed when the scheduler went are packed, not recomputed)
+    staged = len(staged_blocks(store))
     addr, procs = start_cluster()
     try:
         r = subprocess.run(hertzmap_cmd(*base_args(study_path, store), "--scheduler", addr),
@@ -165,7 +170,7 @@ def test_scheduler_killed_mid_study_leaves_a_resumable_store(study_path, referen
     finally:
         _stop(procs)
     assert r.returncode == 0, r.stderr
-    assert f"{done}/{N_TASKS} tasks already done" in r.stdout
+    assert f"{done + staged}/{N_TASKS} tasks already done" in r.stdout
     xr.testing.assert_identical(data(store), data(reference))
 
 
@@ -299,9 +304,9 @@ def test_store_of_another_version_or_study_is_refused(study_path, reference, tmp
     meta.write_text(json.dumps(doc))
     before = sorted((p.name, p.stat().st_mtime_ns) for p in store.rglob("*"))
     assert main(base_args(study_path, store) + ["--workers", "1"]) == 2
-    assert "is in store format 99, this hertzmap reads format 2" in capsys.readouterr().err
+    assert f"is in store format 99, this hertzmap reads format {STORE_FORMAT}" in capsys.readouterr().err
     # another study's store (edited file)
-    doc["attributes"]["hertzmap_store_format"] = 2
+    doc["attributes"]["hertzmap_store_format"] = STORE_FORMAT
     meta.write_text(json.dumps(doc))
     before = sorted((p.name, p.stat().st_mtime_ns) for p in store.rglob("*"))
     other = tmp_path / "other.toml"

@@ -50,6 +50,7 @@ def every_output_store(tmp_path):
 
 def test_plot_writes_the_supported_products_and_draws_the_stored_groups(every_output_store,
                                                                          tmp_path, monkeypatch):
+    from hertzmap.scheduler import product_tasks
     from hertzmap.scheduler import store as S
     from hertzmap.study import plots
 
@@ -69,7 +70,7 @@ def test_plot_writes_the_supported_products_and_draws_the_stored_groups(every_ou
         drawn.update(prods)
         return plot_results(ds, prods, *args, **kwargs)
 
-    monkeypatch.setattr(S, "write_products", write_and_mark)
+    monkeypatch.setattr(product_tasks, "write_products", write_and_mark)
     monkeypatch.setattr(plots, "plot_results", record)
     out = tmp_path / "png"
     assert main(["plot", str(store), "--out", str(out)]) == 0

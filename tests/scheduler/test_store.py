@@ -174,16 +174,19 @@ def _chunk_files(path):
                   for f in path.rglob("*") if f.is_file() and "/c/" in str(f))
 
 
-def test_a_worker_writes_only_for_the_client_that_holds_the_store(tmp_path):
-    """write_task_block (what run_task calls) writes its block while the client that sent the
+def test_a_worker_stages_only_for_the_client_that_holds_the_store(tmp_path):
+    """stage_task_block (what run_task calls) stages its block while the client that sent the
     task holds the lock; for a client that has ended, or when another client holds the store
-    now (a worker of a dead client finishing late), it refuses and writes nothing."""
-    from hertzmap.scheduler.store import write_task_block
+    now (a worker of a dead client finishing late), it refuses and stages nothing. The client
+    packs the staged block into its shard: what the solver gave."""
+    from hertzmap.scheduler.store import GRID_STAGE, pack_shard, stage_task_block
+    from hertzmap.scheduler.store.layout import shard_of
 
     s = placeholder_study()
     path = tmp_path / "w.zarr"
     store, _ = open_or_create(path, s, choose_chunks(s), overwrite=False, action="t")
-    t0, t1 = make_plan(s, store.chunks).tasks[:2]
+    plan = make_plan(s, store.chunks)
+    t0, t1 = plan.tasks[:2]
     names = stored_variables(s)
 
     def block(t):
@@ -192,17 +195,26 @@ def test_a_worker_writes_only_for_the_client_that_holds_the_store(tmp_path):
                                        s.axis("zeta")[sz], **s.solver_kwargs())
 
     with Lock(path) as first:
-        write_task_block(str(path), first.owner, t0.slices, t0.index, block(t0), names)
-    written = _chunk_files(path)
-    assert any(f.startswith("q0/c/") for f, _, _ in written)
+        stage_task_block(str(path), first.owner, t0.index, block(t0))
+    staged = sorted(p.name for p in (path / GRID_STAGE).iterdir())
+    assert staged == ["-".join(map(str, t0.index)) + ".npz"]
+    before = _chunk_files(path)
     with pytest.raises(StoreError, match="not locked by the client that sent this task"):
-        write_task_block(str(path), first.owner, t1.slices, t1.index, block(t1), names)
+        stage_task_block(str(path), first.owner, t1.index, block(t1))
     with Lock(path) as second:
         assert second.owner["pid"] == first.owner["pid"]        # same process, a later lock
         with pytest.raises(StoreError, match="held by another client"):
-            write_task_block(str(path), first.owner, t1.slices, t1.index, block(t1), names)
-    assert _chunk_files(path) == written                         # nothing written by them
-    # the block the first client's worker wrote is what the solver gave
+            stage_task_block(str(path), first.owner, t1.index, block(t1))
+    assert sorted(p.name for p in (path / GRID_STAGE).iterdir()) == staged
+    assert _chunk_files(path) == before                          # nothing written by them
+    # the client packs the shard once all its blocks are staged (here: all by hand)
+    with Lock(path) as lock:
+        for t in plan.tasks[1:]:
+            stage_task_block(str(path), lock.owner, t.index, block(t))
+        shards = {shard_of(t.index, store.shard_blocks) for t in plan.tasks}
+        for shard in sorted(shards):
+            assert pack_shard(store, shard, plan.counts, names)
+    assert not any((path / GRID_STAGE).iterdir())
     ds = xr.open_zarr(path).isel(omega=t0.slices[0], sigma=t0.slices[1], zeta=t0.slices[2])
     np.testing.assert_array_equal(ds.q0.values, block(t0)["q0"])
 
@@ -352,29 +364,30 @@ def test_a_block_holding_more_slots_grows_the_store_and_reads_back_whole(tmp_pat
     np.testing.assert_array_equal(ds["q0"].values[plan.tasks[1].slices], big["q0"][..., :11])
 
 
-def test_a_worker_stages_a_block_the_store_has_no_room_for(tmp_path):
-    """write_task_block (a worker's) never resizes the store: a block holding more slots than
-    it has is staged as one file; the client's commit_grid_block grows the dims, writes it and
-    removes the file."""
-    from hertzmap.scheduler.store import GRID_STAGE, commit_grid_block, write_task_block
+def test_the_client_packs_a_block_the_store_has_no_room_for(tmp_path):
+    """A worker never resizes the store: it stages its block, whatever it holds; packing a
+    block holding more slots than the store has grows the dims first (the client's alone). A
+    later region write of fewer slots removes the block's second chunk of slots."""
+    from hertzmap.scheduler.store import GRID_STAGE, pack_shard, stage_task_block
 
     s = placeholder_study()
     names = stored_variables(s)
     chunks = (17, 5, 2)
-    task = make_plan(s, chunks).tasks[0]
+    plan = make_plan(s, chunks)
+    task = plan.tasks[0]
+    assert len(plan.tasks) == 1
     rng = np.random.default_rng(4)
     with Lock(tmp_path / "a.zarr") as lock:
         store = Store.create(tmp_path / "a.zarr", s, chunks, "test")
         block = _filled(names, s.shape, [5] * s.size, rng)
-        assert not write_task_block(store.path, lock.owner, task.slices, task.index, block,
-                                    names)
+        stage_task_block(store.path, lock.owner, task.index, block)
         staged = list((store.path / GRID_STAGE).glob("*.npz"))
         assert len(staged) == 1 and store.slot_extents()["solution"] == 4
-        commit_grid_block(store, task.slices, task.index, names)
+        assert pack_shard(store, (0, 0, 0), plan.counts, names) == [task.index]
         assert not any((store.path / GRID_STAGE).glob("*.npz"))
-        assert store.slot_extents()["solution"] == 8
+        assert store.slot_extents()["solution"] == 8 and store.done_mask().all()
         fits = _filled(names, s.shape, [2] * s.size, rng)
-        assert write_task_block(store.path, lock.owner, task.slices, task.index, fits, names)
+        store.write_block(task.slices, fits, names)
     ds = xr.open_zarr(store.path).load()
     np.testing.assert_array_equal(ds["q0"].values[..., :4], fits["q0"])
     # the block's second chunk of slots, stored by the first write, is gone with the second
