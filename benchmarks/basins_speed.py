@@ -25,7 +25,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from benchmarks.abba import Command, abba, figure_parser, load_line  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-HERTZMAP = [sys.executable, "-m", "hertzmap.scheduler.cli"]
+HERTZMAP = [sys.executable, "-m", "hertzmap.scheduler.doors.cli"]
 STUDY = """
 [study]
 name = "basins_bench"

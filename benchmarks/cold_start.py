@@ -34,7 +34,7 @@ is their sum (the script itself adds nothing but bash's start).
 
 **compile**: each round, a new process with an empty numba cache and no helper processes
 compiles, one after the other, what the default study's workers compile
-(kernels._jit.compile_shared, then scheduler.worker.warm_up_kernels with the census and the
+(kernels._jit.compile_shared, then scheduler.stages.worker.warm_up_kernels with the census and the
 curves): the CPU of each kernel (its callees compiled inside it included) and in all, medians
 over the rounds.
 
@@ -161,7 +161,7 @@ CHILD = """
 import json, time
 from hertzmap import kernels
 from hertzmap.kernels._jit import compile_kernels, compile_shared, kernel_name
-from hertzmap.scheduler.worker import warm_up_kernels
+from hertzmap.scheduler.stages.worker import warm_up_kernels
 cpu = {}
 t0 = time.process_time()
 compile_shared(0, 1, backward=False)

@@ -9,7 +9,7 @@ The measurement is the worked example's (benchmarks/make_fit_example.py: the pap
 f0 = 270.6 Hz, sigma = 0.33, zeta = 0.0055, 200 steps a direction over 200 .. 600 Hz) made
 once by the scipy oracle (benchmarks/oracle_sweep.py, no code of kernels/ or study/), then
 read with the fit's noise model (a = 3 %, b = 0.05 N) with seeds 1, 2, ..., draws; each draw
-fitted with the worked example's rig table on one Dask cluster (scheduler.fit_tasks). Prints
+fitted with the worked example's rig table on one Dask cluster (scheduler.stages.fit_tasks). Prints
 a line per draw and the count per parameter; ``--csv`` writes the draws.
 """
 from __future__ import annotations
@@ -36,8 +36,8 @@ def main() -> None:
     p.add_argument("--csv", type=Path, default=None, help="write each draw's result here")
     args = p.parse_args()
 
-    from hertzmap.scheduler.cluster import ClusterSpec, close_quietly, make_client
-    from hertzmap.scheduler.fit_tasks import run_fit
+    from hertzmap.scheduler.cluster.clusters import ClusterSpec, close_quietly, make_client
+    from hertzmap.scheduler.stages.fit_tasks import run_fit
     from hertzmap.study.identify.measurement import measurement_from_columns
 
     print(f"# {' '.join(['PYTHONPATH=. .venv/bin/python', *sys.argv])}")

@@ -8,7 +8,7 @@ The measurement is the worked example (docs/examples/paper_rig_sweeps.csv: 200 s
 200 down over 200 .. 600 Hz of the paper's rig). Warm: the embedded LocalCluster is started
 and each worker has computed a forward model (the kernels compiled or loaded from numba's
 cache) before the clock starts; the fit then runs as ``hertzmap fit`` runs it
-(scheduler.fit_tasks.run_fit on that client). Prints the wall time, each stage's wall time,
+(scheduler.stages.fit_tasks.run_fit on that client). Prints the wall time, each stage's wall time,
 its tasks' wall and CPU seconds and count, the client's CPU, the machine's load before and
 after, and inside one forward model (a pair of sweeps at the estimate) the shares of the
 kernels' Newton shots, the transients, the histories' harmonics and the Python around them.
@@ -111,8 +111,8 @@ def main() -> None:
         resolution()
         return
 
-    from hertzmap.scheduler.cluster import ClusterSpec, close_quietly, make_client
-    from hertzmap.scheduler.fit_tasks import load_inputs, run_fit
+    from hertzmap.scheduler.cluster.clusters import ClusterSpec, close_quietly, make_client
+    from hertzmap.scheduler.stages.fit_tasks import load_inputs, run_fit
     from hertzmap.study.identify.estimation import run_task
 
     _, _, problem = load_inputs(EXAMPLE, RIG)

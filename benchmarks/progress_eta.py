@@ -9,7 +9,7 @@ grid then really took.
 The run is the scene's whole run (grid, atlas, curves, ...: ``hertzmap.run`` on this process's
 own LocalCluster, into a new store unless ``--store`` names one); only the grid's line is read.
 Each time a task comes back, the line's estimate of the time left
-(scheduler.progress.Progress.eta) is recorded with the wall time; once the grid is done, each
+(scheduler.stages.progress.Progress.eta) is recorded with the wall time; once the grid is done, each
 estimate is compared with the time that was then really left. Printed: the estimate's error
 (estimate / actual - 1) at 10 %, 25 %, ..., 90 % of the grid's wall time, and the largest
 error from a quarter to nine tenths of the way (issue 50's target: within 25 %; in the last
@@ -38,7 +38,7 @@ def main(argv=None) -> int:
     from distributed import Client, LocalCluster
 
     import hertzmap
-    from hertzmap.scheduler import progress as progress_module
+    from hertzmap.scheduler.stages import progress as progress_module
 
     # (time, eta, naive eta, label, the line's start)
     records: list[tuple[float, float, float, str, float]] = []

@@ -34,14 +34,12 @@ import inspect
 import io
 import json
 import os
-import pickle
 import re
 import shutil
 import subprocess
 import sys
 import tempfile
 import time
-import tracemalloc
 from collections import defaultdict
 from pathlib import Path
 
@@ -50,7 +48,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from benchmarks.abba import abba, load_average, load_line  # noqa: E402
+from benchmarks.abba import abba, load_average  # noqa: E402
 
 
 # -- the figures of a `hertzmap run` summary ---------------------------------------------------
@@ -65,7 +63,7 @@ PATTERNS = {
 
 
 def run_summary(text: str) -> dict[str, float | None]:
-    """The figures of a ``hertzmap run`` summary (scheduler.report and scheduler.curve_tasks
+    """The figures of a ``hertzmap run`` summary (scheduler.doors.report and scheduler.stages.curve_tasks
     print it), read back by the benchmarks that time whole runs: setup, grid wall, task compute
     and the curve stage, in seconds; a field its text does not print is None (``curves``
     when the run traced none)."""
@@ -404,343 +402,6 @@ def cmd_census(a) -> int:
     return 0
 
 
-# -- curves: a traced curve against the grid's ways of getting it -----------------------------
-
-AUTO_MS_PER_POINT = 1.0
-
-
-def cmd_curves(a) -> int:
-    """What a traced curve costs, against the grid's ways of getting the same curve (Hertz
-    model, n = 3/2, rtol 1e-10, one process unless said), in one run:
-
-    1. **Per traced vertex** (kernels.continuation.trace_curve, kernels warm): three curves
-       across their windows -- the 1T flip curve at zeta 0.005 (orbits in contact), the
-       isola's 2T fold curve at zeta 0.01 (long flights) and the 2T grazing curve at zeta 0.01
-       -- ms and period maps per vertex, and the accuracy: the largest change of a vertex's
-       parameter when the curve's equations are re-solved at rtol 1e-12 (the vertex held in
-       the other parameter). AUTO-07p, run as a peer on this model, took about 1 ms per
-       continuation point.
-    2. **The same curve by bisection on grid lines** at equal accuracy (1e-8 in the free
-       parameter): on each sigma line of the curve's window, bisection in omega of the sign
-       change of 1 + tr M + det M of the 1T orbit (kernels.shoot at every trial, from the last
-       orbit); for the 2T fold, bisection of where the 2T orbit stops existing (shooting from
-       the orbit on the existing side). Time per point.
-    3. **A grid fine enough for 1e-3**: the flip curve contoured (linear interpolation, as
-       products.bifurcation_curves) from 1T grids of steps h in its window, its distance to
-       the traced curve, and that grid's time at the measured cost per point; the 2T fold (an
-       existence boundary) is known to one grid step only, so 1e-3 needs a step of 1e-3.
-    4. **The default scene** (scenes/default.toml, which asks for curves) run with ``hertzmap
-       run`` on 2 workers, with and without "curves" in its outputs, in ``--pairs`` ABBA
-       rounds (benchmarks/abba.py): whole-command times and their ratio pair by pair (the
-       median is the figure: the machine's speed drifts with other jobs), and the curve
-       stage's share. ``--skip-scene``: sections 1-3; ``--scene-only``: section 4.
-    """
-    print(f"load average: {os.getloadavg()[0]:.2f} (2 cores)")
-    if a.scene_only:
-        _curves_scene(a.pairs)
-        return 0
-    traced = _curves_traced()
-    _curves_bisection(traced)
-    _curves_grid(traced)
-    if not a.skip_scene:
-        _curves_scene(a.pairs)
-    return 0
-
-
-def _flip_curve_seed(zeta, sigma=0.3):
-    from hertzmap.kernels import continuation as cont
-    from hertzmap.study.solve.seeds import linear_response_seed
-
-    b = cont.continue_orbit(zeta, linear_response_seed(2.1, sigma, zeta), omega=2.1,
-                            sigma=sigma, period=1, direction=-1, p_min=1.95, p_max=2.15,
-                            dp_max=0.01)
-    return [p for p in b.special if p.kind == "flip"][0]
-
-
-def _isola_fold_seed():
-    from hertzmap.study.solve.discovery import discover_line
-
-    line = discover_line(np.linspace(1.0, 2.0, 21), 0.2, 0.01, transients=0)
-    return min((d for d in line.special if d["kind"] == "fold" and d["period"] == 2),
-               key=lambda d: d["omega"])
-
-
-def _grazing_seed():
-    from hertzmap.kernels import continuation as cont
-    from hertzmap.study.solve.seeds import linear_response_seed
-
-    z, s = 0.01, 0.5
-    b1 = cont.continue_orbit(z, linear_response_seed(2.2, s, z), omega=2.2, sigma=s, period=1,
-                             direction=-1, p_min=1.9, p_max=2.3, dp_max=0.01)
-    flip = max((p for p in b1.special if p.kind == "flip"), key=lambda p: p.omega)
-    x, w, _, tan = cont.switch_at_flip(z, flip)
-    b2 = cont.continue_orbit(z, x, omega=w, sigma=s, period=2, tangent=tan, p_min=1.8,
-                             p_max=2.5)
-    return [p for p in b2.special if p.kind == "grazing"][0]
-
-
-def _curve_accuracy(curve, kind, period, zeta, sample=12):
-    """Largest change of a vertex's sigma (omega held) when re-solved at rtol 1e-12."""
-    from hertzmap.kernels import continuation as cont
-    from hertzmap.kernels.continuation.extended_system import CurveSystem, chord_correct
-
-    system = CurveSystem(kind, period, ("omega", "sigma"), zeta, 1.5, "hertz", 1e-12, 10**6)
-    V = curve.vertices
-    worst = 0.0
-    for i in np.linspace(1, len(curve) - 2, sample).astype(int):
-        if int(V["flag"][i]) & cont.VERTEX_END:
-            continue
-        u = np.array([V["q0"][i], V["v0"][i], V["omega"][i], V["sigma"][i]])
-        r = chord_correct(system, u, np.array([0.0, 0.0, 1.0, 0.0]), max_iter=30)
-        if r is not None:
-            worst = max(worst, abs(r.u[3] - u[3]))
-    return worst
-
-
-def _curves_traced():
-    from hertzmap.kernels import continuation as cont
-
-    print("## 1. traced curves: time per vertex (kernels warm)")
-    cont.trace_curve((0.0, 0.0), 2.0, 0.5, 0.01, kind="grazing", period=2, max_points=3)
-    cases = []
-    f = _flip_curve_seed(0.005)
-    cases.append(("1T flip, zeta 0.005 (in contact)", "flip", 1, 0.005,
-                  lambda: cont.trace_curve(f.x0, f.omega, 0.3, 0.005, kind="flip", period=1,
-                                           bounds={"omega": (1.9, 2.1), "sigma": (0.15, 1.0)})))
-    d = _isola_fold_seed()
-    cases.append(("2T fold of the isola, zeta 0.01 (long flights)", "fold", 2, 0.01,
-                  lambda: cont.trace_curve((d["q0"], d["v0"]), d["omega"], 0.2, 0.01,
-                                           kind="fold", period=2,
-                                           bounds={"omega": (0.5, 2.5), "sigma": (0.05, 1.0)})))
-    g = _grazing_seed()
-    cases.append(("2T grazing, zeta 0.01", "grazing", 2, 0.01,
-                  lambda: cont.trace_curve(g.x0, g.omega, 0.5, 0.01, kind="grazing", period=2,
-                                           bounds={"omega": (0.5, 2.5), "sigma": (0.05, 1.0)})))
-    out = {}
-    print("| curve | vertices | time | ms / vertex | maps / vertex | accuracy (rtol 1e-12 vs "
-          "1e-10) | vs AUTO ~1 ms / point |")
-    print("|---|---|---|---|---|---|---|")
-    for name, kind, period, zeta, run in cases:
-        times = []
-        for _ in range(3):
-            t0 = time.perf_counter()
-            c = run()
-            times.append(time.perf_counter() - t0)
-        t = min(times)
-        acc = _curve_accuracy(c, kind, period, zeta)
-        ms = 1e3 * t / len(c)
-        print(f"| {name} | {len(c)} | {t:.3f} s | {ms:.3f} | {c.maps / len(c):.1f} | "
-              f"{acc:.1e} | {AUTO_MS_PER_POINT / ms:.1f}x faster |")
-        out[kind, period] = (c, ms)
-    return out
-
-
-def _on_curve(curve, kind, period, zeta, sigma, near_omega):
-    """The traced curve's exact crossing of the sigma line near ``near_omega``: the curve's
-    equations solved with sigma held, from the interpolated polyline."""
-    from hertzmap.kernels.continuation.extended_system import CurveSystem, chord_correct
-
-    V = curve.vertices
-    system = CurveSystem(kind, period, ("omega", "sigma"), zeta, 1.5, "hertz", 1e-10, 10**6)
-    k = np.nonzero(np.diff(np.sign(V["sigma"] - sigma)))[0]
-    k = k[np.argmin(np.abs(V["omega"][k] - near_omega))]
-    th = (sigma - V["sigma"][k]) / (V["sigma"][k + 1] - V["sigma"][k])
-    u = np.array([V[n][k] + th * (V[n][k + 1] - V[n][k]) for n in ("q0", "v0", "omega")]
-                 + [sigma])
-    r = chord_correct(system, u, np.array([0.0, 0.0, 0.0, 1.0]), max_iter=30)
-    return (r.u[2], r.u[:2]) if r is not None else (np.nan, u[:2])
-
-
-def _distance_to_polyline(points, P):
-    """Largest distance of ``points`` (k, 2) to the polyline P (n, 2)."""
-    a, d = P[:-1], P[1:] - P[:-1]
-    dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
-    worst = 0.0
-    for p in points:
-        th = np.clip(np.einsum("ij,ij->i", p - a, d) / dd, 0.0, 1.0)
-        worst = max(worst, float(np.min(np.hypot(*(a + th[:, None] * d - p).T))))
-    return worst
-
-
-def _bisect(g, a, b, tol=1e-8, max_iter=80):
-    """Bisection of a sign change of g on [a, b]; returns (root, evaluations)."""
-    ga = g(a)
-    gb = g(b)
-    n = 2
-    if not (np.isfinite(ga) and np.isfinite(gb)) or ga * gb > 0:
-        return np.nan, n
-    for _ in range(max_iter):
-        if b - a <= tol:
-            break
-        m = 0.5 * (a + b)
-        gm = g(m)
-        n += 1
-        if not np.isfinite(gm):
-            return np.nan, n
-        if gm * ga > 0:
-            a, ga = m, gm
-        else:
-            b = m
-    return 0.5 * (a + b), n
-
-
-def _curves_bisection(traced):
-    from hertzmap.kernels import continuation as cont
-    from hertzmap.kernels import shoot
-    from hertzmap.study.solve.seeds import linear_response_seed
-
-    print("\n## 2. the same curves by bisection on grid lines (to 1e-8 in omega)")
-    c, ms_traced = traced["flip", 1]
-    V = c.vertices
-    z = 0.005
-    right = V["omega"] > 2.0
-    sig = np.linspace(0.2, 1.0, 9)
-    worst, evals, found = 0.0, 0, 0
-    exact = {}
-    for s in sig:
-        wt = np.interp(s, V["sigma"][right][np.argsort(V["sigma"][right])],
-                       V["omega"][right][np.argsort(V["sigma"][right])])
-        exact[s] = _on_curve(c, "flip", 1, z, s, wt)[0]
-    t0 = time.perf_counter()
-    for s in sig:
-        wt = exact[s]
-        state = {"x": linear_response_seed(wt, s, z)}
-
-        def g(w):
-            o = shoot(w, s, z, 1, state["x"], harmonics=False)
-            if not o.converged:
-                return np.nan
-            state["x"] = o.x0
-            return cont.flip_function(o.monodromy)
-        w, n = _bisect(g, wt - 0.01, wt + 0.01)
-        evals += n
-        if np.isfinite(w):
-            found += 1
-            worst = max(worst, abs(w - wt))
-    t = time.perf_counter() - t0
-    per = 1e3 * t / max(found, 1)
-    print(f"1T flip, zeta 0.005: {found} lines, {per:.2f} ms per point ({evals / len(sig):.0f} "
-          f"shoots each); traced {ms_traced:.3f} ms per vertex: bisection {per / ms_traced:.0f}x "
-          f"slower per point; |omega_bisection - omega of the traced curve| <= {worst:.1e}")
-    # the 2T fold: bisection of the existence boundary on sigma lines
-    c, ms_traced = traced["fold", 2]
-    V = c.vertices
-    lines = [0.2, 0.25, 0.3]
-    exact = {s: _on_curve(c, "fold", 2, 0.01, s, 1.1) for s in lines}
-    t0 = time.perf_counter()
-    found, evals, worst = 0, 0, 0.0
-    for s in lines:
-        wt, xt = exact[s]
-        # the 2T orbit exists for omega above the fold (this side of the isola)
-        state = {"x": xt}
-
-        def exists(w):
-            o = shoot(w, s, 0.01, 2, state["x"], harmonics=False, max_iter=20)
-            ok = o.converged and o.minimal_period == 2
-            if ok:
-                state["x"] = o.x0
-            return 1.0 if ok else -1.0
-        lo, hi = wt - 5e-3, wt + 5e-3
-        if exists(hi) < 0 or exists(lo) > 0:
-            continue
-        state["x"] = xt
-        a, b, n = lo, hi, 2
-        while b - a > 1e-8 and n < 80:
-            m = 0.5 * (a + b)
-            n += 1
-            if exists(m) > 0:
-                b = m
-            else:
-                a = m
-        evals += n
-        found += 1
-        worst = max(worst, abs(0.5 * (a + b) - wt))
-    t = time.perf_counter() - t0
-    per = 1e3 * t / max(found, 1)
-    print(f"2T fold (isola), zeta 0.01: {found} lines, {per:.2f} ms per point "
-          f"({evals / max(found, 1):.0f} shoots each; the orbit's existence, bisected: Newton "
-          f"slows down at a fold, so its 1e-8 is in omega of existence, not of the fold); traced "
-          f"{ms_traced:.3f} ms per vertex: {per / ms_traced:.0f}x; |difference| <= {worst:.1e}")
-
-
-def _curves_grid(traced):
-    from hertzmap.kernels import shoot_batch
-    from hertzmap.study.products.bifurcation_curves import contour_lines
-    from hertzmap.study.solve.seeds import linear_response_seed
-
-    print("\n## 3. a grid fine enough for the curve to 1e-3")
-    c, _ = traced["flip", 1]
-    V = c.vertices
-    z = 0.005
-    lo_w, hi_w, lo_s, hi_s = 1.96, 2.04, 0.2, 0.6
-    ref_w, ref_s = V["omega"], V["sigma"]
-    print("| grid step (omega = sigma) | points | 1T solve time | max distance of the contour to "
-          "the traced curve |")
-    print("|---|---|---|---|")
-    per_point = None
-    for h in (0.02, 0.01, 0.005, 0.0025):
-        om = np.arange(lo_w, hi_w + 1e-12, h)
-        sg = np.arange(lo_s, hi_s + 1e-12, h)
-        W, S = np.meshgrid(om, sg, indexing="ij")
-        guess = np.array([linear_response_seed(w, s, z) for w, s in zip(W.ravel(), S.ravel())])
-        t0 = time.perf_counter()
-        r = shoot_batch(W.ravel(), S.ravel(), z, 1, guess[:, 0], guess[:, 1], harmonics=False)
-        t = time.perf_counter() - t0
-        per_point = t / W.size
-        mu1 = r["multiplier1_re"] + 1j * r["multiplier1_im"]
-        mu2 = r["multiplier2_re"] + 1j * r["multiplier2_im"]
-        g = np.real((1 + mu1) * (1 + mu2)).reshape(W.shape)
-        g[r["status"].reshape(W.shape) != 0] = np.nan
-        P = np.column_stack([ref_w, ref_s])
-        worst = max((_distance_to_polyline(line, P) for line in contour_lines(om, sg, g, 0.0)),
-                    default=np.nan)
-        print(f"| {h:g} | {W.size} | {t:.2f} s | {worst:.1e} |")
-    # error ~ C h^2 (linear interpolation of a smooth field): the step for 1e-3
-    print(f"(measured {1e3 * per_point:.3f} ms per 1T point; a contour's error falls like h^2)")
-    print("2T fold (existence boundary, products.curves boundary_2T / isola): one grid step; "
-          "1e-3 needs step 1e-3: the default window (omega 0.5..2.5 x sigma 0.05..1) would be "
-          f"{2001 * 951:,} points, {2001 * 951 * 0.772e-3 / 2 / 60:.0f} min on 2 workers at "
-          "0.772 ms per 1T + 2T point (scheduler/plan.py), against one traced curve.")
-
-
-def _curves_scene(pairs=3):
-    print("\n### 4. the default scene with and without curves (hertzmap run, 2 workers, ABBA)")
-    print(f"load average before: {os.getloadavg()[0]:.2f}")
-    text = (ROOT / "scenes" / "default.toml").read_text()
-    outputs = re.search(r"^outputs = \[(.*)\]", text, re.M)
-    assert outputs and '"curves"' in outputs.group(1), "scenes/default.toml asks for no curves"
-    plain = ", ".join(o for o in re.findall(r'"\w+"', outputs.group(1)) if o != '"curves"')
-    texts = {"plain": text[:outputs.start(1)] + plain + text[outputs.end(1):], "curves": text}
-    with tempfile.TemporaryDirectory() as d:
-        def variant(label):
-            def run(k):
-                study, store = Path(d) / f"{label}{k}.toml", Path(d) / f"{label}{k}.zarr"
-                study.write_text(texts[label])
-                t0 = time.perf_counter()
-                r = subprocess.run([sys.executable, "-m", "hertzmap.scheduler.cli", "run",
-                                    str(study), "--store", str(store), "--workers", "2"],
-                                   capture_output=True, text=True, cwd=ROOT)
-                total = time.perf_counter() - t0
-                shutil.rmtree(store, ignore_errors=True)
-                if r.returncode != 0:
-                    raise RuntimeError(r.stdout + r.stderr)
-                summary = run_summary(r.stdout)
-                line = [ln for ln in r.stdout.splitlines() if ln.startswith("curves:")]
-                print(f"  pair {k + 1} {label}: whole command {total:.1f} s, grid "
-                      f"{summary['wall']:.1f} s wall"
-                      + (f", curve stage {summary['curves']:.2f} s"
-                         if summary["curves"] is not None else ""), flush=True)
-                if line:
-                    print("    " + line[0])
-                return {"whole": total, "curve stage": summary["curves"] or 0.0}
-            return run
-        res = abba({"plain": variant("plain"), "curves": variant("curves")}, pairs)
-    stage = [c / p for c, p in zip(res.of("curves", "curve stage"), res.of("plain", "whole"))]
-    print(res.report("curves", "plain", "whole", "with curves / without (whole command)")
-          + f"; the curve stage alone: median {100 * np.median(stage):.0f} % of the run without "
-          "curves; issue 19 asks <= 1.5")
-
-
 # -- throughput: a small study on 1 and 2 Dask workers ---------------------------------------
 
 THROUGHPUT_STUDY = """
@@ -778,7 +439,7 @@ def cmd_throughput(a) -> int:
     A small study (the default study's (omega, sigma) window at zeta 0.01, 1T and 2T seeds,
     rtol 1e-10; 41 x 25 = 1025 points by default) is run with ``scheduler.run.run_study`` into
     stores in a temporary directory, on the LocalCluster ``hertzmap run`` starts
-    (scheduler.cluster.make_client: 1 then 2 single-threaded worker processes, Dask's
+    (scheduler.cluster.clusters.make_client: 1 then 2 single-threaded worker processes, Dask's
     housekeeping trimmed; started before timing, kernels warmed from the numba cache by the
     worker plugin). Figures:
 
@@ -787,12 +448,12 @@ def cmd_throughput(a) -> int:
     * Dask overhead per task: (workers x wall - sum of solver times inside the tasks) / tasks,
       and the round trip of an empty task (client.map over 200 no-ops);
     * cold start: a new process importing the block solver and solving one point
-      (scheduler.worker.warm_up), with an empty numba cache dir, then again from that cache;
+      (scheduler.stages.worker.warm_up), with an empty numba cache dir, then again from that cache;
     * peak memory: ru_maxrss of every worker process after the run (client.run);
     * the error estimate the run stored in the store's attrs (hertzmap_error_estimate).
     """
     if a.with_profiler:
-        from hertzmap.scheduler import cluster
+        from hertzmap.scheduler.cluster import clusters as cluster
         cluster.CLUSTER_CONFIG = {**cluster.CLUSTER_CONFIG,
                                   "distributed.worker.profile.enabled": True}
     if a.ceiling:
@@ -858,7 +519,7 @@ def _noop(i):
 
 
 def _warm_up_seconds(cache_dir: str) -> float:
-    code = ("import time; t = time.perf_counter(); from hertzmap.scheduler.worker import warm_up; "
+    code = ("import time; t = time.perf_counter(); from hertzmap.scheduler.stages.worker import warm_up; "
             "warm_up(); print(time.perf_counter() - t)")
     env = dict(os.environ, NUMBA_CACHE_DIR=cache_dir)
     r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
@@ -895,7 +556,7 @@ def _machine_ceiling() -> float:
 
 
 def _run_on(workers: int, study, tmp: Path) -> dict:
-    from hertzmap.scheduler.cluster import ClusterSpec, make_client
+    from hertzmap.scheduler.cluster.clusters import ClusterSpec, make_client
     from hertzmap.scheduler.run import RunOptions, run_study
     from hertzmap.scheduler.store import read_attrs
 
@@ -925,65 +586,13 @@ def _run_on(workers: int, study, tmp: Path) -> dict:
     return s
 
 
-# -- task-size: two --task-seconds targets, ABBA -----------------------------------------------
-
-def cmd_task_size(a) -> int:
-    """Task size against the client's share of the cores: one study run with two
-    ``--task-seconds`` targets in ABBA rounds of benchmarks/abba.py (A B, then B A, ...), in one
-    session (default study, 0.25 against 2 s; ``--pairs`` rounds).
-
-    Each run is ``hertzmap run STUDY --workers 2 --task-seconds S`` into a temporary store
-    (warm numba cache: run the study once before). Printed per run: the tasks, the grid's wall
-    and task compute as the run's summary gives them (run_summary), and the CPU seconds of the
-    client process itself (scheduler and single writer) sampled from /proc while the run lasts.
-    Then the ratio of the grid walls, A / B, pair by pair. On a 2-core machine the client
-    shares the cores with the two workers, so its CPU is taken from theirs."""
-    print(f"{a.study}; A: --task-seconds {a.a}, B: --task-seconds {a.b}; {load_line()}")
-
-    def show(run):
-        r = run.value
-        print(f"  {run.name}: {r['tasks']:4d} tasks, grid {r['wall']:6.2f} s wall, task compute "
-              f"{r['compute']:6.2f} s, client CPU {r['client']:5.2f} s (whole run); "
-              f"{load_line()}", flush=True)
-
-    res = abba({"A": lambda k: _task_size_run(a.study, a.a),
-                "B": lambda k: _task_size_run(a.study, a.b)}, a.pairs, each=show)
-    print(res.report("A", "B", "wall", "grid wall A / B"))
-    return 0
-
-
-def _task_size_run(study: str, task_seconds: float) -> dict:
-    import psutil
-
-    with tempfile.TemporaryDirectory() as tmp:
-        cmd = [str(ROOT / ".venv/bin/hertzmap"), "run", study, "--workers", "2",
-               "--store", str(Path(tmp) / "s.zarr"), "--task-seconds", str(task_seconds),
-               "--error-sample", "0"]
-        with open(Path(tmp) / "out.txt", "w") as out:
-            p = subprocess.Popen(cmd, cwd=ROOT, stdout=out, stderr=subprocess.STDOUT)
-            client = psutil.Process(p.pid)
-            cpu = 0.0
-            while p.poll() is None:
-                try:
-                    t = client.cpu_times()
-                    cpu = t.user + t.system
-                except psutil.Error:
-                    break
-                time.sleep(0.2)
-        text = (Path(tmp) / "out.txt").read_text()
-    if p.returncode != 0:
-        raise SystemExit(f"run failed ({p.returncode}):\n{text}")
-    tasks = int(re.search(r"running (\d+) tasks", text).group(1))
-    return dict(run_summary(text), tasks=tasks, client=cpu)
-
-
 # -- store: bytes, files and writes, two versions, ABBA ----------------------------------------
 
 #: what each store run executes in the version's own Python: the run, then its summary as JSON
 _STORE_RUN = r"""
 import json, sys
 from pathlib import Path
-from hertzmap.scheduler.cluster import ClusterSpec
+from hertzmap.scheduler.cluster.clusters import ClusterSpec
 from hertzmap.scheduler.run import RunOptions, run_study
 from hertzmap.study.scenes import study_path
 from hertzmap.study.spec import load_study
@@ -1062,361 +671,12 @@ def _store_run(python: str, scene: str, store: Path, workers: int) -> dict:
     return out
 
 
-# -- scale: per-task costs besides the solves --------------------------------------------------
-
-def cmd_scale(a) -> int:
-    """The per-task costs a large study pays besides its solves, measured here, for
-    docs/running.md's "Scale on paper" (a study of 10^8 points on 1,000 workers).
-
-    STUDY (``--study``; default: the fine map's grid at 4000 omega x 2500 sigma, 10^7 points,
-    written to a temporary file: its tasks are those of a 10^8 study, which only has ten times
-    as many) is planned as ``hertzmap run`` plans it (scheduler.plan), and then:
-
-    1. **Client bookkeeping**: the plan and the task specs (scheduler.run.task_specs) for every
-       task, built in this process: traced Python memory (tracemalloc) and one spec's pickle.
-    2. **Store**: the template written with Store.create (time, files), then one real block (8
-       lines of the study solved here, tiled to the chunk's size) written 5 times with
-       scheduler.store.BlockWriter: time per block write (what a worker now pays per task) and
-       the chunk's bytes and files on disk.
-    3. **Client CPU per task, before and after, in one run**: a ``dask scheduler`` process and
-       2 single-threaded worker processes (their own processes, so that the client's CPU is its
-       own: psutil); first ``--tasks`` no-op tasks (Dask's own cost per task), then 20
-       block-sized tasks in each mode, in two ABBA rounds of benchmarks/abba.py:
-       * *client writes* (hertzmap until the workers wrote their blocks): the task returns the
-         block's arrays; the client receives them, writes the block, sets the flag, counts
-         (block_counts) and samples;
-       * *worker writes* (now): the task stages its block (store.stage_task_block) and returns
-         its summary (block_counts, the error-sample candidates); the client sets the flag and
-         adds the counts.
-       Printed: the client's and the scheduler's CPU ms per task, the wall per task, and the
-       client's CPU worker writes / client writes pair by pair.
-    4. **Many workers**: a ``dask scheduler`` process and ``dask worker --nworkers W`` for each
-       W of ``--workers``; tasks that sleep ``--sleep`` s (a solve that costs no CPU) and then
-       write a real block into the store as run_task does; ``--rounds`` tasks per worker.
-       Printed: tasks per second against the W / sleep the workers could take, the client's,
-       the scheduler's and the workers' CPU per task, the block write's wall on the worker.
-       Then W = the largest, tasks that only sleep 0.05 s and write nothing: the most tasks per
-       second the scheduler and the client pass on this machine, and which of the two is busy.
-    """
-    from hertzmap.scheduler.plan import choose_chunks, make_plan
-    from hertzmap.scheduler.report import SUMMED_COUNTS, WORST_COUNTS, add_counts, block_counts
-    try:                                        # the grid stage's module, since the stage runner
-        from hertzmap.scheduler.grid_tasks import task_specs
-    except ImportError:
-        from hertzmap.scheduler.run import task_specs
-    from hertzmap.scheduler.sample import Sampler, block_candidates
-    from hertzmap.scheduler.store import Lock, Store
-    from hertzmap.study.schema import empty_arrays, stored_variables
-    from hertzmap.study.solve.block import solve_block
-    from hertzmap.study.spec import load_study
-
-    tmp = tempfile.mkdtemp(prefix="hertzmap-scale-")
-    procs: _Processes | None = None
-    try:
-        study = load_study(a.study or _big_study_file(tmp))
-        chunks = choose_chunks(study)
-        print(f"{study.name}: {study.size:,} points, chunk {chunks}; load average "
-              + load_average(), flush=True)
-        path = os.path.join(tmp, "store.zarr")
-        sampler = Sampler(study, 8)
-
-        # 1. client bookkeeping
-        tracemalloc.start()
-        plan = make_plan(study, chunks)
-        specs = task_specs(study, plan.tasks, study.solver_kwargs(), stored_variables(study),
-                           None, 600.0, store=Path(path), owner={"host": "h", "pid": 1,
-                                                                  "token": "0" * 32},
-                           sampler=sampler)
-        current, _ = tracemalloc.get_traced_memory()
-        tracemalloc.stop()
-        om, zt = study.axis("omega"), study.axis("zeta")
-        kwargs, names = study.solver_kwargs(), stored_variables(study)
-        one = len(pickle.dumps(specs[0]))
-        print(f"client: {len(plan.tasks):,} tasks; plan + task specs {current / 2**20:.1f} MiB "
-              f"traced ({current / len(plan.tasks) / 1024:.1f} KiB per task); one spec pickled "
-              f"{one / 1024:.1f} KiB", flush=True)
-        del specs
-
-        # 2. store
-        t0 = time.perf_counter()
-        store = Store.create(path, study, chunks, action="scale_overheads")
-        t_create = time.perf_counter() - t0
-        files = sum(len(f) for _, _, f in os.walk(path))
-        size = sum(os.path.getsize(os.path.join(d, x)) for d, _, f in os.walk(path) for x in f)
-        print(f"store template: {t_create:.2f} s, {files} files, {size / 2**20:.1f} MiB",
-              flush=True)
-        # a real block: 8 lines of the default study's sigma range, tiled to the chunk's size
-        c_o = chunks[0]
-        omega = om[:c_o]
-        line = solve_block(np.ascontiguousarray(omega[:: max(1, c_o // 400)][:400]),
-                           np.array([0.5]), zt[:1], **kwargs)
-        reps = -(-c_o // line["status"].shape[0])
-        arrays = {k: np.concatenate([v] * reps, axis=0)[:c_o] for k, v in line.items()
-                  if k in names}
-        missing = [n for n in names if n not in arrays]
-        if missing:
-            arrays.update(empty_arrays((c_o, 1, 1), study.max_solutions, tuple(missing)))
-        block_file = os.path.join(tmp, "block.npz")
-        np.savez(block_file, **arrays)
-        times = []
-        for j in range(5):
-            t0 = time.perf_counter()
-            store.write_block(_slices(j, c_o), arrays, tuple(names))
-            times.append(time.perf_counter() - t0)
-        raw = sum(v.nbytes for v in arrays.values())
-        before, before_files = size, files
-        size = sum(os.path.getsize(os.path.join(d, x)) for d, _, f in os.walk(path) for x in f)
-        files = sum(len(f) for _, _, f in os.walk(path))
-        per_chunk = (size - before) / 5
-        print(f"block write: {np.median(times) * 1e3:.0f} ms per block (median of 5); one block "
-              f"{raw / 2**20:.2f} MiB uncompressed, {per_chunk / 2**20:.2f} MiB on disk "
-              f"({raw / per_chunk:.1f}x compression) in {(files - before_files) / 5:.0f} files; "
-              f"{len(names)} variables", flush=True)
-
-        lock = Lock(path)
-        lock.acquire()
-        base = {"c_o": c_o, "names": list(names), "store": str(Path(path).resolve()),
-                "owner": lock.owner, "omega": omega, "block": block_file}
-
-        def job(j, **extra):
-            task = plan.tasks[j]
-            return dict(base, j=j, index=task.index, sample=sampler.task_spec(task), **extra)
-
-        # 3. client CPU per task, before and after (one run, modes alternated)
-        from distributed import Client
-        procs = _Processes(2)
-        with Client(procs.address) as client:
-            client.wait_for_workers(2)
-            client.run(lambda: __import__("hertzmap.scheduler.store"))
-            client.submit(_noop_task, -1).result()
-            t0 = time.perf_counter()
-            n = a.tasks
-            futs = client.map(_noop_task, range(n), pure=False)
-            cpu0, c0 = _client_cpu(), procs.cpu()
-            from distributed import as_completed
-            for f in as_completed(futs):
-                f.result()
-                f.release()
-            dt = time.perf_counter() - t0
-            c1 = procs.cpu()
-            print(f"scheduler, 2 workers, {n} no-op tasks: {dt:.2f} s, {dt / n * 1e3:.2f} ms per "
-                  f"task; client {(_client_cpu() - cpu0) / n * 1e3:.2f} ms CPU per task, scheduler "
-                  f"{(c1['scheduler'] - c0['scheduler']) / n * 1e3:.2f} ms", flush=True)
-
-            next_j = [5]
-
-            def mode(name):
-                def run(_k):
-                    tally = {"points": 0, **{k: 0 for k in SUMMED_COUNTS},
-                             **{k: float("nan") for k in WORST_COUNTS}}
-                    n = 20
-                    jobs = [job(j) for j in range(next_j[0], next_j[0] + n)]
-                    next_j[0] += n
-
-                    def before(res, tally=tally):
-                        j = res["index"][1]
-                        store.write_block(_slices(j, c_o), res["arrays"], tuple(names))
-                        store.mark_done(plan.tasks[j].index)
-                        add_counts(tally, block_counts(res["arrays"]))
-                        sampler.merge(block_candidates(res["arrays"], (omega, [0.5], [0.01]),
-                                                       sampler.task_spec(plan.tasks[j])))
-
-                    def after(res, tally=tally):
-                        store.mark_done(plan.tasks[res["index"][1]].index)
-                        add_counts(tally, res["counts"])
-                        sampler.merge(res["samples"])
-
-                    cpu0, c0 = _client_cpu(), procs.cpu()
-                    if name == "client writes":
-                        wall = _run_tasks(client, _task_returning_the_block, jobs, before)
-                    else:
-                        wall = _run_tasks(client, _task_writing_the_block, jobs, after)
-                    c1 = procs.cpu()
-                    return {"client": (_client_cpu() - cpu0) / n,
-                            "scheduler": (c1["scheduler"] - c0["scheduler"]) / n,
-                            "workers": (c1["workers"] - c0["workers"]) / n,
-                            "wall per task": wall / n}
-                return run
-            res = abba({m: mode(m) for m in ("client writes", "worker writes")}, 2)
-            for name in res.names:
-                cl, sc, wk, wl = (sorted(res.of(name, key)) for key in
-                                  ("client", "scheduler", "workers", "wall per task"))
-                print(f"{name}, 2 workers, 2 x 20 block-sized tasks: client {cl[0] * 1e3:.0f}-"
-                      f"{cl[-1] * 1e3:.0f} ms CPU per task, scheduler {sc[0] * 1e3:.1f}-"
-                      f"{sc[-1] * 1e3:.1f} ms, workers {wk[0] * 1e3:.0f}-{wk[-1] * 1e3:.0f} ms; "
-                      f"wall {wl[0] * 1e3:.0f}-{wl[-1] * 1e3:.0f} ms per task", flush=True)
-            print(res.report("worker writes", "client writes", "client",
-                             "client CPU per task, worker writes / client writes"), flush=True)
-        procs.close()
-        procs = None
-
-        # 4. many workers
-        counts = [int(w) for w in a.workers.split(",") if w.strip()]
-        for w in counts:
-            procs = _Processes(w)
-            with Client(procs.address) as client:
-                client.wait_for_workers(w, timeout=900)
-                client.run(lambda: __import__("hertzmap.scheduler.store"))
-                client.map(_noop_task, range(-w, 0), pure=False)
-                runs = [("sleep %.2f s + block write" % a.sleep, a.sleep, block_file, a.rounds * w)]
-                if w == counts[-1]:
-                    runs.append(("sleep 0.05 s, no write", 0.05, None, 40 * w))
-                for label, sleep, blk, n in runs:
-                    # chunks not written yet, while there are (then written again)
-                    jobs = [dict(job(5 + (next_j[0] + i) % (len(plan.tasks) - 5)), sleep=sleep,
-                                 block=blk) for i in range(n)]
-                    next_j[0] += n
-                    writes = []
-
-                    def flag(res):
-                        store.mark_done(plan.tasks[res["index"][1]].index)
-                        if res["counts"] is not None:
-                            add_counts(tally, res["counts"])
-                        sampler.merge(res["samples"])
-                        writes.append(res["write_seconds"])
-
-                    tally = {"points": 0, **{k: 0 for k in SUMMED_COUNTS},
-                             **{k: float("nan") for k in WORST_COUNTS}}
-                    cpu0, c0 = _client_cpu(), procs.cpu()
-                    wall = _run_tasks(client, _task_writing_the_block, jobs, flag)
-                    c1 = procs.cpu()
-                    rate, ideal = n / wall, w / sleep
-                    print(f"{w} workers, {n} tasks ({label}): {wall:.1f} s, {rate:.1f} tasks/s of "
-                          f"{ideal:.0f} possible ({rate / ideal:.0%}); per task: client "
-                          f"{(_client_cpu() - cpu0) / n * 1e3:.1f} ms CPU, scheduler "
-                          f"{(c1['scheduler'] - c0['scheduler']) / n * 1e3:.1f} ms, workers "
-                          f"{(c1['workers'] - c0['workers']) / n * 1e3:.1f} ms; block write "
-                          f"{np.median(writes) * 1e3:.0f} ms wall (median); client busy "
-                          f"{(_client_cpu() - cpu0) / wall:.0%}, scheduler "
-                          f"{(c1['scheduler'] - c0['scheduler']) / wall:.0%} of a core; load "
-                          + load_average(), flush=True)
-            procs.close()
-            procs = None
-        lock.release()
-    finally:
-        if procs is not None:
-            procs.close()
-        shutil.rmtree(tmp, ignore_errors=True)
-    return 0
-
-
-def _big_study_file(folder: str) -> str:
-    text = (ROOT / "scenes" / "fine_map.toml").read_text()
-    text = text.replace("num = 400 }", "num = 4000 }").replace("num = 250 }", "num = 2500 }")
-    text = text.replace('name = "fine_map"', 'name = "scale_1e7"')
-    path = os.path.join(folder, "scale_1e7.toml")
-    Path(path).write_text(text)
-    return path
-
-
-def _noop_task(i):
-    return {"index": (i, 0, 0), "seconds": 0.0, "pid": os.getpid()}
-
-
-# -- what the tasks of sections 3 and 4 run (on the workers; the block is read from a file) ---
-
-def _load_block(path: str) -> dict[str, np.ndarray]:
-    with np.load(path) as z:
-        return {k: z[k] for k in z.files}
-
-
-def _slices(j: int, c_o: int) -> tuple[slice, slice, slice]:
-    return (slice(0, c_o), slice(j, j + 1), slice(0, 1))
-
-
-def _task_returning_the_block(job: dict) -> dict:
-    """Before: the block's arrays go back to the client."""
-    arrays = _load_block(job["block"])
-    return {"index": (0, job["j"], 0), "arrays": arrays, "seconds": 0.0, "pid": os.getpid()}
-
-
-def _task_writing_the_block(job: dict) -> dict:
-    """Now (scheduler.worker.run_task after its solve): the worker stages its block and
-    returns the run summary's counts and the error-sample candidates."""
-    from hertzmap.scheduler.report import block_counts
-    from hertzmap.scheduler.sample import block_candidates
-    from hertzmap.scheduler.store import stage_task_block
-
-    time.sleep(job.get("sleep", 0.0))
-    if job.get("block") is None:
-        return {"index": (0, job["j"], 0), "seconds": 0.0, "write_seconds": 0.0,
-                "pid": os.getpid(), "counts": None, "samples": []}
-    arrays = _load_block(job["block"])
-    t0 = time.perf_counter()
-    stage_task_block(job["store"], job["owner"], tuple(job["index"]), arrays)
-    dt = time.perf_counter() - t0
-    axes = (np.asarray(job["omega"]), np.array([0.5]), np.array([0.01]))
-    return {"index": (0, job["j"], 0), "seconds": job.get("sleep", 0.0), "write_seconds": dt,
-            "pid": os.getpid(), "counts": block_counts(arrays),
-            "samples": block_candidates(arrays, axes, job["sample"])}
-
-
-class _Processes:
-    """A ``dask scheduler`` process and ``dask worker`` processes on the loopback."""
-
-    def __init__(self, workers: int):
-        from distributed.utils import open_port
-
-        port = open_port()
-        self.address = f"tcp://127.0.0.1:{port}"
-        env = dict(os.environ, PYTHONPATH=str(ROOT), DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED="False",
-                   DASK_DISTRIBUTED__ADMIN__TICK__INTERVAL="200ms",
-                   DASK_DISTRIBUTED__ADMIN__SYSTEM_MONITOR__INTERVAL="2s",
-                   DASK_DISTRIBUTED__WORKER__MEMORY__MONITOR_INTERVAL="1s")
-        quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "env": env}
-        self.scheduler = subprocess.Popen(
-            [sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
-             "--port", str(port), "--no-dashboard"], **quiet)
-        self.workers = subprocess.Popen(
-            [sys.executable, "-m", "distributed.cli.dask_worker", self.address, "--nworkers",
-             str(workers), "--nthreads", "1", "--no-dashboard", "--host", "127.0.0.1",
-             "--memory-limit", "0"], **quiet)
-        self.n = workers
-
-    def cpu(self) -> dict[str, float]:
-        """CPU seconds so far of the scheduler and of every worker process (nannies included)."""
-        import psutil
-
-        def total(p):
-            t = p.cpu_times()
-            return t.user + t.system
-
-        sched = psutil.Process(self.scheduler.pid)
-        top = psutil.Process(self.workers.pid)
-        workers = total(top) + sum(total(c) for c in top.children(recursive=True))
-        return {"scheduler": total(sched), "workers": workers}
-
-    def close(self) -> None:
-        for p in (self.workers, self.scheduler):
-            p.terminate()
-        for p in (self.workers, self.scheduler):
-            try:
-                p.wait(timeout=60)
-            except subprocess.TimeoutExpired:
-                p.kill()
-
-
-def _client_cpu() -> float:
-    t = os.times()
-    return t.user + t.system
-
-
-def _run_tasks(client, fn, jobs, on_result) -> float:
-    """Submit ``jobs`` as run.py does (client.map, as_completed), ``on_result`` on the client
-    for each result; returns the wall."""
-    from distributed import as_completed
-
-    t0 = time.perf_counter()
-    futs = client.map(fn, jobs, pure=False)
-    for f in as_completed(futs):
-        on_result(f.result())
-        f.release()
-    return time.perf_counter() - t0
-
-
 # -- the command line ------------------------------------------------------------------------------
 
 def main(argv=None) -> int:
+    from benchmarks.curve_cost import cmd_curves
+    from benchmarks.scale_cost import cmd_scale, cmd_task_size
+
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="what", required=True, metavar="SUBCOMMAND")
@@ -1454,7 +714,7 @@ def main(argv=None) -> int:
     p.add_argument("--ceiling", action="store_true",
                    help="only measure what the machine gives two solver processes (no Dask)")
     p.add_argument("--with-profiler", action="store_true",
-                   help="workers keep Dask's stack profiler on (what scheduler.cluster turns off)")
+                   help="workers keep Dask's stack profiler on (what scheduler.cluster.clusters turns off)")
     p.add_argument("--no-cold-start", action="store_true", help="skip the numba cold-start figure")
 
     p = command("task-size", cmd_task_size,

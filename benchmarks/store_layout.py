@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hertzmap.scheduler.plan import make_plan
+from hertzmap.scheduler.stages.plan import make_plan
 from hertzmap.scheduler.store import Lock, Store, pack_shard, stage_task_block
 from hertzmap.scheduler.store.block_writes import BlockWriter
 from hertzmap.scheduler.store.layout import shard_blocks, shard_members, shard_of
@@ -80,7 +80,7 @@ def files_and_bytes(path: Path) -> tuple[int, int]:
 
 
 def _write_format2(job) -> tuple[int, float, float]:
-    """A worker of format 2: region writes of its blocks (as scheduler.worker wrote them)."""
+    """A worker of format 2: region writes of its blocks (as scheduler.stages.worker wrote them)."""
     import zarr
 
     path, chunks, blocks, names, seed = job
@@ -99,7 +99,7 @@ def _write_format2(job) -> tuple[int, float, float]:
 
 
 def _stage_format3(job) -> tuple[int, float, float]:
-    """A worker of format 3: its blocks staged (scheduler.worker.run_task's write)."""
+    """A worker of format 3: its blocks staged (scheduler.stages.worker.run_task's write)."""
     path, owner, blocks, names, seed = job
     spent, nbytes = 0.0, 0
     for k, (index, slices) in enumerate(blocks):

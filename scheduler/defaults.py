@@ -1,7 +1,7 @@
 """What a run does unless told otherwise: the defaults the command line states in its help and
 the run uses, declared once (importing this costs nothing, so ``hertzmap --help`` stays quick)."""
 
-#: Target duration of one task (seconds, as estimated by scheduler.plan.seconds_per_point).
+#: Target duration of one task (seconds, as estimated by scheduler.stages.plan.seconds_per_point).
 #: Each task costs its worker a block write (one file per variable, ~36: 32 ms for 4000
 #: points), the scheduler 6.5-10.5 ms and the client 7-8 ms of CPU (the flag, the counts:
 #: benchmarks/run_cost.py scale); when the client still wrote every block, the default study

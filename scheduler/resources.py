@@ -7,8 +7,8 @@ import shutil
 from pathlib import Path
 
 from hertzmap.scheduler.errors import RunError
-from hertzmap.scheduler.plan import Plan
-from hertzmap.scheduler.report import fmt_bytes
+from hertzmap.scheduler.stages.plan import Plan
+from hertzmap.scheduler.doors.report import fmt_bytes
 from hertzmap.study.schema import SLOT_CHUNK, bytes_per_point, stored_variables
 from hertzmap.study.spec import Study
 

@@ -1,5 +1,5 @@
 """Run a study: plan, open (or create) and lock the store, then run each pending stage of
-:data:`STAGES` in order through one scheduler.stage.TaskRunner: the grid (each block written by
+:data:`STAGES` in order through one scheduler.stages.stage.TaskRunner: the grid (each block written by
 its worker, flagged ``task_done`` by the client once the task has returned), the error sample,
 the atlas rounds and census rounds, the traced curves, the thresholds in zeta, the stepped
 sweeps. Durability comes from the store, not from Dask: rerunning the same command computes
@@ -19,26 +19,26 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
-from hertzmap.scheduler.cluster import (INPROCESS, JOBQUEUE, LOCAL_KINDS, ClusterSpec,
+from hertzmap.scheduler.cluster.clusters import (INPROCESS, JOBQUEUE, LOCAL_KINDS, ClusterSpec,
                                         WorkerJobsEnded, close_quietly, default_workers,
                                         make_client, wait_for_first_worker, where_line,
                                         worker_count)
-from hertzmap.scheduler.atlas_tasks import DEFAULT_ATLAS_TILE, AtlasStage
-from hertzmap.scheduler.curve_tasks import DEFAULT_TRACER, CurveStage
-from hertzmap.scheduler.dry_run import plan_for
+from hertzmap.scheduler.stages.atlas_tasks import DEFAULT_ATLAS_TILE, AtlasStage
+from hertzmap.scheduler.stages.curve_tasks import DEFAULT_TRACER, CurveStage
+from hertzmap.scheduler.doors.dry_run import plan_for
 from hertzmap.scheduler.defaults import DEFAULT_TASK_SECONDS, DEFAULT_TASK_TIMEOUT, ERROR_SAMPLE
-from hertzmap.scheduler.error_estimate import estimate_error, record_error_estimate
+from hertzmap.scheduler.stages.error_estimate import estimate_error, record_error_estimate
 from hertzmap.scheduler.errors import ClusterError, RunError
-from hertzmap.scheduler.grid_tasks import GridStage
+from hertzmap.scheduler.stages.grid_tasks import GridStage
 from hertzmap.scheduler.interrupt import DeferInterrupt
-from hertzmap.scheduler.plan import choose_chunks, is_small_study
-from hertzmap.scheduler.report import overhead, print_summary
+from hertzmap.scheduler.stages.plan import choose_chunks, is_small_study
+from hertzmap.scheduler.doors.report import overhead, print_summary
 from hertzmap.scheduler.resources import check_resources
-from hertzmap.scheduler.stage import SchedulerLost, Stage, TaskRunner, stage_costs_line
+from hertzmap.scheduler.stages.stage import SchedulerLost, Stage, TaskRunner, stage_costs_line
 from hertzmap.scheduler.store import Lock, Store, StoreError, check_writer, open_or_create
-from hertzmap.scheduler.sweep_tasks import SweepStage
-from hertzmap.scheduler.threshold_tasks import ThresholdStage
-from hertzmap.scheduler.worker import DEFAULT_SOLVER, Warmup
+from hertzmap.scheduler.stages.sweep_tasks import SweepStage
+from hertzmap.scheduler.stages.threshold_tasks import ThresholdStage
+from hertzmap.scheduler.stages.worker import DEFAULT_SOLVER, Warmup
 from hertzmap.study.schema import code_fingerprint
 from hertzmap.study.spec import Study
 
@@ -178,7 +178,7 @@ def _has_dashboard(client) -> bool:
         return False
 
 
-#: The stages of a run, in order, declared once (scheduler.stage): each reads what the stages
+#: The stages of a run, in order, declared once (scheduler.stages.stage): each reads what the stages
 #: before it committed, and a rerun resumes the first one not committed. A new stage is one
 #: entry here plus its pure function (docs/architecture.md, "Where to add").
 STAGES: tuple[type[Stage], ...] = (GridStage, AtlasStage, CurveStage, ThresholdStage,
@@ -187,7 +187,7 @@ STAGES: tuple[type[Stage], ...] = (GridStage, AtlasStage, CurveStage, ThresholdS
 
 class StudyRun:
     """One run of a study into its (locked) store: repair, resume, then every stage of
-    :data:`STAGES` that is pending, through one scheduler.stage.TaskRunner; summarise."""
+    :data:`STAGES` that is pending, through one scheduler.stages.stage.TaskRunner; summarise."""
 
     def __init__(self, study: Study, opts: RunOptions, store: Store, out: TextIO, err: TextIO,
                  warming: Future | None = None, owner: dict[str, Any] | None = None,

@@ -28,7 +28,7 @@ sys.dont_write_bytecode = False
 #: dependencies' modules was left to compile but the few each process imports at startup.
 MODULES = {
     "client": [
-        "hertzmap.scheduler.cli", "hertzmap.scheduler.cluster", "hertzmap.scheduler.curve_tasks", "hertzmap.scheduler.report",
+        "hertzmap.scheduler.doors.cli", "hertzmap.scheduler.cluster.clusters", "hertzmap.scheduler.stages.curve_tasks", "hertzmap.scheduler.doors.report",
         "hertzmap.scheduler.run", "hertzmap.scheduler.store", "hertzmap.study.plots", "hertzmap.study.products",
         "contourpy", "dask.array", "distributed.deploy.local", "distributed.diagnostics.websocket",
         "distributed.http.health", "distributed.http.prometheus", "distributed.http.scheduler.info",
@@ -39,7 +39,7 @@ MODULES = {
         "hypothesis", "pytest",             # the test extras, when installed (scripts/test.sh)
     ],
     "worker": [
-        "hertzmap.scheduler.worker", "hertzmap.study.solve.block", "distributed.nanny", "distributed.worker",
+        "hertzmap.scheduler.stages.worker", "hertzmap.study.solve.block", "distributed.nanny", "distributed.worker",
         "numba", "scipy.ndimage", "scipy.optimize", "scipy.spatial",
     ],
 }

@@ -1,4 +1,4 @@
-"""The data behind ``hertzmap explore`` (the page lives in scheduler/explore/): plain functions
+"""The data behind ``hertzmap explore`` (the page lives in scheduler/doors/explore/): plain functions
 of xarray Datasets, no server and no plotting library, so that every number the page shows can
 be tested without a browser.
 

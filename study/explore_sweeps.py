@@ -1,5 +1,5 @@
 """Stepped-sine sweeps up and down omega or sigma through a point ``hertzmap explore``'s user
-clicked (the page lives in scheduler/explore/), as plain functions of the store's Dataset:
+clicked (the page lives in scheduler/doors/explore/), as plain functions of the store's Dataset:
 :func:`line_sweep` (``study.solve.sweep.stepped_sweep`` on the store's grid values of that
 axis, computed here), :func:`stored_line_sweep` (the store's ``sweeps`` product where it holds
 that line), :func:`sweep_columns` (what the page draws: H1, H2, H1/2 and the amplitude, the

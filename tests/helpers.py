@@ -147,7 +147,7 @@ def subprocess_env(**extra) -> dict[str, str]:
 
 
 def hertzmap_cmd(*args: str) -> list[str]:
-    return [sys.executable, "-m", "hertzmap.scheduler.cli", *args]
+    return [sys.executable, "-m", "hertzmap.scheduler.doors.cli", *args]
 
 
 def done_count(store) -> int:
@@ -226,7 +226,7 @@ def placeholder_study(text: str = STORE_TEST_STUDY):
 
 def placeholder_run(path, client, text: str = STORE_TEST_STUDY, **kw):
     """Run a study with the placeholder solver on ``client`` into ``path``; the summary."""
-    from hertzmap.scheduler.cluster import ClusterSpec
+    from hertzmap.scheduler.cluster.clusters import ClusterSpec
     from hertzmap.scheduler.run import RunOptions, run_study
 
     opts = RunOptions(store=path, solver=PLACEHOLDER, cluster=ClusterSpec(kind="address"),

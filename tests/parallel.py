@@ -37,7 +37,7 @@ SECONDS: dict[str, float] = {
     "tests/hardening/test_time_limit.py": 47,
     "tests/kernels/test_attractors.py": 47,
     "tests/study/test_plots.py": 43,
-    "tests/scheduler/test_cli.py": 40,
+    "tests/scheduler/doors/test_cli.py": 40,
     "tests/benchmarks/test_work_precision.py": 32,
     "tests/test_architecture.py": 30,
     "tests/study/solve/test_thresholds.py": 25,

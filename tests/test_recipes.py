@@ -55,7 +55,7 @@ CHECK = textwrap.dedent(f'''
     outputs = ["orbits", "measures"]
     """.replace("\\n    ", "\\n"))
     store = copy / "toy.zarr"
-    subprocess.run([sys.executable, "-m", "hertzmap.scheduler.cli", "run", str(study),
+    subprocess.run([sys.executable, "-m", "hertzmap.scheduler.doors.cli", "run", str(study),
                     "--store", str(store), "--workers", "1", "--error-sample", "0"],
                    check=True, capture_output=True)
     ds = xr.open_zarr(store)
@@ -65,7 +65,7 @@ CHECK = textwrap.dedent(f'''
     np.testing.assert_array_equal(ds["{TOY}"].values[ok], 0.5 * ds["ptp"].values[ok])
 
     from hertzmap.study import explore_data as E
-    from hertzmap.scheduler.explore.table import orbit_table
+    from hertzmap.scheduler.doors.explore.table import orbit_table
     orbits = E.point_orbits(ds, 2.0, 0.3, 0.01)
     rows = [(0, orbits, {{"q": np.zeros(3)}}, 0.0, 1, "#000", "stable")]
     html = orbit_table(rows, E.units_of(ds))

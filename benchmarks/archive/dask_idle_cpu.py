@@ -1,4 +1,4 @@
-"""CPU that an idle embedded Dask cluster burns: Dask's defaults against scheduler.cluster's
+"""CPU that an idle embedded Dask cluster burns: Dask's defaults against scheduler.cluster.clusters's
 trimmed config (no stack profiler, 200 ms event-loop ticks, slower system and memory monitors).
 
     .venv/bin/python benchmarks/archive/dask_idle_cpu.py [--seconds 15] [--rounds 2] [--each]
@@ -61,9 +61,9 @@ def main(argv=None):
     ap.add_argument("--each", action="store_true",
                     help="also each setting of CLUSTER_CONFIG alone, on Dask's defaults")
     a = ap.parse_args(argv)
-    from hertzmap.scheduler.cluster import CLUSTER_CONFIG
+    from hertzmap.scheduler.cluster.clusters import CLUSTER_CONFIG
 
-    configs = {"Dask defaults": {}, "scheduler.cluster.CLUSTER_CONFIG": CLUSTER_CONFIG}
+    configs = {"Dask defaults": {}, "scheduler.cluster.clusters.CLUSTER_CONFIG": CLUSTER_CONFIG}
     if a.each:
         configs.update({f"only {k.split('.', 1)[1]}": {k: v} for k, v in CLUSTER_CONFIG.items()})
     for r in range(a.rounds):

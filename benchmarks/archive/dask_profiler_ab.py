@@ -5,7 +5,7 @@ profiler's periodic callbacks started and stopped in alternation (ABBA), in one 
 
 Each round both workers solve the same block (161 omega x 2 sigma, 1T and 2T seeds, rtol 1e-10)
 at once, with the profiler on or off in both. Printed: wall time per block, median and fastest,
-and their ratios on / off. scheduler.cluster starts its workers with the profiler off
+and their ratios on / off. scheduler.cluster.clusters starts its workers with the profiler off
 (CLUSTER_CONFIG); ``run_cost.py throughput --with-profiler`` compares whole studies (noisier).
 """
 from __future__ import annotations

@@ -4,7 +4,7 @@
 
 Plans the study of ``benchmarks/run_cost.py throughput`` (omega 0.5-2.5, sigma 0.05-1, zeta 0.01, 1T and 2T
 seeds) with the chunking `hertzmap run` would choose, solves every task's block in this process
-(``scheduler.worker.run_task``, one at a time, after one warm-up), prints each task's time, and
+(``scheduler.stages.worker.run_task``, one at a time, after one warm-up), prints each task's time, and
 the makespan of greedy list scheduling on 2 workers (each task to the first free worker, as
 Dask hands out queued tasks) in submission order, reversed, and longest first, against the
 ideal (total / 2). The gap is the share of the 2-worker wall time the tail costs.
@@ -22,8 +22,8 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks.run_cost import THROUGHPUT_STUDY as STUDY  # noqa: E402
-from hertzmap.scheduler.plan import choose_chunks, make_plan  # noqa: E402
-from hertzmap.scheduler.worker import run_task  # noqa: E402
+from hertzmap.scheduler.stages.plan import choose_chunks, make_plan  # noqa: E402
+from hertzmap.scheduler.stages.worker import run_task  # noqa: E402
 from hertzmap.study.spec import load_study  # noqa: E402
 
 

@@ -3,7 +3,7 @@ by a harmonic force) mapped over (omega, sigma, zeta) grids: every periodic resp
 not, of any period, with its Floquet multipliers, and what attracts where none does.
 
 The library's front door (pyproject.toml installs this file as the package ``hertzmap``; the
-functions live in hertzmap.scheduler.library and hertzmap.kernels.api)::
+functions live in hertzmap.scheduler.doors.library and hertzmap.kernels.api)::
 
     import hertzmap
     tree = hertzmap.run("default", "results/default.zarr", client=client)  # -> xarray.DataTree
@@ -24,7 +24,7 @@ import importlib
 #: each public name -> the module that defines it (imported on first use: ``import hertzmap``
 #: loads neither numba nor Dask)
 _WHERE = {
-    **{name: "hertzmap.scheduler.library" for name in (
+    **{name: "hertzmap.scheduler.doors.library" for name in (
         "run", "open", "load_study", "scene_paths", "products", "plot", "basins", "fit",
         "Study", "StudyError", "RefusedError", "FitInputError", "IncompleteRun")},
     **{name: "hertzmap.kernels.api" for name in (

@@ -163,7 +163,7 @@ class BlockWriter:
 
 def stage_task_block(path: str | Path, owner: dict[str, Any], index: tuple[int, int, int],
                      arrays: dict[str, np.ndarray]) -> Path:
-    """A task's block, staged by the worker that solved it (scheduler.worker.run_task) as one
+    """A task's block, staged by the worker that solved it (scheduler.stages.worker.run_task) as one
     file (staging.stage_file), only while ``owner`` (the client's Lock.owner) holds the store
     (check_writer). The client packs it into its shard (pack_shard)."""
     check_writer(path, owner)

@@ -19,7 +19,7 @@ from hertzmap.study.schema import (CHUNK_DIMS, SLOT_CHUNK, SLOT_DIMS, VARIABLES,
                                    check_format, chunk_counts)
 
 ALL_CHUNKS_ATTR = "hertzmap_all_chunks_written"
-#: the atlas's progress (its round and phase: scheduler.atlas_tasks)
+#: the atlas's progress (its round and phase: scheduler.stages.atlas_tasks)
 ATLAS_ATTR = "hertzmap_atlas"
 #: the most entries any point of the store holds along each slot dim so far (study.schema
 #: SLOT_DIMS), kept by the client as blocks and atlas rounds are written: the length the dims

@@ -89,7 +89,7 @@ def remove_stage(store: str | Path, folder: str) -> None:
     shutil.rmtree(Path(store) / folder, ignore_errors=True)
 
 
-# -- the atlas's rounds (scheduler.atlas_tasks) -------------------------------------------------
+# -- the atlas's rounds (scheduler.stages.atlas_tasks) -------------------------------------------------
 def _round_folder(round_: int) -> str:
     return f"{ATLAS_STAGE}/round_{int(round_):04d}"
 
@@ -127,7 +127,7 @@ def remove_atlas_stage(store: str | Path) -> None:
     remove_stage(store, ATLAS_STAGE)
 
 
-# -- the stepped sweeps and swept runs (scheduler.sweep_tasks) ------------------------------------
+# -- the stepped sweeps and swept runs (scheduler.stages.sweep_tasks) ------------------------------------
 def sweep_name(line: int, direction: str) -> str:
     """The staged file's name of a sweep: ``<line>-<direction>``."""
     return f"{int(line):06d}-{direction}"
@@ -166,7 +166,7 @@ def staged_swept(store: str | Path) -> dict[tuple[int, str, int], dict[str, np.n
     return out
 
 
-# -- the traced curves (scheduler.curve_tasks) ----------------------------------------------------
+# -- the traced curves (scheduler.stages.curve_tasks) ----------------------------------------------------
 def _json_safe(value):
     """A part's attrs as JSON: numpy arrays and scalars as lists and numbers."""
     if isinstance(value, np.ndarray):

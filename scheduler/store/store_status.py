@@ -43,7 +43,7 @@ def store_status(path: str | Path, check: bool = False) -> dict[str, Any]:
     except (OSError, ValueError):
         info["locked_by"] = {"host": "?", "pid": "? (unreadable lock file)"}
     if check:
-        from hertzmap.scheduler.plan import make_plan
+        from hertzmap.scheduler.stages.plan import make_plan
 
         try:
             study = study_from_attrs(store.attrs)

@@ -3,7 +3,7 @@ ratio zeta and the excitation amplitude sigma (and on request the contact expone
 identified from a lab's measured stepped-sine sweeps, with 95 % profile-likelihood intervals.
 
 One step of the identification per module, each pure (numpy, scipy, xarray; no Dask, no files
-written; scheduler.fit_tasks ships the work to a cluster and writes the result):
+written; scheduler.stages.fit_tasks ships the work to a cluster and writes the result):
 
 * ``measurement.py``: the measured sweeps as a lab exports them (CSV or xarray Dataset), read
   and validated (every error names its row and column), and the one input error of a fit;
@@ -20,6 +20,6 @@ written; scheduler.fit_tasks ships the work to a cluster and writes the result):
   95 % interval read off a profile, open to a bound where it does not cross;
 * ``estimation.py``: the fit: a global grid over (sigma, zeta[, n]), a Gauss-Newton
   refinement, the profiles until each interval is found (the work handed out in batches
-  through a mapper: scheduler.fit_tasks gives Dask's);
+  through a mapper: scheduler.stages.fit_tasks gives Dask's);
 * ``fit_dataset.py``: the result as an xarray Dataset (every variable with long_name, units).
 """

@@ -3,7 +3,7 @@ profile-likelihood intervals (docs/identify.md).
 
 The objective is not smooth: a model jump that passes a measured point moves that point onto
 another branch, a step in the log-likelihood. It is designed for it in three stages, each a
-batch of independent tasks handed to a ``mapper`` (scheduler.fit_tasks ships them to a Dask
+batch of independent tasks handed to a ``mapper`` (scheduler.stages.fit_tasks ships them to a Dask
 cluster; :func:`in_process` runs them here):
 
 1. **global** (:func:`cell_task`, one task per cell): a grid over (sigma, zeta[, n]) within the

@@ -63,8 +63,8 @@ class Product:
 
 
 #: Products that ``hertzmap run`` writes itself (its stages for the ``curves``, ``thresholds``
-#: and ``sweeps`` outputs: scheduler.curve_tasks, scheduler.threshold_tasks,
-#: scheduler.sweep_tasks; the last built by study.products.stepped_sweeps.sweeps_dataset) and
+#: and ``sweeps`` outputs: scheduler.stages.curve_tasks, scheduler.stages.threshold_tasks,
+#: scheduler.stages.sweep_tasks; the last built by study.products.stepped_sweeps.sweeps_dataset) and
 #: the others may take.
 RUN_PRODUCTS = ("traced_curves", "thresholds", "sweeps")
 

@@ -121,7 +121,7 @@ def _at(curve: th.ZetaCurve | None, zetas: np.ndarray) -> list:
 def thresholds(ds: xr.Dataset, traced_curves: xr.Dataset | None = None) -> xr.Dataset:
     """sigma*, sigma** and the join at each zeta of the study, and sigma*(zeta), sigma**(zeta)
     continued over the study's zeta range (module docstring), computed in this process: what
-    the run's thresholds stage (scheduler.threshold_tasks, the ``thresholds`` output) computes
+    the run's thresholds stage (scheduler.stages.threshold_tasks, the ``thresholds`` output) computes
     on its workers and stores as products/thresholds. ``traced_curves``: that product, when
     at hand (sigma** starts from it)."""
     zetas = np.sort(np.asarray(ds["zeta"].values, float))

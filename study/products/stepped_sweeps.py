@@ -1,6 +1,6 @@
 """What a lab measures along a line of the grid (issue 45): stepped-sine sweeps up and down one
 parameter, with their jumps, as the product ``sweeps`` (written by ``hertzmap run``'s sweeps
-stage for studies with the ``sweeps`` output: scheduler.sweep_tasks).
+stage for studies with the ``sweeps`` output: scheduler.stages.sweep_tasks).
 
 Paper Eq. 7 (dimensionless): q'' + 2 zeta q' + F(q) = 1 + sigma cos(omega tau). At each line of
 the grid (each (sigma, zeta) of the study for the default ``[sweep] axis = "omega"``; each
@@ -403,7 +403,7 @@ def sweeps_dataset(ds: xr.Dataset, records: Mapping[tuple[int, str], Mapping[str
     out.attrs = {**source_attrs(ds, "stepped-sine sweeps up and down each line, with their "
                                     "jumps (what a lab measures)"),
                  "hertzmap_product_source": "hertzmap run: the sweeps stage "
-                                            "(scheduler.sweep_tasks)",
+                                            "(scheduler.stages.sweep_tasks)",
                  "sweep_axis": axis, "sweep_jump_tol": float(settings.get("jump_tol", np.nan)),
                  "sweep_settle_periods": int(settings.get("settle_periods", 0)),
                  "sweep_record_periods": int(settings.get("record_periods", 0)),
@@ -543,7 +543,7 @@ def _swept_with_rig(out: xr.Dataset, axis: str, rig) -> xr.Dataset:
 
 def stepped_sweeps(ds: xr.Dataset) -> xr.Dataset:
     """The ``sweeps`` product computed in this process (every sweep one after the other): what
-    the run's sweeps stage (scheduler.sweep_tasks, the ``sweeps`` output) computes on its
+    the run's sweeps stage (scheduler.stages.sweep_tasks, the ``sweeps`` output) computes on its
     workers and stores as products/sweeps, the swept-sine runs of its [sweep] rates included.
     ``ds``: the results of a study with the ``sweeps`` output (or any study: its [sweep]
     defaults then)."""

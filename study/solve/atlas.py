@@ -23,7 +23,7 @@ orbits (``attractor_solution`` follows them) and the crossings of its line are f
 Orbits are offered in a fixed order (source points sorted, their orbits in slot order, the
 neighbours lower first along omega, sigma, zeta), so a tile's result depends on the snapshot
 only: the same for any worker count or task order. The rounds stop when one adds nothing (a
-fixed point). scheduler.atlas_tasks runs them, resumably.
+fixed point). scheduler.stages.atlas_tasks runs them, resumably.
 
 Pure: numpy over the kernels (no Dask, no I/O).
 """

@@ -43,7 +43,7 @@ function changes sign) is covered by a traced curve or reported with the reason 
 (stored in ``products/traced_curves``: ``seed_outcome``).
 
 Pure (numpy and kernels, no Dask, no store): the scheduler ships :func:`trace_seed` to its
-workers and decides the order of commits (scheduler.curve_tasks).
+workers and decides the order of commits (scheduler.stages.curve_tasks).
 """
 from __future__ import annotations
 

@@ -5,7 +5,7 @@ transient per state: the brute force).
 
 The grid of initial states (q, q') at tau = 0 is cut into cells whose centres are the map's
 states (as in basin_grid). The steps, each a pure function of a spec so that the scheduler runs
-the costly ones as tasks on a cluster (scheduler.basin_tasks; ``run`` of cell_basin_map):
+the costly ones as tasks on a cluster (scheduler.stages.basin_tasks; ``run`` of cell_basin_map):
 
 1. **The attractors** (:func:`probe_tile`, :func:`known_orbits`, :func:`certificates`): the
    stable orbits the caller knows (a store's at the point, by their start points) and those the
@@ -400,7 +400,7 @@ def cell_basin_map(omega: float, sigma: float, zeta: float, q_range=TRANSIENT_BO
     point (solution dicts; the probe finds them otherwise); ``options``: the solver's
     (exponent, model, rtol); ``stats``: a dict that receives the steps' counts. ``run(name,
     function, specs)``: runs a list of tasks and returns their results in order (default: in
-    this process; scheduler.basin_tasks runs them on a Dask cluster, the same specs, so the map
+    this process; scheduler.stages.basin_tasks runs them on a Dask cluster, the same specs, so the map
     does not depend on where it ran)."""
     options = dict(options or {})
     point = (float(omega), float(sigma), float(zeta))

@@ -3,7 +3,7 @@ sweep per line and direction (:func:`sweep_specs`, :func:`run_sweep`: study.solv
 stepped_sweep on a worker, its :func:`sweep_record` of numbers back), and with ``[sweep]
 rates`` one swept sine per line, direction and rate (:func:`swept_specs`, :func:`run_swept`:
 study.solve.swept_sine.swept_sine, its :func:`swept_record`). The product built from the
-records is study.products.stepped_sweeps (scheduler.sweep_tasks ships and stages them; the
+records is study.products.stepped_sweeps (scheduler.stages.sweep_tasks ships and stages them; the
 product's :func:`stepped_sweeps` runs the same in one process).
 
 Pure: numpy over study.solve.sweep and study.solve.swept_sine; no I/O, no Dask, no xarray.

@@ -1,4 +1,4 @@
-"""benchmarks.run_cost.run_summary reads back what scheduler.report and scheduler.curve_tasks
+"""benchmarks.run_cost.run_summary reads back what scheduler.doors.report and scheduler.stages.curve_tasks
 print: a summary written by their own printers from known figures (and the cluster's start
 line) is parsed into those figures."""
 from __future__ import annotations
@@ -6,8 +6,8 @@ from __future__ import annotations
 import io
 
 from benchmarks.run_cost import run_summary
-from hertzmap.scheduler.curve_tasks import print_curve_summary
-from hertzmap.scheduler.report import print_summary
+from hertzmap.scheduler.stages.curve_tasks import print_curve_summary
+from hertzmap.scheduler.doors.report import print_summary
 
 RUN = {"tasks_run": 77, "points": 12397, "wall": 12.34, "workers": 2,
        "points_per_second": 1004.6, "setup": 16.04, "orbits": 33831, "orbits_per_second": 2741.6,

@@ -195,7 +195,7 @@ class Workspace:
             import dask
             from distributed import LocalCluster
 
-            from hertzmap.scheduler.cluster import CLUSTER_CONFIG
+            from hertzmap.scheduler.cluster.clusters import CLUSTER_CONFIG
             with dask.config.set(CLUSTER_CONFIG):
                 self._cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                              dashboard_address="127.0.0.1:0",
@@ -204,13 +204,13 @@ class Workspace:
 
     def close(self) -> None:
         if self._cluster is not None:
-            from hertzmap.scheduler.cluster import close_quietly
+            from hertzmap.scheduler.cluster.clusters import close_quietly
             close_quietly(None, self._cluster)
             self._cluster = None
 
     def _hertzmap_in_process(self, argv: list[str], text: str) -> Result:
         import hertzmap.scheduler.run as run_module
-        from hertzmap.scheduler.cli import main
+        from hertzmap.scheduler.doors.cli import main
 
         own = run_module.make_client
 
@@ -345,7 +345,7 @@ def _dry_run_of(text: str) -> str:
 
 def _check_hertzmap_args(cmd: Command, args: list[str]) -> str | None:
     """argparse accepts the command (options checked by name when it has placeholders)."""
-    from hertzmap.scheduler.cli import SUBCOMMANDS, build_parser
+    from hertzmap.scheduler.doors.cli import SUBCOMMANDS, build_parser
 
     if not args:
         raise DocError(f"{cmd.where()}: `{cmd.text}`: no subcommand")

@@ -215,8 +215,8 @@ def test_every_scene_is_in_the_index_with_its_time():
 
 
 def test_running_md_gives_the_dask_config_hertzmap_gives_its_workers():
-    """The export lines of running.md are those of scheduler.cluster.CLUSTER_CONFIG."""
-    from hertzmap.scheduler.cluster import CLUSTER_CONFIG, config_env_lines
+    """The export lines of running.md are those of scheduler.cluster.clusters.CLUSTER_CONFIG."""
+    from hertzmap.scheduler.cluster.clusters import CLUSTER_CONFIG, config_env_lines
 
     page = REPO / "docs" / "running.md"
     exports = [c.text for c in md.all_commands(page)

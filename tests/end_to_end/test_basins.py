@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from hertzmap.scheduler.cli import main
+from hertzmap.scheduler.doors.cli import main
 from hertzmap.study.products.basin_map import basin_map_name
-from hertzmap.scheduler.basin_tasks import check_request, store_orbits
+from hertzmap.scheduler.stages.basin_tasks import check_request, store_orbits
 from hertzmap.study.solve.basin_grid import basin_map
 from hertzmap.study.solve.dense_basins import cell_basin_map
 from tests.helpers import solved_results

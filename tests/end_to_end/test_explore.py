@@ -547,7 +547,7 @@ def test_a_basin_map_of_the_clicked_point(map_store, browser, tmp_path):
     the 100 x 100 states as an independent study.solve.dense_basins map (the same store orbits,
     in this process), the census's shares at the point beside the map's, the map written into
     the store as its product group."""
-    from hertzmap.scheduler.basin_tasks import check_request, store_orbits
+    from hertzmap.scheduler.stages.basin_tasks import check_request, store_orbits
     from hertzmap.scheduler.store import read_product
     from hertzmap.study import explore_sweeps as E
     from hertzmap.study import products as P
@@ -626,9 +626,9 @@ def test_a_refused_or_failed_sweep_says_so_and_the_server_goes_on(tmp_path, monk
     shows "failed" and the message, no traceback; the next one is drawn."""
     from bokeh.document import Document
 
-    from hertzmap.scheduler.cluster import ClusterSpec
-    from hertzmap.scheduler.explore.page import Page
-    from hertzmap.scheduler.explore.state import ExploreState
+    from hertzmap.scheduler.cluster.clusters import ClusterSpec
+    from hertzmap.scheduler.doors.explore.page import Page
+    from hertzmap.scheduler.doors.explore.state import ExploreState
     from hertzmap.study import explore_sweeps as E
     from tests.helpers import blank_results, write_results
 

@@ -11,7 +11,7 @@ import pytest
 import xarray as xr
 
 from benchmarks import oracle
-from hertzmap.scheduler.cli import main
+from hertzmap.scheduler.doors.cli import main
 from hertzmap.scheduler.store import Store, lock_path, store_status
 from hertzmap.study import products as P
 from hertzmap.study.schema import OUTPUT_VARIABLES, stored_variables

@@ -28,7 +28,7 @@ import xarray as xr
 from tests.end_to_end.slurm_cluster import ACCOUNT, SlurmUnavailable, start_slurm
 from tests.helpers import (REPO, assert_same_data, done_count, hertzmap_cmd, subprocess_env,
                            wait_until)
-from hertzmap.scheduler.cli import main
+from hertzmap.scheduler.doors.cli import main
 
 pytestmark = pytest.mark.slow
 
@@ -50,8 +50,8 @@ TASK_SECONDS = "0.25"
 
 
 def _task_count(text: str, task_seconds: float) -> int:
-    """How many tasks hertzmap plans for a study (scheduler.plan, as the run does)."""
-    from hertzmap.scheduler.plan import choose_chunks, make_plan
+    """How many tasks hertzmap plans for a study (scheduler.stages.plan, as the run does)."""
+    from hertzmap.scheduler.stages.plan import choose_chunks, make_plan
     from hertzmap.study.spec import parse_study
 
     study = parse_study(text, default_name="x")

@@ -14,7 +14,7 @@ import pytest
 import xarray as xr
 
 from benchmarks import oracle
-from hertzmap.scheduler.cli import main
+from hertzmap.scheduler.doors.cli import main
 from hertzmap.scheduler.store import CURVE_PARTS, PRODUCT_GROUP, Store, read_product
 from tests.helpers import SLOW_TRACER, hertzmap_cmd, subprocess_env, wait_until
 from tests.scheduler.test_run import assert_same_store

@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from hertzmap.scheduler.cli import main
-from hertzmap.scheduler.cluster import ClusterSpec
-from hertzmap.scheduler.plan import make_plan
+from hertzmap.scheduler.doors.cli import main
+from hertzmap.scheduler.cluster.clusters import ClusterSpec
+from hertzmap.scheduler.stages.plan import make_plan
 from hertzmap.scheduler.run import RunOptions, run_study
 from hertzmap.scheduler.store import Store, lock_path, staged_blocks
 from hertzmap.study.schema import STORE_FORMAT

@@ -18,7 +18,7 @@ import tempfile
 from hypothesis import HealthCheck, given, settings, strategies as hs
 import pytest
 
-from hertzmap.scheduler.cli import main
+from hertzmap.scheduler.doors.cli import main
 from hertzmap.study.spec import MAX_GRID_POINTS, OUTPUTS
 from tests.helpers import PLACEHOLDER, hertzmap_cmd, subprocess_env
 

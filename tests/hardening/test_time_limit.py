@@ -17,7 +17,7 @@ def test_cli_task_timeout_records_time_limited_points(tmp_path):
     study.write_text('[study]\nname = "cut"\n[grid]\nomega = {start = 0.5, stop = 2.5, num = 40}\n'
                      'sigma = [0.5]\nzeta = [0.01]\n')
     store = tmp_path / "cut.zarr"
-    p = subprocess.run([sys.executable, "-m", "hertzmap.scheduler.cli", "run", str(study), "--store",
+    p = subprocess.run([sys.executable, "-m", "hertzmap.scheduler.doors.cli", "run", str(study), "--store",
                         str(store), "--workers", "1", "--task-timeout", "1e-6",
                         "--error-sample", "0"], capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stderr
@@ -26,7 +26,7 @@ def test_cli_task_timeout_records_time_limited_points(tmp_path):
     assert bool(ds.task_done.all())
     assert int((ds.status == status.TIME_LIMIT).sum()) > 0
     # bad values are refused up front (exit 2)
-    q = subprocess.run([sys.executable, "-m", "hertzmap.scheduler.cli", "run", str(study), "--store",
+    q = subprocess.run([sys.executable, "-m", "hertzmap.scheduler.doors.cli", "run", str(study), "--store",
                         str(tmp_path / "x.zarr"), "--task-timeout", "-1"], capture_output=True,
                        text=True, timeout=120)
     assert q.returncode == 2 and "--task-timeout" in q.stderr

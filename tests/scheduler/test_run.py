@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from hertzmap.scheduler.cli import main
-from hertzmap.scheduler.cluster import ClusterSpec
+from hertzmap.scheduler.doors.cli import main
+from hertzmap.scheduler.cluster.clusters import ClusterSpec
 from hertzmap.scheduler.run import RunOptions, run_study
 from hertzmap.scheduler.store import Store, lock_path, staged_blocks
 from hertzmap.study.schema import VARIABLES, pad_slots
@@ -118,7 +118,7 @@ def test_existing_scheduler_two_workers(study_path, reference, tmp_path):
     """`dask scheduler` and two `dask worker` processes started here, the workers with the
     environment docs/running.md gives them (the trimmed Dask config); the store identical to
     the LocalCluster run's."""
-    from hertzmap.scheduler.cluster import CLUSTER_CONFIG, config_env_lines
+    from hertzmap.scheduler.cluster.clusters import CLUSTER_CONFIG, config_env_lines
 
     port = free_port()
     env = subprocess_env()

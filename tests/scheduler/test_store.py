@@ -11,8 +11,8 @@ import pytest
 import xarray as xr
 import zarr
 
-from hertzmap.scheduler.cli import main
-from hertzmap.scheduler.plan import choose_chunks, make_plan
+from hertzmap.scheduler.doors.cli import main
+from hertzmap.scheduler.stages.plan import choose_chunks, make_plan
 from hertzmap.scheduler.store import (Lock, Store, StoreError, list_products, lock_path, open_or_create,
                              read_product, write_product, write_products)
 from hertzmap.study import products as P
@@ -235,7 +235,7 @@ def test_workers_that_cannot_write_the_store_stop_the_run_before_any_task(tmp_pa
     rerun resumes."""
     import io
 
-    from hertzmap.scheduler.cluster import ClusterSpec
+    from hertzmap.scheduler.cluster.clusters import ClusterSpec
     from hertzmap.scheduler.run import RunOptions, StudyRun
     from tests.helpers import PLACEHOLDER
 

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from hertzmap.scheduler.cli import main
+from hertzmap.scheduler.doors.cli import main
 from hertzmap.scheduler.store import GRID_STAGE, SHARD_LOG_ENV, Store
 from tests.helpers import PLACEHOLDER, hertzmap_cmd, subprocess_env, wait_until
 

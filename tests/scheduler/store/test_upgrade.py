@@ -14,7 +14,7 @@ import pytest
 import xarray as xr
 import zarr
 
-from hertzmap.scheduler.cli import main
+from hertzmap.scheduler.doors.cli import main
 from hertzmap.scheduler.store import list_products
 from hertzmap.study.schema import STORE_FORMAT
 

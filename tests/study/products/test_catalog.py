@@ -165,7 +165,7 @@ def _assert_aligned(groups: dict[str, xr.Dataset]) -> None:
 
 
 def _plot_products(store, given_names=P.RUN_PRODUCTS) -> dict[str, xr.Dataset]:
-    """What hertzmap plot writes (scheduler.cli cmd_plot): the products computed from the
+    """What hertzmap plot writes (scheduler.doors.cli cmd_plot): the products computed from the
     store and the run's groups it holds, each written as products/<name>."""
     given = {name: read_product(store, name) for name in given_names}
     prods = P.compute_products(P.open_store(store), given=given)
@@ -176,7 +176,7 @@ def _plot_products(store, given_names=P.RUN_PRODUCTS) -> dict[str, xr.Dataset]:
 def test_a_store_with_every_product_and_a_basin_map_opens_as_one_datatree(real_store,
                                                                           tmp_path):
     """The real store with the run's traced curves, every product hertzmap plot writes and a
-    basin map written as hertzmap basins writes it (scheduler.basin_tasks.run_basins): one
+    basin map written as hertzmap basins writes it (scheduler.stages.basin_tasks.run_basins): one
     DataTree. The multiple-scales products' own omega grid (801 values, the study has 2) is
     ``mms_omega``; the basin map's own attractors (1 here, the census's slots 4) are
     ``basin_attractor``: named ``omega`` and ``attractor`` they do not align."""

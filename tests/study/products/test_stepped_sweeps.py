@@ -3,7 +3,7 @@
 order for both directions, the jumps' steps), metadata, harmonics read off the force harmonics,
 rig units, the store's orbits linked into branches, and the store opening as one DataTree with
 it. The sweeps' numbers themselves are checked against the scipy oracle in
-tests/study/solve/test_sweep.py and, through a run, in tests/scheduler/test_sweep_tasks.py."""
+tests/study/solve/test_sweep.py and, through a run, in tests/scheduler/stages/test_sweep_tasks.py."""
 from __future__ import annotations
 
 import dataclasses

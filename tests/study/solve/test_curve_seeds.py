@@ -8,7 +8,7 @@ import xarray as xr
 
 from benchmarks import oracle
 from hertzmap.kernels import continuation as cont
-from hertzmap.scheduler.curve_tasks import product_summary
+from hertzmap.scheduler.stages.curve_tasks import product_summary
 from hertzmap.study.products.traced_curves import (CODIM2_CODES, combine_traced_curves, isola_boundary,
                                           trace_from_part, traced_curves_dataset,
                                           traced_segments)

@@ -1,0 +1,1 @@
+"""Where a study runs: an embedded LocalCluster, an existing Dask scheduler, or a dask-jobqueue cluster (clusters)."""

@@ -1,0 +1,1 @@
+"""The stages of a run and what they share: the stage protocol and its runner (stage), the plan of the grid's tasks (plan), the progress line (progress), what a worker runs (worker), and one ``<topic>_tasks`` module per stage."""
