@@ -18,9 +18,9 @@ from __future__ import annotations
 #: process), the longest first; measured on a 2-core machine that other jobs kept busy: only
 #: the proportions matter
 SECONDS: dict[str, float] = {
-    "tests/end_to_end/test_slurm.py": 530,
     "tests/docs/test_docs.py": 523,
     "tests/kernels/continuation/test_curve.py": 370,
+    "tests/end_to_end/test_slurm.py": 330,
     "tests/end_to_end/test_atlas.py": 310,
     "tests/kernels/test_jit.py": 294,
     "tests/test_packaging.py": 229,
@@ -31,8 +31,8 @@ SECONDS: dict[str, float] = {
     "tests/end_to_end/test_explore.py": 129,
     "tests/end_to_end/test_located_bifurcations.py": 116,
     "tests/scheduler/test_store.py": 113,
-    "tests/scheduler/store/test_one_writer_per_shard.py": 70,
     "tests/hardening/test_input.py": 85,
+    "tests/scheduler/store/test_one_writer_per_shard.py": 70,
     "tests/end_to_end/test_map_hatching.py": 48,
     "tests/hardening/test_time_limit.py": 47,
     "tests/kernels/test_attractors.py": 47,
