@@ -29,7 +29,7 @@ run clones the repository at the revision into a new temporary folder and points
 XDG_CACHE_HOME at a new empty folder (uv's, pip's and hertzmap's numba caches all live under
 it), then runs the three commands of its scripts/run-default.sh one after the other, timing
 each: the install (scripts/install.sh), ``hertzmap run scenes/default.toml`` (its setup, grid
-and curves as it prints them: benchmarks.run_cost.run_summary) and ``hertzmap plot``. The whole
+and curves as it prints them: benchmarks.run_summary.run_summary) and ``hertzmap plot``. The whole
 is their sum (the script itself adds nothing but bash's start).
 
 **compile**: each round, a new process with an empty numba cache and no helper processes
@@ -58,7 +58,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from benchmarks.abba import abba, load_average, load_line  # noqa: E402
-from benchmarks.run_cost import run_summary  # noqa: E402
+from benchmarks.run_summary import run_summary  # noqa: E402
 
 FIRST_ORBIT = ("import time, os; import hertzmap.kernels as kernels; "
          "o = kernels.shoot(1.5, 0.2, 0.01, 1, guess=(-0.16, 0.006)); "

@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from benchmarks.abba import abba  # noqa: E402
-from benchmarks.run_cost import run_summary  # noqa: E402
+from benchmarks.run_summary import run_summary  # noqa: E402
 
 
 # -- curves: a traced curve against the grid's ways of getting it -----------------------------

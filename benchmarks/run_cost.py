@@ -25,7 +25,7 @@
 
 ``run_cost.py SUBCOMMAND --help`` says what each measures and how. The A/B comparisons among
 them run through benchmarks/abba.py (same run, ABBA rounds, ratios pair by pair).
-``run_summary`` reads back the figures a ``hertzmap run`` prints (cold_start.py uses it too).
+benchmarks/run_summary.py reads back the figures a ``hertzmap run`` prints.
 """
 from __future__ import annotations
 
@@ -34,7 +34,6 @@ import inspect
 import io
 import json
 import os
-import re
 import shutil
 import subprocess
 import sys
@@ -49,29 +48,6 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from benchmarks.abba import abba, load_average  # noqa: E402
-
-
-# -- the figures of a `hertzmap run` summary ---------------------------------------------------
-
-#: field -> pattern of the summary line that prints it (its first group: seconds)
-PATTERNS = {
-    "setup": r"setup ([\d.]+) s",
-    "wall": r"points in ([\d.]+) s wall",
-    "compute": r"task compute ([\d.]+) s",
-    "curves": r"curves: .*?([\d.]+) s wall \([\d.]+ s loading",
-}
-
-
-def run_summary(text: str) -> dict[str, float | None]:
-    """The figures of a ``hertzmap run`` summary (scheduler.doors.report and scheduler.stages.curve_tasks
-    print it), read back by the benchmarks that time whole runs: setup, grid wall, task compute
-    and the curve stage, in seconds; a field its text does not print is None (``curves``
-    when the run traced none)."""
-    found = {}
-    for name, pattern in PATTERNS.items():
-        m = re.search(pattern, text)
-        found[name] = float(m.group(1)) if m else None
-    return found
 
 
 # -- grid: per stored orbit against the kernel -------------------------------------------------

@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from benchmarks.abba import abba, load_average, load_line  # noqa: E402
-from benchmarks.run_cost import run_summary  # noqa: E402
+from benchmarks.run_summary import run_summary  # noqa: E402
 
 
 # -- scale: per-task costs besides the solves --------------------------------------------------

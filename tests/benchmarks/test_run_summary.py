@@ -1,11 +1,11 @@
-"""benchmarks.run_cost.run_summary reads back what scheduler.doors.report and scheduler.stages.curve_tasks
+"""benchmarks.run_summary.run_summary reads back what scheduler.doors.report and scheduler.stages.curve_tasks
 print: a summary written by their own printers from known figures (and the cluster's start
 line) is parsed into those figures."""
 from __future__ import annotations
 
 import io
 
-from benchmarks.run_cost import run_summary
+from benchmarks.run_summary import run_summary
 from hertzmap.scheduler.stages.curve_tasks import print_curve_summary
 from hertzmap.scheduler.doors.report import print_summary
 
