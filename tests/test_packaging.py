@@ -74,7 +74,7 @@ def test_the_wheel_holds_one_name_every_package_and_the_scenes(wheel):
     assert len(scenes) >= 10
     missing = (expected | scenes) - set(names)
     assert not missing, sorted(missing)
-    assert f"{PACKAGE}/scheduler/explore/page.py" in names
+    assert f"{PACKAGE}/scheduler/doors/explore/page.py" in names
     assert f"{PACKAGE}/__init__.py" in names          # import hertzmap: the front door
     assert not any("package_root" in n for n in names)
     assert not any("/benchmarks/" in n or "/tests/" in n for n in names)

@@ -549,7 +549,7 @@ def test_a_basin_map_of_the_clicked_point(map_store, browser, tmp_path):
     the store as its product group."""
     from hertzmap.scheduler.stages.basin_tasks import check_request, store_orbits
     from hertzmap.scheduler.store import read_product
-    from hertzmap.study import explore_sweeps as E
+    from hertzmap.study import explore_data as E
     from hertzmap.study import products as P
     from hertzmap.study.products.basin_map import basin_map_name
     from hertzmap.study.solve.dense_basins import cell_basin_map
